@@ -1,0 +1,59 @@
+"""The backbone interface and a registry that picks one by name from configuration."""
+
+from __future__ import annotations
+
+import importlib
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from shared.reconstruction import Reconstruction
+
+
+class BackboneError(RuntimeError):
+    """A backbone cannot run (bad configuration, missing checkpoint) or cannot use the input."""
+
+
+class Backbone(ABC):
+    """Turns RGB images of one scene into a `Reconstruction`.
+
+    `reconstruct` gets uint8 (H, W, 3) arrays; sizes may differ between views. A view that cannot
+    be placed is reported with `registered[i] = False` and a warning, never with an invented pose.
+    """
+
+    name: str = ""
+    version: str = ""
+
+    @abstractmethod
+    def reconstruct(self, images: Sequence[np.ndarray], **options: Any) -> Reconstruction: ...
+
+    def ready(self) -> tuple[bool, str]:
+        """Whether the backbone can serve now, and why not."""
+        return True, "ok"
+
+
+# name -> "module:factory"; imported lazily so that e.g. torch loads only for backbones that need it.
+_REGISTRY: dict[str, str] = {
+    "classical": "services.recon.backbones.classical:ClassicalBackbone",
+    "posed-rgbd": "services.recon.backbones.posed_rgbd:PosedRGBDBackbone",
+    "vggt": "services.recon.backbones.vggt.backbone:VGGTBackbone",
+}
+
+
+def register_backbone(name: str, target: str) -> None:
+    _REGISTRY[name] = target
+
+
+def available_backbones() -> list[str]:
+    return sorted(_REGISTRY)
+
+
+def create_backbone(name: str, **settings: Any) -> Backbone:
+    """Instantiate a registered backbone; settings are passed to its constructor."""
+    if name not in _REGISTRY:
+        raise BackboneError(f"unknown backbone {name!r}; available: {', '.join(available_backbones())}")
+    module_name, _, attribute = _REGISTRY[name].partition(":")
+    factory: Callable[..., Backbone] = getattr(importlib.import_module(module_name), attribute)
+    return factory(**settings)

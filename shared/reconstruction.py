@@ -1,0 +1,146 @@
+"""The `Reconstruction` type shared by every backbone, the services and the renderer.
+
+Cameras follow docs/ARCHITECTURE.md: extrinsics are 3x4 camera-from-world in OpenCV axes.
+"""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass, field
+
+import numpy as np
+
+FORMAT_VERSION = 1
+
+
+class ReconstructionFormatError(ValueError):
+    """Raised when serialized bytes are not a reconstruction this code can read."""
+
+
+@dataclass
+class Reconstruction:
+    points: np.ndarray  # (N, 3) float32, world coordinates
+    colors: np.ndarray  # (N, 3) uint8 RGB
+    extrinsics: np.ndarray  # (V, 3, 4) float64 camera-from-world
+    intrinsics: np.ndarray  # (V, 3, 3) float64, pixels of the original image
+    image_sizes: np.ndarray  # (V, 2) int32 (width, height)
+    registered: np.ndarray  # (V,) bool: False when the backbone could not place a view
+    backbone: str
+    backbone_version: str
+    depths: list[np.ndarray] | None = None  # per view (h, w) float32 z-depth, None if not given
+    depth_confidence: list[np.ndarray] | None = None  # per view (h, w) float32
+    warnings: list[str] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.points = np.ascontiguousarray(self.points, dtype=np.float32).reshape(-1, 3)
+        self.colors = np.ascontiguousarray(self.colors, dtype=np.uint8).reshape(-1, 3)
+        self.extrinsics = np.asarray(self.extrinsics, dtype=np.float64).reshape(-1, 3, 4)
+        self.intrinsics = np.asarray(self.intrinsics, dtype=np.float64).reshape(-1, 3, 3)
+        self.image_sizes = np.asarray(self.image_sizes, dtype=np.int32).reshape(-1, 2)
+        self.registered = np.asarray(self.registered, dtype=bool).reshape(-1)
+        views = len(self.extrinsics)
+        if len(self.points) != len(self.colors):
+            raise ValueError(f"{len(self.points)} points but {len(self.colors)} colours")
+        for name in ("intrinsics", "image_sizes", "registered"):
+            if len(getattr(self, name)) != views:
+                raise ValueError(f"{name} has {len(getattr(self, name))} entries for {views} views")
+        for name in ("depths", "depth_confidence"):
+            maps = getattr(self, name)
+            if maps is not None and len(maps) != views:
+                raise ValueError(f"{name} has {len(maps)} maps for {views} views")
+
+    @property
+    def num_views(self) -> int:
+        return len(self.extrinsics)
+
+    @property
+    def num_points(self) -> int:
+        return len(self.points)
+
+    def camera_centers(self) -> np.ndarray:
+        """(V, 3) camera centres in world coordinates."""
+        rotations, translations = self.extrinsics[:, :, :3], self.extrinsics[:, :, 3]
+        return -np.einsum("vji,vj->vi", rotations, translations)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Axis-aligned bounds of points and camera centres together."""
+        everything = np.concatenate([self.points.astype(np.float64), self.camera_centers()], axis=0)
+        return everything.min(axis=0), everything.max(axis=0)
+
+    # ---- serialization -------------------------------------------------------------------
+
+    def to_bytes(self) -> bytes:
+        """A compact npz. Depth and confidence go as float16 (relative error < 1e-3)."""
+        arrays: dict[str, np.ndarray] = {
+            "format_version": np.array(FORMAT_VERSION, dtype=np.int32),
+            "points": self.points,
+            "colors": self.colors,
+            "extrinsics": self.extrinsics,
+            "intrinsics": self.intrinsics,
+            "image_sizes": self.image_sizes,
+            "registered": self.registered,
+            "backbone": np.array(self.backbone),
+            "backbone_version": np.array(self.backbone_version),
+            "warnings": np.array(self.warnings, dtype=np.str_),
+        }
+        for name in ("depths", "depth_confidence"):
+            maps = getattr(self, name)
+            if maps is not None:
+                for index, depth_map in enumerate(maps):
+                    arrays[f"{name}_{index}"] = np.asarray(depth_map, dtype=np.float16)
+        buffer = io.BytesIO()
+        np.savez_compressed(buffer, **arrays)
+        return buffer.getvalue()
+
+    @classmethod
+    def from_bytes(cls, payload: bytes) -> Reconstruction:
+        try:
+            archive = np.load(io.BytesIO(payload), allow_pickle=False)
+        except Exception as error:  # numpy raises several types for garbage input
+            raise ReconstructionFormatError(f"not a serialized reconstruction: {error}") from error
+        with archive:
+            if "format_version" not in archive:
+                raise ReconstructionFormatError("missing format_version")
+            version = int(archive["format_version"])
+            if version != FORMAT_VERSION:
+                raise ReconstructionFormatError(
+                    f"reconstruction format {version} is not supported (expected {FORMAT_VERSION})"
+                )
+            views = len(archive["extrinsics"])
+
+            def maps(name: str) -> list[np.ndarray] | None:
+                if f"{name}_0" not in archive:
+                    return None
+                return [archive[f"{name}_{i}"].astype(np.float32) for i in range(views)]
+
+            return cls(
+                points=archive["points"],
+                colors=archive["colors"],
+                extrinsics=archive["extrinsics"],
+                intrinsics=archive["intrinsics"],
+                image_sizes=archive["image_sizes"],
+                registered=archive["registered"],
+                backbone=str(archive["backbone"]),
+                backbone_version=str(archive["backbone_version"]),
+                depths=maps("depths"),
+                depth_confidence=maps("depth_confidence"),
+                warnings=[str(w) for w in archive["warnings"]],
+            )
+
+    def to_ply(self) -> bytes:
+        """Binary little-endian PLY of the coloured point cloud."""
+        header = (
+            "ply\nformat binary_little_endian 1.0\n"
+            f"comment backbone {self.backbone} {self.backbone_version}\n"
+            f"element vertex {self.num_points}\n"
+            "property float x\nproperty float y\nproperty float z\n"
+            "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+            "end_header\n"
+        ).encode("ascii")
+        vertex = np.empty(
+            self.num_points,
+            dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("r", "u1"), ("g", "u1"), ("b", "u1")],
+        )
+        vertex["x"], vertex["y"], vertex["z"] = self.points.T
+        vertex["r"], vertex["g"], vertex["b"] = self.colors.T
+        return header + vertex.tobytes()

@@ -1,0 +1,37 @@
+"""Session fixtures: a real Redis for the whole run.
+
+REDIS_URL wins when set; otherwise the machine's Redis on 127.0.0.1:6379 is borrowed when it
+answers (tests use their own key prefixes), and else a redis-server is started on a free port.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from tests.support.processes import RedisServer, redis_answers, start_redis  # noqa: E402
+
+
+@pytest.fixture(scope="session")
+def redis_server() -> Iterator[RedisServer]:
+    candidates = [os.environ.get("REDIS_URL", ""), "redis://127.0.0.1:6379/0"]
+    for url in filter(None, candidates):
+        if redis_answers(url):
+            yield RedisServer(url=url, process=None)
+            return
+    server = start_redis()
+    try:
+        yield server
+    finally:
+        server.stop()
+
+
+@pytest.fixture(scope="session")
+def redis_url(redis_server: RedisServer) -> str:
+    return redis_server.url
