@@ -48,7 +48,9 @@ def start_redis(port: int | None = None) -> RedisServer:
     """Start a throwaway redis-server (no persistence) on a free port and wait until it answers."""
     binary = shutil.which("redis-server")
     if binary is None:
-        raise RuntimeError("redis-server is not installed: run scripts/setup.sh (apt-get install redis-server)")
+        raise RuntimeError(
+            "redis-server is not installed: run scripts/setup.sh (apt-get install redis-server)"
+        )
     port = port or free_port()
     process = subprocess.Popen(
         [binary, "--port", str(port), "--bind", "127.0.0.1", "--save", "", "--appendonly", "no"],
@@ -83,8 +85,9 @@ class ServiceProcess:
                 self.process.wait(timeout=5)
 
 
-def start_service(app: str, env: dict[str, str] | None = None, ready_path: str = "/healthz",
-                  timeout: float = 60.0) -> ServiceProcess:
+def start_service(
+    app: str, env: dict[str, str] | None = None, ready_path: str = "/healthz", timeout: float = 60.0
+) -> ServiceProcess:
     """Run `uvicorn <app> --factory` as a real process and wait for `ready_path` to answer 200.
 
     `app` is an import string of an app factory, e.g. "services.recon.app:create_app".
@@ -93,8 +96,19 @@ def start_service(app: str, env: dict[str, str] | None = None, ready_path: str =
     log_file = tempfile.NamedTemporaryFile(prefix="service-", suffix=".log", delete=False)
     process_env = {**os.environ, "PYTHONUNBUFFERED": "1", **(env or {})}
     process = subprocess.Popen(
-        [sys.executable, "-m", "uvicorn", app, "--factory", "--host", "127.0.0.1", "--port", str(port),
-         "--log-level", "warning"],
+        [
+            sys.executable,
+            "-m",
+            "uvicorn",
+            app,
+            "--factory",
+            "--host",
+            "127.0.0.1",
+            "--port",
+            str(port),
+            "--log-level",
+            "warning",
+        ],
         cwd=REPO_ROOT,
         env=process_env,
         stdout=log_file,

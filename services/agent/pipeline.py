@@ -1,0 +1,219 @@
+"""One /v1/solve: scene → program (model or offline planner) → sandboxed run → answer."""
+
+from __future__ import annotations
+
+import base64
+import logging
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from PIL import Image
+
+from services.agent.answering import AnswerResult, answer_offline, answer_with_model
+from services.agent.codegen import ExecutionOutcome, generate_program
+from services.agent.llm import ChatClient, ChatModelConfig
+from services.agent.planner import plan_program
+from services.agent.recon_tools import ReconToolProvider
+from services.agent.sandbox import ExecutionResult, SandboxLimits, run_program
+from shared.client import ReconClient
+from shared.imaging import decode_image, encode_image
+from shared.schemas import AttemptRecord, Clue, SolveResponse, SolveTimings
+from shared.settings import AgentSettings
+
+log = logging.getLogger("pyspatial.agent")
+
+OFFLINE_PLANNER = "offline-planner"
+OFFLINE_ANSWERER = "offline-answerer"
+ANSWER_IMAGE_SIDE = 1024  # images shown to the answer model are downscaled to this longest side
+
+
+class SolveError(Exception):
+    """A request cannot be solved for a reason the client should see (status + message)."""
+
+    def __init__(self, status_code: int, message: str) -> None:
+        super().__init__(message)
+        self.status_code = status_code
+        self.message = message
+
+
+@dataclass
+class _Stage:
+    """Accumulates wall time of the sandbox runs inside the self-repair loop."""
+
+    execution_s: float = 0.0
+    last: ExecutionResult | None = None
+    runs: list[ExecutionResult] = field(default_factory=list)
+
+
+def _model_config(
+    base_url: str | None, model: str | None, key, settings: AgentSettings
+) -> ChatModelConfig | None:
+    if not model:
+        return None
+    return ChatModelConfig(
+        base_url=base_url or "https://api.openai.com/v1",
+        model=model,
+        api_key=key,
+        timeout_s=settings.model_timeout_s,
+        max_retries=settings.model_max_retries,
+    )
+
+
+class SolvePipeline:
+    def __init__(self, settings: AgentSettings) -> None:
+        self.settings = settings
+        self.recon = ReconClient(settings.recon_url, timeout=settings.recon_timeout_s)
+        code = _model_config(
+            settings.code_model_base_url, settings.code_model, settings.code_model_api_key, settings
+        )
+        answer = _model_config(
+            settings.answer_model_base_url, settings.answer_model, settings.answer_model_api_key, settings
+        )
+        self.code_client = ChatClient(code) if code else None
+        self.answer_client = ChatClient(answer) if answer else None
+        self.limits = SandboxLimits(
+            cpu_seconds=settings.sandbox_cpu_s,
+            wall_seconds=settings.sandbox_wall_s,
+            memory_mb=settings.sandbox_memory_mb,
+        )
+
+    @property
+    def code_model_name(self) -> str:
+        return self.settings.code_model or OFFLINE_PLANNER
+
+    @property
+    def answer_model_name(self) -> str:
+        return self.settings.answer_model or OFFLINE_ANSWERER
+
+    def close(self) -> None:
+        self.recon.close()
+        for client in (self.code_client, self.answer_client):
+            if client is not None:
+                client.close()
+
+    # ---- the stages ------------------------------------------------------------------------
+
+    def solve(
+        self,
+        question: str,
+        image_files: list[bytes] | None,
+        scene_id: str | None,
+        backbone: str | None,
+        max_repairs: int | None,
+    ) -> SolveResponse:
+        started = time.perf_counter()
+        scene_id, input_pngs = self._scene(image_files, scene_id)
+        tools = ReconToolProvider(self.recon, scene_id, backbone, input_pngs)
+        stage = _Stage()
+
+        def execute(source: str) -> ExecutionOutcome:
+            run_started = time.perf_counter()
+            result = run_program(source, question, len(input_pngs), tools, self.limits)
+            stage.execution_s += time.perf_counter() - run_started
+            stage.last = result
+            stage.runs.append(result)
+            return ExecutionOutcome(ok=result.ok, error=result.error, payload=result)
+
+        codegen_started = time.perf_counter()
+        attempts, program = self._generate(question, input_pngs, execute, max_repairs)
+        codegen_ms = (time.perf_counter() - codegen_started - stage.execution_s) * 1e3
+
+        result = stage.last if program is not None else None
+        answer_started = time.perf_counter()
+        if result is None or not result.ok:
+            failure = attempts[-1].error if attempts else "no program was produced"
+            answer = AnswerResult(
+                answer=None,
+                reasoning="",
+                raw=None,
+                method="none",
+                reason=f"no program ran successfully: {failure}",
+            )
+        elif self.answer_client is not None:
+            answer = answer_with_model(
+                self.answer_client, question, input_pngs, program, result.clue_text, result.clue_images
+            )
+        else:
+            answer = answer_offline(question, result.clue_text, result.clue_images)
+        answering_ms = (time.perf_counter() - answer_started) * 1e3
+
+        clue = Clue()
+        if result is not None and result.ok:
+            clue = Clue(
+                text=result.clue_text,
+                images=[base64.b64encode(png).decode("ascii") for png in result.clue_images],
+            )
+        return SolveResponse(
+            answer=answer.answer,
+            answer_reason=answer.reason if answer.answer is None else None,
+            reasoning=answer.reasoning,
+            program=program,
+            clue=clue,
+            attempts=attempts,
+            scene_id=scene_id,
+            backbone=tools.backbone_used or backbone or "service default",
+            code_model=self.code_model_name,
+            answer_model=self.answer_model_name,
+            timings=SolveTimings(
+                codegen_ms=round(codegen_ms, 2),
+                execution_ms=round(stage.execution_s * 1e3, 2),
+                answering_ms=round(answering_ms, 2),
+                total_ms=round((time.perf_counter() - started) * 1e3, 2),
+            ),
+        )
+
+    def _scene(self, image_files: list[bytes] | None, scene_id: str | None) -> tuple[str, list[bytes]]:
+        """Upload the images (or look up the scene) and prepare PNGs for the models."""
+        if image_files and scene_id:
+            raise SolveError(422, "send either images or a scene_id, not both")
+        if image_files:
+            if len(image_files) > self.settings.max_images:
+                raise SolveError(422, f"{len(image_files)} images; at most {self.settings.max_images}")
+            scene_id = self.recon.upload_scene(image_files).scene_id
+        elif scene_id:
+            info = self.recon.scene_info(scene_id)
+            image_files = [self.recon.scene_image(scene_id, i) for i in range(info.num_images)]
+        else:
+            raise SolveError(422, "send images (multipart 'images' or JSON base64) or an existing scene_id")
+        return scene_id, [self._model_png(blob, i) for i, blob in enumerate(image_files)]
+
+    def _model_png(self, blob: bytes, index: int) -> bytes:
+        rgb = decode_image(
+            blob, max_bytes=self.settings.max_image_bytes, max_pixels=10**9, label=f"image {index}"
+        )
+        height, width = rgb.shape[:2]
+        scale = ANSWER_IMAGE_SIDE / max(height, width)
+        if scale < 1:
+            size = (max(1, round(width * scale)), max(1, round(height * scale)))
+            rgb = np.asarray(Image.fromarray(rgb).resize(size, Image.Resampling.LANCZOS))
+        return encode_image(rgb, "png")
+
+    def _generate(
+        self, question: str, input_pngs: list[bytes], execute, max_repairs: int | None
+    ) -> tuple[list[AttemptRecord], str | None]:
+        repairs = self.settings.max_repairs if max_repairs is None else max_repairs
+        if self.code_client is None:
+            planned = plan_program(question, len(input_pngs))
+            run_started = time.perf_counter()
+            outcome = execute(planned.source)
+            attempt = AttemptRecord(
+                program=planned.source,
+                error=outcome.error,
+                reply=None,
+                latency_ms=round((time.perf_counter() - run_started) * 1e3, 2),
+            )
+            return [attempt], planned.source if outcome.ok else None
+        generated = generate_program(
+            self.code_client,
+            question,
+            input_pngs,
+            execute,
+            max_repairs=repairs,
+            num_examples=self.settings.num_examples,
+        )
+        attempts = [
+            AttemptRecord(program=a.program, error=a.error, reply=a.reply, latency_ms=round(a.latency_ms, 2))
+            for a in generated.attempts
+        ]
+        return attempts, generated.program if generated.ok else None

@@ -1,0 +1,49 @@
+"""The sandbox's pySpatial calls, served by the reconstruction service over HTTP.
+
+Point clouds never cross the wire: the agent only sees cameras, sentences and rendered PNGs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from shared.client import ReconClient
+
+
+class ReconToolProvider:
+    """Parent-side tools of one solve: one scene, one backbone, the input images as PNG."""
+
+    def __init__(
+        self, client: ReconClient, scene_id: str, backbone: str | None, input_pngs: list[bytes]
+    ) -> None:
+        self.client = client
+        self.scene_id = scene_id
+        self.backbone = backbone
+        self.input_pngs = input_pngs
+        self.backbone_used: str | None = None
+
+    def reconstruct(self) -> dict:
+        summary = self.client.reconstruct(self.scene_id, self.backbone)
+        self.backbone_used = summary.backbone
+        nan_pose = np.full((3, 4), np.nan).tolist()  # unregistered views: no pose to invent
+        return {
+            "extrinsics": [c.extrinsic if c.registered else nan_pose for c in summary.cameras],
+            "intrinsics": [c.intrinsic for c in summary.cameras],
+            "image_sizes": [[c.width, c.height] for c in summary.cameras],
+            "registered": [c.registered for c in summary.cameras],
+            "up": summary.up,
+            "warnings": summary.warnings,
+        }
+
+    def describe_camera_motion(self) -> list[str]:
+        return [m.sentence for m in self.client.camera_motion(self.scene_id, backbone=self.backbone).motions]
+
+    def synthesize_novel_view(self, extrinsic: list[list[float]], width: int, height: int) -> bytes:
+        return self.client.render(
+            self.scene_id, extrinsic, width=width, height=height, backbone=self.backbone
+        )
+
+    def input_image(self, index: int) -> bytes:
+        if not 0 <= index < len(self.input_pngs):
+            raise IndexError(f"the scene has images 0..{len(self.input_pngs) - 1}")
+        return self.input_pngs[index]

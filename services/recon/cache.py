@@ -1,0 +1,146 @@
+"""Two-tier cache of serialized reconstructions: an in-process LRU in front of Redis.
+
+Redis may be absent (no REDIS_URL) or go down. The service then keeps answering from memory,
+remembers what it could not write, and writes it back once Redis answers again ("catch up").
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections import OrderedDict
+
+import redis
+from redis import asyncio as aioredis
+
+log = logging.getLogger("pyspatial.recon.cache")
+
+RETRY_AFTER_FAILURE_S = 2.0  # don't hammer a dead Redis on every request
+
+
+class MemoryLRU:
+    """Byte-bounded LRU of bytes values; thread-safe."""
+
+    def __init__(self, max_bytes: int) -> None:
+        self.max_bytes = max_bytes
+        self._items: OrderedDict[str, bytes] = OrderedDict()
+        self._size = 0
+        self._lock = threading.Lock()
+
+    def get(self, key: str) -> bytes | None:
+        with self._lock:
+            value = self._items.get(key)
+            if value is not None:
+                self._items.move_to_end(key)
+            return value
+
+    def set(self, key: str, value: bytes) -> None:
+        with self._lock:
+            if key in self._items:
+                self._size -= len(self._items.pop(key))
+            if len(value) > self.max_bytes:
+                return
+            self._items[key] = value
+            self._size += len(value)
+            while self._size > self.max_bytes:
+                _, evicted = self._items.popitem(last=False)
+                self._size -= len(evicted)
+
+    def __contains__(self, key: str) -> bool:
+        with self._lock:
+            return key in self._items
+
+
+class ReconstructionCache:
+    def __init__(
+        self, redis_url: str | None, ttl_s: int, memory_bytes: int, namespace: str = "default"
+    ) -> None:
+        self.redis_url = redis_url
+        self.key_prefix = f"pyspatial:{namespace}:recon:"
+        self.ttl_s = ttl_s
+        self.memory = MemoryLRU(memory_bytes)
+        self._redis = (
+            aioredis.Redis.from_url(redis_url, socket_timeout=2.0, socket_connect_timeout=1.0)
+            if redis_url
+            else None
+        )
+        self._down_since: float | None = None
+        self._next_try = 0.0
+        self._pending: set[str] = set()  # written to memory while Redis was down
+
+    @property
+    def mode(self) -> str:
+        if self._redis is None:
+            return "memory"
+        return "redis-unavailable" if self._down_since is not None else "redis"
+
+    def _available(self) -> bool:
+        return self._redis is not None and time.monotonic() >= self._next_try
+
+    def _failed(self, error: Exception) -> None:
+        if self._down_since is None:
+            log.warning("Redis unavailable (%s); serving from the in-process cache", error)
+            self._down_since = time.monotonic()
+        self._next_try = time.monotonic() + RETRY_AFTER_FAILURE_S
+
+    async def _recovered(self) -> None:
+        if self._down_since is not None:
+            log.warning(
+                "Redis is back after %.1f s; writing back %d entries",
+                time.monotonic() - self._down_since,
+                len(self._pending),
+            )
+            self._down_since = None
+        for key in list(self._pending):
+            value = self.memory.get(key)
+            if value is not None:
+                await self._redis.set(self.key_prefix + key, value, ex=self.ttl_s)
+            self._pending.discard(key)
+
+    async def get(self, key: str) -> bytes | None:
+        value = self.memory.get(key)
+        if value is not None or not self._available():
+            return value
+        try:
+            value = await self._redis.get(self.key_prefix + key)
+            await self._recovered()
+        except (redis.RedisError, OSError) as error:
+            self._failed(error)
+            return None
+        if value is not None:
+            self.memory.set(key, value)
+        return value
+
+    async def set(self, key: str, value: bytes) -> None:
+        self.memory.set(key, value)
+        if self._redis is None:
+            return
+        if not self._available():
+            self._pending.add(key)
+            return
+        try:
+            await self._redis.set(self.key_prefix + key, value, ex=self.ttl_s)
+            await self._recovered()
+        except (redis.RedisError, OSError) as error:
+            self._pending.add(key)
+            self._failed(error)
+
+    async def check(self) -> str:
+        """Ping Redis (used by /readyz), catching up if it has come back. Returns the mode."""
+        if self._redis is None:
+            return self.mode
+        try:
+            await self._redis.ping()
+            await self._recovered()
+        except (redis.RedisError, OSError) as error:
+            self._failed(error)
+        return self.mode
+
+    @property
+    def pending_writes(self) -> int:
+        return len(self._pending)
+
+    async def close(self) -> None:
+        if self._redis is not None:
+            await self._redis.aclose()

@@ -1,0 +1,154 @@
+"""Uploaded scenes on disk, content-addressed, written atomically so a crash never leaves half a scene."""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import os
+import re
+import shutil
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from services.recon.errors import InvalidInput, SceneNotFound
+
+_SCENE_ID = re.compile(r"^[0-9a-f]{24}$")
+
+
+@dataclass
+class SceneInput:
+    """What a client uploaded, decoded and validated."""
+
+    image_files: list[bytes]  # the encoded files exactly as uploaded
+    images: list[np.ndarray]  # decoded uint8 RGB
+    depths: list[np.ndarray] | None = None
+    extrinsics: np.ndarray | None = None  # (V, 3, 4)
+    intrinsics: np.ndarray | None = None  # (V, 3, 3)
+
+    @property
+    def image_sizes(self) -> list[tuple[int, int]]:
+        return [(image.shape[1], image.shape[0]) for image in self.images]
+
+    def content_id(self) -> str:
+        """Hash of the files in order (and any depths and cameras): same upload, same scene."""
+        digest = hashlib.sha256()
+        for blob in self.image_files:
+            digest.update(len(blob).to_bytes(8, "little") + blob)
+        for name in ("depths", "extrinsics", "intrinsics"):
+            value = getattr(self, name)
+            if value is not None:
+                digest.update(name.encode())
+                for array in value:
+                    digest.update(np.ascontiguousarray(array, dtype=np.float32).tobytes())
+        return digest.hexdigest()[:24]
+
+
+def check_scene_id(scene_id: str) -> str:
+    if not _SCENE_ID.match(scene_id):
+        raise SceneNotFound(
+            f"unknown scene id {scene_id!r}: scene ids are 24 hex characters from POST /v1/scenes"
+        )
+    return scene_id
+
+
+class SceneStore:
+    def __init__(self, root: Path) -> None:
+        self.root = Path(root) / "scenes"
+        self.root.mkdir(parents=True, exist_ok=True)
+
+    def _path(self, scene_id: str) -> Path:
+        return self.root / check_scene_id(scene_id)
+
+    def exists(self, scene_id: str) -> bool:
+        return (self._path(scene_id) / "meta.json").exists()
+
+    def save(self, scene: SceneInput) -> tuple[str, bool]:
+        """Store the scene; returns (scene_id, created)."""
+        scene_id = scene.content_id()
+        final = self._path(scene_id)
+        if (final / "meta.json").exists():
+            return scene_id, False
+        staging = Path(tempfile.mkdtemp(prefix=".incoming-", dir=self.root))
+        try:
+            for index, blob in enumerate(scene.image_files):
+                (staging / f"image_{index:03d}").write_bytes(blob)
+            arrays: dict[str, np.ndarray] = {}
+            if scene.depths is not None:
+                arrays.update({f"depth_{i:03d}": d.astype(np.float32) for i, d in enumerate(scene.depths)})
+            if scene.extrinsics is not None:
+                arrays["extrinsics"] = scene.extrinsics
+            if scene.intrinsics is not None:
+                arrays["intrinsics"] = scene.intrinsics
+            if arrays:
+                np.savez(staging / "geometry.npz", **arrays)
+            meta = {
+                "num_images": len(scene.images),
+                "image_sizes": scene.image_sizes,
+                "has_depth": scene.depths is not None,
+                "has_cameras": scene.extrinsics is not None and scene.intrinsics is not None,
+            }
+            (staging / "meta.json").write_text(json.dumps(meta))  # written last: marks the scene complete
+            try:
+                os.rename(staging, final)
+            except OSError:  # a concurrent upload of the same scene won the race
+                if not (final / "meta.json").exists():
+                    raise
+                return scene_id, False
+        finally:
+            if staging.exists():
+                shutil.rmtree(staging, ignore_errors=True)
+        return scene_id, True
+
+    def info(self, scene_id: str) -> dict:
+        """The scene's metadata: num_images, image_sizes, has_depth, has_cameras."""
+        path = self._path(scene_id)
+        if not (path / "meta.json").exists():
+            raise SceneNotFound(f"scene {scene_id} is not known here: upload its images with POST /v1/scenes")
+        return json.loads((path / "meta.json").read_text())
+
+    def image_file(self, scene_id: str, index: int) -> bytes:
+        path = self._path(scene_id)
+        count = self.info(scene_id)["num_images"]
+        if not 0 <= index < count:
+            raise SceneNotFound(f"scene {scene_id} has images 0..{count - 1}; there is no image {index}")
+        return (path / f"image_{index:03d}").read_bytes()
+
+    def load(self, scene_id: str, decode) -> SceneInput:
+        """Read a stored scene; `decode(bytes, label)` turns files into RGB arrays."""
+        path = self._path(scene_id)
+        meta = self.info(scene_id)
+        files = [(path / f"image_{i:03d}").read_bytes() for i in range(meta["num_images"])]
+        scene = SceneInput(image_files=files, images=[decode(f, f"image {i}") for i, f in enumerate(files)])
+        geometry = path / "geometry.npz"
+        if geometry.exists():
+            with np.load(io.BytesIO(geometry.read_bytes())) as data:
+                if "depth_000" in data:
+                    scene.depths = [data[f"depth_{i:03d}"] for i in range(meta["num_images"])]
+                scene.extrinsics = data["extrinsics"] if "extrinsics" in data else None
+                scene.intrinsics = data["intrinsics"] if "intrinsics" in data else None
+        return scene
+
+
+def validate_geometry(scene: SceneInput) -> None:
+    """Depths and cameras, when given, must fit the images one to one."""
+    views = len(scene.images)
+    if scene.depths is not None:
+        if len(scene.depths) != views:
+            raise InvalidInput(f"{len(scene.depths)} depth maps for {views} images")
+        for index, depth in enumerate(scene.depths):
+            if depth.ndim != 2 or min(depth.shape) < 2:
+                raise InvalidInput(f"depth {index} must be a 2-D array (H, W), got shape {depth.shape}")
+    for name, shape in (("extrinsics", (3, 4)), ("intrinsics", (3, 3))):
+        value = getattr(scene, name)
+        if value is None:
+            continue
+        if value.shape != (views, *shape):
+            raise InvalidInput(
+                f"{name} must be {views} matrices of shape {shape}, got array of {value.shape}"
+            )
+        if not np.all(np.isfinite(value)):
+            raise InvalidInput(f"{name} contain values that are not finite")

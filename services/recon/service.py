@@ -1,0 +1,236 @@
+"""What the reconstruction service does, independent of HTTP: scenes in, reconstructions out."""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import threading
+import time
+from collections import OrderedDict
+from dataclasses import dataclass
+
+import anyio
+import numpy as np
+
+from services.recon.backbones import Backbone, BackboneError, create_backbone
+from services.recon.cache import ReconstructionCache
+from services.recon.errors import BackboneUnavailable, InvalidInput, SceneNotFound
+from services.recon.scene_store import SceneInput, SceneStore, check_scene_id, validate_geometry
+from shared.camera_motion import describe_camera_motion
+from shared.imaging import decode_image, encode_image
+from shared.poses import estimate_up_axis, validate_extrinsic
+from shared.reconstruction import Reconstruction
+from shared.rendering import synthesize_novel_view
+from shared.settings import ReconSettings
+
+log = logging.getLogger("pyspatial.recon")
+
+
+@dataclass
+class ReconstructOutcome:
+    reconstruction: Reconstruction
+    cached: bool
+    joined_in_flight: bool
+    timings_ms: dict[str, float]
+
+
+class ReconService:
+    def __init__(self, settings: ReconSettings) -> None:
+        self.settings = settings
+        self.store = SceneStore(settings.data_dir)
+        self.cache = ReconstructionCache(
+            settings.redis_url,
+            settings.cache_ttl_s,
+            settings.memory_cache_mb * 2**20,
+            settings.cache_namespace,
+        )
+        self._backbones: dict[str, Backbone] = {}
+        self._backbone_errors: dict[str, str] = {}
+        self._backbone_lock = threading.Lock()
+        self._in_flight: dict[str, asyncio.Future] = {}
+        self._decoded: OrderedDict[str, Reconstruction] = OrderedDict()  # a few hot scenes, deserialized
+        self._limiter = anyio.CapacityLimiter(settings.reconstruct_workers)
+
+    # ---- backbones ---------------------------------------------------------------------------
+
+    def backbone(self, name: str | None = None) -> Backbone:
+        """The named backbone (default from settings), built once per process."""
+        name = name or self.settings.backbone
+        with self._backbone_lock:
+            if name in self._backbones:
+                return self._backbones[name]
+            try:
+                backbone = create_backbone(name, **self._backbone_settings(name))
+            except BackboneError as error:
+                self._backbone_errors[name] = str(error)
+                status = InvalidInput if "unknown backbone" in str(error) else BackboneUnavailable
+                raise status(str(error)) from error
+            self._backbones[name] = backbone
+            self._backbone_errors.pop(name, None)
+            log.info("backbone %s (version %s) ready", backbone.name, backbone.version)
+            return backbone
+
+    def _backbone_settings(self, name: str) -> dict:
+        if name == "vggt":
+            return {
+                "checkpoint": str(self.settings.vggt_checkpoint) if self.settings.vggt_checkpoint else None,
+                "config": str(self.settings.vggt_config) if self.settings.vggt_config else None,
+                "device": self.settings.device,
+            }
+        return {}
+
+    def backbone_status(self) -> tuple[bool, str]:
+        name = self.settings.backbone
+        try:
+            return self.backbone(name).ready()
+        except (BackboneUnavailable, InvalidInput) as error:
+            return False, error.message
+
+    # ---- scenes ----------------------------------------------------------------------------
+
+    def decode(self, data: bytes, label: str) -> np.ndarray:
+        return decode_image(
+            data,
+            max_bytes=self.settings.max_image_bytes,
+            max_pixels=self.settings.max_image_pixels,
+            label=label,
+        )
+
+    def add_scene(self, scene: SceneInput) -> tuple[str, bool]:
+        if not 1 <= len(scene.images) <= self.settings.max_images:
+            raise InvalidInput(f"a scene has 1 to {self.settings.max_images} images; got {len(scene.images)}")
+        validate_geometry(scene)
+        return self.store.save(scene)
+
+    # ---- reconstruction ----------------------------------------------------------------------
+
+    async def reconstruct(self, scene_id: str, backbone_name: str | None = None) -> ReconstructOutcome:
+        check_scene_id(scene_id)
+        if not self.store.exists(scene_id):
+            raise SceneNotFound(f"scene {scene_id} is not known here: upload its images with POST /v1/scenes")
+        backbone = await anyio.to_thread.run_sync(self.backbone, backbone_name)
+        ready, detail = backbone.ready()
+        if not ready:
+            raise BackboneUnavailable(f"backbone {backbone.name} is not ready: {detail}")
+        key = f"{scene_id}:{backbone.name}:{backbone.version}"
+        started = time.perf_counter()
+
+        hot = self._decoded.get(key)
+        if hot is not None:
+            return ReconstructOutcome(hot, True, False, {"cache_ms": _ms(started)})
+        payload = await self.cache.get(key)
+        if payload is not None:
+            reconstruction = Reconstruction.from_bytes(payload)
+            self._remember(key, reconstruction)
+            return ReconstructOutcome(reconstruction, True, False, {"cache_ms": _ms(started)})
+
+        if key in self._in_flight:  # single flight: wait for the identical job already running
+            reconstruction, timings = await asyncio.shield(self._in_flight[key])
+            return ReconstructOutcome(reconstruction, False, True, {**timings, "waited_ms": _ms(started)})
+        future: asyncio.Future = asyncio.get_running_loop().create_future()
+        self._in_flight[key] = future
+        try:
+            reconstruction, timings = await self._run_backbone(scene_id, backbone)
+            await self.cache.set(key, reconstruction.to_bytes())
+            self._remember(key, reconstruction)
+            future.set_result((reconstruction, timings))
+        except asyncio.CancelledError:
+            future.cancel()
+            raise
+        except BaseException as error:
+            future.set_exception(error)
+            future.exception()  # mark retrieved: nobody may be waiting
+            raise
+        finally:
+            del self._in_flight[key]
+        return ReconstructOutcome(reconstruction, False, False, {**timings, "total_ms": _ms(started)})
+
+    async def _run_backbone(
+        self, scene_id: str, backbone: Backbone
+    ) -> tuple[Reconstruction, dict[str, float]]:
+        def work() -> tuple[Reconstruction, dict[str, float]]:
+            started = time.perf_counter()
+            scene = self.store.load(scene_id, self.decode)
+            loaded = time.perf_counter()
+            options = {}
+            if backbone.name == "posed-rgbd":
+                options = {
+                    "depths": scene.depths,
+                    "extrinsics": scene.extrinsics,
+                    "intrinsics": scene.intrinsics,
+                }
+            try:
+                reconstruction = backbone.reconstruct(scene.images, **options)
+            except BackboneError as error:
+                raise InvalidInput(
+                    f"backbone {backbone.name} cannot reconstruct this scene: {error}"
+                ) from error
+            return reconstruction, {"load_ms": (loaded - started) * 1e3, "reconstruct_ms": _ms(loaded)}
+
+        return await anyio.to_thread.run_sync(work, limiter=self._limiter)
+
+    def _remember(self, key: str, reconstruction: Reconstruction) -> None:
+        self._decoded[key] = reconstruction
+        self._decoded.move_to_end(key)
+        while len(self._decoded) > 4:
+            self._decoded.popitem(last=False)
+
+    # ---- tools on a reconstruction -----------------------------------------------------------
+
+    async def render(
+        self,
+        scene_id: str,
+        extrinsic: list[list[float]],
+        width: int,
+        height: int,
+        zoom_out: float,
+        fmt: str,
+        backbone: str | None,
+    ) -> bytes:
+        limit = self.settings.max_render_side
+        if width > limit or height > limit:
+            raise InvalidInput(f"render size {width}x{height} exceeds the limit of {limit} pixels a side")
+        pose = _validated_pose(extrinsic)
+        outcome = await self.reconstruct(scene_id, backbone)
+        recon = outcome.reconstruction
+
+        def work() -> bytes:
+            image = synthesize_novel_view(recon, pose, width=width, height=height, zoom_out=zoom_out)
+            return encode_image(image, fmt)
+
+        return await anyio.to_thread.run_sync(work)
+
+    async def camera_motion(self, scene_id: str, pairs: list[tuple[int, int]] | None, backbone: str | None):
+        outcome = await self.reconstruct(scene_id, backbone)
+        recon = outcome.reconstruction
+        views = recon.num_views
+        if views < 2:
+            raise InvalidInput("camera motion needs at least two views; this scene has one")
+        pairs = pairs if pairs is not None else [(i, i + 1) for i in range(views - 1)]
+        for first, second in pairs:
+            for view in (first, second):
+                if not 0 <= view < views:
+                    raise InvalidInput(f"view {view} is out of range: the scene has views 0..{views - 1}")
+                if not recon.registered[view]:
+                    raise InvalidInput(
+                        f"view {view} could not be registered by {recon.backbone}; it has no pose"
+                    )
+        registered = recon.extrinsics[recon.registered]
+        up = estimate_up_axis(registered)
+        return recon, describe_camera_motion(recon.extrinsics, pairs=pairs, up=up)
+
+
+def _validated_pose(extrinsic: list[list[float]]) -> np.ndarray:
+    try:
+        pose = np.asarray(extrinsic, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise InvalidInput(f"extrinsic must be a 3x4 or 4x4 matrix of numbers: {error}") from error
+    try:
+        validate_extrinsic(pose)
+    except ValueError as error:
+        raise InvalidInput(f"malformed extrinsic: {error}") from error
+    return pose[:3, :4]
+
+
+def _ms(since: float) -> float:
+    return (time.perf_counter() - since) * 1e3

@@ -1,0 +1,191 @@
+"""Python clients of the two services (httpx). Errors carry the service's own message."""
+
+from __future__ import annotations
+
+import base64
+import io
+import json
+from collections.abc import Sequence
+from pathlib import Path
+
+import httpx
+import numpy as np
+
+from shared.imaging import encode_image
+from shared.reconstruction import Reconstruction
+from shared.schemas import (
+    CameraMotionResponse,
+    Readiness,
+    ReconstructionSummary,
+    SceneCreated,
+    SceneInfo,
+    SolveResponse,
+)
+
+ImageLike = bytes | np.ndarray | str | Path
+
+
+class ServiceError(RuntimeError):
+    """The service answered with an error status; `message` is its explanation."""
+
+    def __init__(self, status_code: int, message: str, url: str) -> None:
+        super().__init__(f"{url} answered {status_code}: {message}")
+        self.status_code = status_code
+        self.message = message
+
+
+class ServiceUnreachable(RuntimeError):
+    """Nothing answered at the service URL (not started, wrong URL, or timed out)."""
+
+
+def image_bytes(image: ImageLike) -> bytes:
+    """Encoded image file bytes from a path, raw bytes or an RGB array."""
+    if isinstance(image, bytes):
+        return image
+    if isinstance(image, np.ndarray):
+        return encode_image(image, "png")
+    return Path(image).expanduser().read_bytes()
+
+
+def _npy(array: np.ndarray) -> bytes:
+    buffer = io.BytesIO()
+    np.save(buffer, np.asarray(array, dtype=np.float32), allow_pickle=False)
+    return buffer.getvalue()
+
+
+class _ServiceClient:
+    service_name = "service"
+
+    def __init__(self, base_url: str, timeout: float = 600.0, client: httpx.Client | None = None) -> None:
+        self.base_url = base_url.rstrip("/")
+        self._http = client or httpx.Client(base_url=self.base_url, timeout=timeout)
+
+    def _request(self, method: str, path: str, **kwargs) -> httpx.Response:
+        try:
+            response = self._http.request(method, self.base_url + path, **kwargs)
+        except httpx.TimeoutException as error:
+            raise ServiceUnreachable(
+                f"the {self.service_name} at {self.base_url} timed out ({error})"
+            ) from error
+        except httpx.TransportError as error:
+            raise ServiceUnreachable(
+                f"cannot reach the {self.service_name} at {self.base_url}: {error}. "
+                f"Is it running? (pyspatial serve)"
+            ) from error
+        if response.status_code >= 400:
+            try:
+                detail = response.json().get("detail", response.text)
+            except (ValueError, AttributeError):
+                detail = response.text
+            raise ServiceError(
+                response.status_code,
+                detail if isinstance(detail, str) else json.dumps(detail),
+                f"{method} {path}",
+            )
+        return response
+
+    def close(self) -> None:
+        self._http.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+class ReconClient(_ServiceClient):
+    service_name = "reconstruction service"
+
+    def readyz(self) -> Readiness:
+        response = self._http.get(self.base_url + "/readyz")
+        return Readiness.model_validate(response.json())
+
+    def upload_scene(
+        self,
+        images: Sequence[ImageLike],
+        depths: Sequence[np.ndarray] | None = None,
+        extrinsics: np.ndarray | None = None,
+        intrinsics: np.ndarray | None = None,
+    ) -> SceneCreated:
+        files = [("images", (f"image_{i:03d}", image_bytes(img))) for i, img in enumerate(images)]
+        files += [("depths", (f"depth_{i:03d}.npy", _npy(d))) for i, d in enumerate(depths or [])]
+        data = {}
+        if extrinsics is not None:
+            data["extrinsics"] = json.dumps(np.asarray(extrinsics, dtype=float).tolist())
+        if intrinsics is not None:
+            data["intrinsics"] = json.dumps(np.asarray(intrinsics, dtype=float).tolist())
+        return SceneCreated.model_validate(self._request("POST", "/v1/scenes", files=files, data=data).json())
+
+    def scene_info(self, scene_id: str) -> SceneInfo:
+        return SceneInfo.model_validate(self._request("GET", f"/v1/scenes/{scene_id}").json())
+
+    def scene_image(self, scene_id: str, index: int) -> bytes:
+        return self._request("GET", f"/v1/scenes/{scene_id}/images/{index}").content
+
+    def reconstruct(self, scene_id: str, backbone: str | None = None) -> ReconstructionSummary:
+        response = self._request("POST", f"/v1/scenes/{scene_id}/reconstruct", json={"backbone": backbone})
+        return ReconstructionSummary.model_validate(response.json())
+
+    def reconstruction(self, scene_id: str, backbone: str | None = None) -> Reconstruction:
+        params = {"backbone": backbone} if backbone else {}
+        response = self._request("GET", f"/v1/scenes/{scene_id}/reconstruction", params=params)
+        return Reconstruction.from_bytes(response.content)
+
+    def ply(self, scene_id: str, backbone: str | None = None) -> bytes:
+        params = {"format": "ply", **({"backbone": backbone} if backbone else {})}
+        return self._request("GET", f"/v1/scenes/{scene_id}/reconstruction", params=params).content
+
+    def render(
+        self,
+        scene_id: str,
+        extrinsic,
+        width: int = 512,
+        height: int = 512,
+        zoom_out: float = 0.5,
+        fmt: str = "png",
+        backbone: str | None = None,
+    ) -> bytes:
+        body = {
+            "scene_id": scene_id,
+            "extrinsic": np.asarray(extrinsic, dtype=float).tolist(),
+            "width": width,
+            "height": height,
+            "zoom_out": zoom_out,
+            "format": fmt,
+            "backbone": backbone,
+        }
+        return self._request("POST", "/v1/render", json=body).content
+
+    def camera_motion(
+        self, scene_id: str, pairs: Sequence[tuple[int, int]] | None = None, backbone: str | None = None
+    ) -> CameraMotionResponse:
+        body = {
+            "scene_id": scene_id,
+            "pairs": [list(p) for p in pairs] if pairs else None,
+            "backbone": backbone,
+        }
+        return CameraMotionResponse.model_validate(
+            self._request("POST", "/v1/camera-motion", json=body).json()
+        )
+
+
+class AgentClient(_ServiceClient):
+    service_name = "agent service"
+
+    def solve(
+        self,
+        question: str,
+        images: Sequence[ImageLike] | None = None,
+        scene_id: str | None = None,
+        backbone: str | None = None,
+        max_repairs: int | None = None,
+    ) -> SolveResponse:
+        body = {
+            "question": question,
+            "images": [base64.b64encode(image_bytes(i)).decode("ascii") for i in images] if images else None,
+            "scene_id": scene_id,
+            "backbone": backbone,
+            "max_repairs": max_repairs,
+        }
+        return SolveResponse.model_validate(self._request("POST", "/v1/solve", json=body).json())

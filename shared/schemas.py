@@ -1,0 +1,161 @@
+"""Pydantic models of both HTTP APIs: the single source of their contracts (and OpenAPI docs)."""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+Matrix = list[list[float]]
+ImageFormat = Literal["png", "jpeg"]
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+# ---- reconstruction service ----------------------------------------------------------------
+
+
+class SceneUpload(_Model):
+    """JSON form of a scene upload (multipart form uploads use the field `images` for files)."""
+
+    images: list[str] = Field(..., description="Images in order, base64 or data URLs (PNG, JPEG, ...).")
+    depths: list[str] | None = Field(
+        None, description="Optional per-view z-depth, base64 of a float32 .npy (H, W), for posed-rgbd."
+    )
+    extrinsics: list[Matrix] | None = Field(None, description="Optional 3x4 camera-from-world, OpenCV axes.")
+    intrinsics: list[Matrix] | None = Field(None, description="Optional 3x3 intrinsics in pixels.")
+
+
+class SceneInfo(_Model):
+    scene_id: str = Field(..., description="Content hash of the images (and depths/cameras) in order.")
+    num_images: int
+    image_sizes: list[tuple[int, int]] = Field(..., description="(width, height) per image.")
+    has_depth: bool
+    has_cameras: bool
+
+
+class SceneCreated(SceneInfo):
+    created: bool = Field(..., description="False when the same scene had been uploaded before.")
+
+
+class ReconstructRequest(_Model):
+    backbone: str | None = Field(
+        None, description="classical, posed-rgbd or vggt; the service default if unset."
+    )
+
+
+class CameraInfo(_Model):
+    index: int
+    extrinsic: Matrix | None = Field(..., description="3x4 camera-from-world; null when not registered.")
+    intrinsic: Matrix
+    width: int
+    height: int
+    registered: bool
+
+
+class ReconstructionSummary(_Model):
+    scene_id: str
+    backbone: str
+    backbone_version: str
+    cameras: list[CameraInfo]
+    num_points: int
+    bounds_min: list[float]
+    bounds_max: list[float]
+    up: list[float] = Field(..., description="Scene up axis estimated from the cameras (world frame).")
+    warnings: list[str]
+    cached: bool = Field(..., description="Served from the cache without reconstructing.")
+    joined_in_flight: bool = Field(
+        False, description="Waited for an identical reconstruction already running."
+    )
+    timings_ms: dict[str, float]
+
+
+class RenderRequest(_Model):
+    scene_id: str
+    extrinsic: Matrix = Field(..., description="3x4 or 4x4 camera-from-world, OpenCV axes.")
+    width: Annotated[int, Field(ge=16)] = 512
+    height: Annotated[int, Field(ge=16)] = 512
+    zoom_out: Annotated[float, Field(gt=0.0, le=4.0)] = 0.5
+    format: ImageFormat = "png"
+    backbone: str | None = None
+
+
+class CameraMotionRequest(_Model):
+    scene_id: str
+    pairs: list[tuple[int, int]] | None = Field(None, description="0-based view pairs; consecutive if unset.")
+    backbone: str | None = None
+
+
+class CameraMotionItem(_Model):
+    from_view: int
+    to_view: int
+    direction: str
+    angle_deg: float
+    distance: float
+    displacement_in_first_camera: list[float]
+    yaw_deg: float = Field(..., description="Turn between the views about the up axis; positive = left.")
+    sentence: str
+
+
+class CameraMotionResponse(_Model):
+    scene_id: str
+    backbone: str
+    motions: list[CameraMotionItem]
+    text: str = Field(..., description="The sentences, one per line.")
+
+
+class Readiness(_Model):
+    ready: bool
+    backbone: str
+    backbone_ready: bool
+    backbone_detail: str
+    cache: str = Field(..., description="redis, memory, or redis-unavailable (serving from memory).")
+    warnings: list[str]
+
+
+# ---- agent service -------------------------------------------------------------------------
+
+
+class SolveRequest(_Model):
+    """JSON form of /v1/solve (multipart uses files `images` plus form fields of the same names)."""
+
+    question: str = Field(..., min_length=1, max_length=10_000)
+    images: list[str] | None = Field(None, description="Images in order, base64 or data URLs.")
+    scene_id: str | None = Field(None, description="A scene already uploaded to the recon service.")
+    backbone: str | None = None
+    max_repairs: Annotated[int, Field(ge=0, le=5)] | None = None
+
+
+class AttemptRecord(_Model):
+    program: str | None
+    error: str | None
+    reply: str | None = Field(None, description="The code model's raw reply (None for the offline planner).")
+    latency_ms: float
+
+
+class Clue(_Model):
+    text: str | None = None
+    images: list[str] = Field(default_factory=list, description="Rendered views as base64 PNG.")
+
+
+class SolveTimings(_Model):
+    codegen_ms: float
+    execution_ms: float
+    answering_ms: float
+    total_ms: float
+
+
+class SolveResponse(_Model):
+    answer: str | None = Field(..., description="The option letter, or null when no honest answer exists.")
+    answer_reason: str | None = Field(None, description="Why answer is null.")
+    reasoning: str
+    program: str | None = Field(..., description="The exact code that ran.")
+    clue: Clue
+    attempts: list[AttemptRecord]
+    scene_id: str
+    backbone: str
+    code_model: str = Field(..., description="Model name, or 'offline-planner'.")
+    answer_model: str = Field(..., description="Model name, or 'offline-answerer'.")
+    timings: SolveTimings

@@ -1,0 +1,65 @@
+"""All configuration, in one place, read from the environment (and an optional `.env` file).
+
+Every variable is documented in README.md ("Configuration"). Names are PYSPATIAL_* except
+REDIS_URL, which follows the common convention.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from pydantic import AliasChoices, Field, SecretStr
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+DEFAULT_DATA_DIR = Path.home() / ".cache" / "pyspatial"
+DEFAULT_RECON_PORT = 8001
+DEFAULT_AGENT_PORT = 8000
+
+
+class _Settings(BaseSettings):
+    model_config = SettingsConfigDict(env_prefix="PYSPATIAL_", env_file=".env", extra="ignore")
+
+
+class ReconSettings(_Settings):
+    backbone: str = Field("classical", description="Default backbone: classical, posed-rgbd or vggt.")
+    vggt_checkpoint: Path | None = Field(None, description="Local VGGT-1B checkpoint (.pt or .safetensors).")
+    vggt_config: Path | None = Field(None, description="JSON model config; VGGT-1B sizes when unset.")
+    device: str | None = Field(None, description="torch device for learned backbones; cuda when present.")
+    redis_url: str | None = Field(
+        None,
+        validation_alias=AliasChoices("REDIS_URL", "PYSPATIAL_REDIS_URL"),
+        description="Redis for the reconstruction cache; an in-process cache is used when unset.",
+    )
+    cache_namespace: str = Field("default", description="Prefix of cache keys (separates deployments).")
+    cache_ttl_s: int = Field(7 * 24 * 3600, ge=1, description="Lifetime of cached reconstructions.")
+    memory_cache_mb: int = Field(512, ge=1, description="In-process cache size (also the Redis-down buffer).")
+    data_dir: Path = Field(DEFAULT_DATA_DIR, description="Where uploaded scenes are stored.")
+    max_images: int = Field(32, ge=1, le=256, description="Most images in one scene.")
+    max_image_bytes: int = Field(25 * 2**20, ge=1024, description="Largest encoded image file.")
+    max_image_pixels: int = Field(40_000_000, ge=1, description="Largest decoded image (width x height).")
+    max_request_bytes: int = Field(300 * 2**20, ge=1024, description="Largest upload request body.")
+    max_render_side: int = Field(2048, ge=16, description="Largest rendered image side.")
+    reconstruct_workers: int = Field(1, ge=1, description="Reconstructions run at once (CPU/GPU bound).")
+
+
+class AgentSettings(_Settings):
+    recon_url: str = Field(f"http://127.0.0.1:{DEFAULT_RECON_PORT}", description="Reconstruction service.")
+    recon_timeout_s: float = Field(600.0, gt=0, description="Timeout of one call to the recon service.")
+    code_model: str | None = Field(None, description="Code model name; the offline planner when unset.")
+    code_model_base_url: str | None = Field(None, description="OpenAI-compatible endpoint of the code model.")
+    code_model_api_key: SecretStr | None = Field(None, description="API key of the code model endpoint.")
+    answer_model: str | None = Field(
+        None, description="Answer model (vision); the offline answerer when unset."
+    )
+    answer_model_base_url: str | None = Field(None, description="Endpoint of the answer model.")
+    answer_model_api_key: SecretStr | None = Field(None, description="API key of the answer model endpoint.")
+    model_timeout_s: float = Field(120.0, gt=0, description="Timeout of one model call.")
+    model_max_retries: int = Field(3, ge=0, description="Retries on 429, 5xx and timeouts.")
+    num_examples: int = Field(2, ge=0, le=4, description="In-context examples in the code prompt.")
+    max_repairs: int = Field(2, ge=0, le=5, description="Self-repair rounds after a failed program.")
+    sandbox_cpu_s: int = Field(20, ge=1, description="CPU seconds a program may use.")
+    sandbox_wall_s: int = Field(120, ge=1, description="Wall-clock seconds a program may take.")
+    sandbox_memory_mb: int = Field(2048, ge=256, description="Address-space limit of a program.")
+    max_images: int = Field(32, ge=1, description="Most images in one /v1/solve request.")
+    max_image_bytes: int = Field(25 * 2**20, ge=1024, description="Largest encoded image file.")
+    max_request_bytes: int = Field(300 * 2**20, ge=1024, description="Largest request body.")
