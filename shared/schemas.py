@@ -95,7 +95,9 @@ class CameraMotionItem(_Model):
     angle_deg: float
     distance: float
     displacement_in_first_camera: list[float]
+    vertical: float = Field(..., description="Displacement along the up axis (positive = up).")
     yaw_deg: float = Field(..., description="Turn between the views about the up axis; positive = left.")
+    turn: str = Field(..., description="The turn in words, e.g. 'turned left by about 90 degrees'.")
     sentence: str
 
 

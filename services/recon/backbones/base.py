@@ -55,5 +55,8 @@ def create_backbone(name: str, **settings: Any) -> Backbone:
     if name not in _REGISTRY:
         raise BackboneError(f"unknown backbone {name!r}; available: {', '.join(available_backbones())}")
     module_name, _, attribute = _REGISTRY[name].partition(":")
-    factory: Callable[..., Backbone] = getattr(importlib.import_module(module_name), attribute)
+    try:
+        factory: Callable[..., Backbone] = getattr(importlib.import_module(module_name), attribute)
+    except (ImportError, AttributeError) as error:  # a broken install must not take the service down
+        raise BackboneError(f"backbone {name!r} cannot be loaded: {error}") from error
     return factory(**settings)

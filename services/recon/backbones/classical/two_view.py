@@ -1,0 +1,142 @@
+"""Relative pose of two views from their matches: essential matrix or pure rotation.
+
+Both models are fitted with RANSAC. Photos for spatial questions often turn in place; then the
+essential matrix is degenerate (any translation fits) and its pose is noise. So a rotation-only
+model is fitted too (homography on normalized coordinates, R = K^-1 H K made orthonormal, then
+refined on the inlier rays). When the rotation explains nearly every match the essential matrix
+explains, the pair has no usable parallax and is reported as a pure rotation with zero
+translation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from .geometry import bearings, closest_rotation, normalized_coordinates, rotation_between_bearings
+
+MIN_INLIERS = 15  # fewer inliers than this cannot tell a real pose from chance agreement
+ESSENTIAL_THRESHOLD_PX = 1.0  # epipolar distance, pixels
+ROTATION_THRESHOLD_PX = 2.0  # point transfer error of the rotation model, pixels
+ROTATION_SHARE = 0.9  # rotation must explain this share of the essential inliers
+
+
+@dataclass(frozen=True)
+class TwoViewGeometry:
+    """x_second = rotation @ x_first + translation (camera axes); translation is unit or zero."""
+
+    matches: np.ndarray  # (M, 2) inlier keypoint index pairs (first view, second view)
+    rotation: np.ndarray
+    translation: np.ndarray
+    model: str  # "essential" or "rotation"
+    median_parallax_deg: float  # angle between the rays of a match after removing the rotation
+
+    @property
+    def is_rotation(self) -> bool:
+        return self.model == "rotation"
+
+
+def estimate_two_view(
+    first_pixels: np.ndarray,
+    second_pixels: np.ndarray,
+    first_intrinsic: np.ndarray,
+    second_intrinsic: np.ndarray,
+    matches: np.ndarray,
+) -> TwoViewGeometry | None:
+    """Pose of the second camera relative to the first, or None when the matches do not agree."""
+    if len(matches) < MIN_INLIERS:
+        return None
+    p1, p2 = first_pixels[matches[:, 0]], second_pixels[matches[:, 1]]
+    n1, n2 = normalized_coordinates(p1, first_intrinsic), normalized_coordinates(p2, second_intrinsic)
+    focal = float(np.mean([first_intrinsic[0, 0], second_intrinsic[0, 0]]))
+
+    essential = _fit_essential(n1, n2, ESSENTIAL_THRESHOLD_PX / focal)
+    rotation_fit = _fit_rotation(
+        n1, n2, first_pixels, second_pixels, matches, first_intrinsic, second_intrinsic
+    )
+    essential_count = 0 if essential is None else int(essential[2].sum())
+    rotation_count = 0 if rotation_fit is None else int(rotation_fit[1].sum())
+    if max(essential_count, rotation_count) < MIN_INLIERS:
+        return None
+
+    if rotation_fit is not None and rotation_count >= ROTATION_SHARE * essential_count:
+        rotation, inliers = rotation_fit
+        parallax = _median_parallax_deg(n1[inliers], n2[inliers], rotation)
+        return TwoViewGeometry(matches[inliers], rotation, np.zeros(3), "rotation", parallax)
+    assert essential is not None
+    rotation, translation, inliers = essential
+    parallax = _median_parallax_deg(n1[inliers], n2[inliers], rotation)
+    return TwoViewGeometry(matches[inliers], rotation, translation, "essential", parallax)
+
+
+def _fit_essential(
+    n1: np.ndarray, n2: np.ndarray, threshold: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    if len(n1) < 5:
+        return None
+    identity = np.eye(3)
+    essential, mask = cv2.findEssentialMat(
+        n1, n2, identity, method=cv2.RANSAC, prob=0.9999, threshold=threshold
+    )
+    if essential is None or mask is None:
+        return None
+    if essential.shape != (3, 3):  # several solutions stacked: keep the first (best scored)
+        essential = essential[:3]
+    _, rotation, translation, pose_mask = cv2.recoverPose(essential, n1, n2, identity, mask=mask.copy())
+    inliers = (pose_mask.ravel() > 0) & (mask.ravel() > 0)
+    translation = translation.ravel()
+    return rotation, translation / max(np.linalg.norm(translation), 1e-12), inliers
+
+
+def _fit_rotation(
+    n1: np.ndarray,
+    n2: np.ndarray,
+    first_pixels: np.ndarray,
+    second_pixels: np.ndarray,
+    matches: np.ndarray,
+    first_intrinsic: np.ndarray,
+    second_intrinsic: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """Rotation-only model: RANSAC homography in normalized coordinates, made a rotation."""
+    focal = float(second_intrinsic[0, 0])
+    homography, _ = cv2.findHomography(n1, n2, cv2.RANSAC, ROTATION_THRESHOLD_PX / focal, maxIters=4000)
+    if homography is None:
+        return None
+    determinant = np.linalg.det(homography)
+    if abs(determinant) < 1e-12:
+        return None
+    rotation = closest_rotation(homography / np.cbrt(determinant))
+    rays1 = bearings(first_pixels[matches[:, 0]], first_intrinsic)
+    rays2 = bearings(second_pixels[matches[:, 1]], second_intrinsic)
+    inliers = np.zeros(len(matches), dtype=bool)
+    for _ in range(3):  # re-fit on the rays the rotation explains, then re-select them
+        inliers = _rotation_inliers(rotation, n1, second_pixels[matches[:, 1]], second_intrinsic)
+        if inliers.sum() < 3:
+            return None
+        rotation = rotation_between_bearings(rays1[inliers], rays2[inliers])
+    return rotation, _rotation_inliers(rotation, n1, second_pixels[matches[:, 1]], second_intrinsic)
+
+
+def _rotation_inliers(
+    rotation: np.ndarray, n1: np.ndarray, p2: np.ndarray, second_intrinsic: np.ndarray
+) -> np.ndarray:
+    rays = np.concatenate([n1, np.ones((len(n1), 1))], axis=1) @ rotation.T
+    ahead = rays[:, 2] > 1e-6
+    safe_z = np.where(ahead, rays[:, 2], 1.0)
+    predicted = rays[:, :2] / safe_z[:, None] * np.array([second_intrinsic[0, 0], second_intrinsic[1, 1]])
+    predicted += np.array([second_intrinsic[0, 2], second_intrinsic[1, 2]])
+    error = np.linalg.norm(predicted - p2, axis=1)
+    return ahead & (error < ROTATION_THRESHOLD_PX)
+
+
+def _median_parallax_deg(n1: np.ndarray, n2: np.ndarray, rotation: np.ndarray) -> float:
+    if len(n1) == 0:
+        return 0.0
+    rays1 = np.concatenate([n1, np.ones((len(n1), 1))], axis=1) @ rotation.T
+    rays2 = np.concatenate([n2, np.ones((len(n2), 1))], axis=1)
+    rays1 /= np.linalg.norm(rays1, axis=1, keepdims=True)
+    rays2 /= np.linalg.norm(rays2, axis=1, keepdims=True)
+    cosine = np.clip(np.sum(rays1 * rays2, axis=1), -1.0, 1.0)
+    return float(np.degrees(np.median(np.arccos(cosine))))

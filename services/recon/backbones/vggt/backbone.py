@@ -1,0 +1,195 @@
+"""The `vggt` backbone: feed-forward cameras, depth and points from our VGGT implementation.
+
+Results are in VGGT's normalized scale (the first camera is the world frame). Intrinsics are in
+pixels of each original image. Depth and confidence maps cover each whole original image on the
+grid of the resized image the network saw (width = image_size in crop mode); rows that crop mode
+cut off have depth 0 (unknown) and confidence 0, and a warning says so.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Sequence
+from contextlib import nullcontext
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import torch
+
+from services.recon.backbones.base import Backbone, BackboneError
+from services.recon.backbones.vggt.checkpoint import file_digest, load_vggt
+from services.recon.backbones.vggt.config import VGGTConfig, VGGTConfigError
+from services.recon.backbones.vggt.geometry import pose_encoding_to_cameras, unproject_depth_maps
+from services.recon.backbones.vggt.model import VGGT
+from services.recon.backbones.vggt.preprocessing import PreprocessMode, ViewPlacement, preprocess_images
+from shared.reconstruction import Reconstruction
+
+PointSource = Literal["depth", "points"]
+MIN_CONFIDENCE = 1e-5  # confidences are 1 + exp(x) >= 1; anything below is padding or garbage
+
+
+class VGGTBackbone(Backbone):
+    name = "vggt"
+
+    def __init__(
+        self,
+        checkpoint: str | None = None,
+        config: str | None = None,
+        device: str | None = None,
+        point_source: PointSource = "depth",
+        confidence_percentile: float = 50.0,
+        preprocess_mode: PreprocessMode = "crop",
+        image_size: int | None = None,
+    ) -> None:
+        try:
+            self.config = VGGTConfig.from_json(config) if config else VGGTConfig()
+        except VGGTConfigError as error:
+            raise BackboneError(str(error)) from error
+        if point_source not in ("depth", "points"):
+            raise BackboneError(f"point_source must be 'depth' or 'points', not {point_source!r}")
+        if preprocess_mode not in ("crop", "pad"):
+            raise BackboneError(f"preprocess_mode must be 'crop' or 'pad', not {preprocess_mode!r}")
+        if not 0.0 <= float(confidence_percentile) <= 100.0:
+            raise BackboneError(f"confidence_percentile must be in [0, 100], not {confidence_percentile}")
+        self.image_size = int(image_size or self.config.img_size)
+        if self.image_size % self.config.patch_size or self.image_size <= 0:
+            raise BackboneError(f"image_size {self.image_size} is not a multiple of {self.config.patch_size}")
+        self.point_source: PointSource = point_source
+        self.confidence_percentile = float(confidence_percentile)
+        self.preprocess_mode: PreprocessMode = preprocess_mode
+        self.device = torch.device(device or ("cuda" if torch.cuda.is_available() else "cpu"))
+        if self.device.type == "cuda" and not torch.cuda.is_available():
+            raise BackboneError(f"device {device!r} requested but CUDA is not available")
+        self.checkpoint = checkpoint
+        self._model: VGGT | None = None
+        self._lock = threading.Lock()  # one forward pass at a time: each can take gigabytes
+        self.version = f"cfg{self.config.fingerprint()}-unloaded"
+        if checkpoint:
+            self._model = load_vggt(checkpoint, self.config, self.device)
+            self.version = f"cfg{self.config.fingerprint()}-w{file_digest(checkpoint)[:12]}"
+
+    def ready(self) -> tuple[bool, str]:
+        if self._model is None:
+            return False, "no VGGT checkpoint configured (pass checkpoint=path to a .pt or .safetensors file)"
+        return True, f"VGGT loaded from {Path(str(self.checkpoint)).name} on {self.device}"
+
+    # ---- inference ---------------------------------------------------------------------------
+
+    def _autocast(self) -> Any:
+        """bf16 autocast where the GPU supports it; plain float32 elsewhere."""
+        if self.device.type == "cuda" and torch.cuda.is_bf16_supported():
+            return torch.autocast(device_type="cuda", dtype=torch.bfloat16)
+        return nullcontext()
+
+    def predict(self, images: Sequence[np.ndarray]) -> tuple[dict[str, np.ndarray], list[ViewPlacement]]:
+        """Raw network outputs for one scene (network frame, batch dimension removed) and placements."""
+        if self._model is None:
+            raise BackboneError(self.ready()[1])
+        batch, placements = preprocess_images(
+            images, self.image_size, self.config.patch_size, self.preprocess_mode
+        )
+        with self._lock, torch.inference_mode(), self._autocast():
+            outputs = self._model(batch.to(self.device))
+            extrinsics, intrinsics = pose_encoding_to_cameras(outputs["pose_enc"], tuple(batch.shape[-2:]))
+        arrays = {name: value[0].float().cpu().numpy() for name, value in outputs.items()}
+        arrays["extrinsic"] = extrinsics[0].float().cpu().numpy()
+        arrays["intrinsic"] = intrinsics[0].float().cpu().numpy()
+        return arrays, placements
+
+    def reconstruct(self, images: Sequence[np.ndarray], **options: Any) -> Reconstruction:
+        _check_images(images)
+        point_source = options.pop("point_source", self.point_source)
+        percentile = float(options.pop("confidence_percentile", self.confidence_percentile))
+        if point_source not in ("depth", "points") or not 0.0 <= percentile <= 100.0:
+            raise BackboneError(
+                f"bad options point_source={point_source!r} confidence_percentile={percentile}"
+            )
+        warnings = [f"vggt ignores option {name!r}" for name in sorted(options)]
+
+        arrays, placements = self.predict(images)
+        if point_source == "depth":
+            world = unproject_depth_maps(arrays["depth"], arrays["extrinsic"], arrays["intrinsic"])
+            confidence = arrays["depth_conf"]
+        else:
+            world, confidence = arrays["world_points"], arrays["world_points_conf"]
+        points, colors = _confident_points(
+            world, confidence, arrays["depth"][..., 0], images, placements, percentile
+        )
+
+        depths, depth_confidence, intrinsics = [], [], []
+        for index, placement in enumerate(placements):
+            depths.append(placement.to_resized_grid(arrays["depth"][index, ..., 0]))
+            depth_confidence.append(placement.to_resized_grid(arrays["depth_conf"][index]))
+            intrinsics.append(placement.network_to_original_intrinsics(arrays["intrinsic"][index]))
+            if placement.dropped_rows:
+                warnings.append(
+                    f"view {index}: {placement.dropped_rows} of {placement.resized_size[1]} resized rows "
+                    "fell outside VGGT's centre crop and have no depth"
+                )
+        return Reconstruction(
+            points=points,
+            colors=colors,
+            extrinsics=arrays["extrinsic"].astype(np.float64),
+            intrinsics=np.stack(intrinsics),
+            image_sizes=np.array([p.original_size for p in placements]),
+            registered=np.ones(len(placements), dtype=bool),
+            backbone=self.name,
+            backbone_version=self.version,
+            depths=depths,
+            depth_confidence=depth_confidence,
+            warnings=warnings,
+        )
+
+
+def _check_images(images: Sequence[np.ndarray]) -> None:
+    if len(images) == 0:
+        raise BackboneError("vggt needs at least one image")
+    for index, image in enumerate(images):
+        if (
+            not isinstance(image, np.ndarray)
+            or image.dtype != np.uint8
+            or image.ndim != 3
+            or image.shape[2] != 3
+        ):
+            raise BackboneError(f"image {index} is not a uint8 (H, W, 3) RGB array")
+        if min(image.shape[:2]) < 2:
+            raise BackboneError(f"image {index} is too small: {image.shape[1]}x{image.shape[0]}")
+
+
+def _confident_points(
+    world: np.ndarray,
+    confidence: np.ndarray,
+    depth: np.ndarray,
+    images: Sequence[np.ndarray],
+    placements: list[ViewPlacement],
+    percentile: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Points of every view's image window whose confidence reaches the given percentile.
+
+    The percentile is taken over all views' valid pixels together, so confident views keep more.
+    """
+    points, colors, scores = [], [], []
+    for index, placement in enumerate(placements):
+        window = placement.network_window()
+        view_points = world[index][window].reshape(-1, 3)
+        view_scores = confidence[index][window].reshape(-1)
+        valid = (
+            np.isfinite(view_points).all(axis=1)
+            & np.isfinite(view_scores)
+            & (view_scores > MIN_CONFIDENCE)
+            & (depth[index][window].reshape(-1) > 0)
+        )
+        rows, columns = placement.original_pixels()
+        points.append(view_points[valid])
+        colors.append(images[index][rows, columns].reshape(-1, 3)[valid])
+        scores.append(view_scores[valid])
+    all_points, all_colors, all_scores = (
+        np.concatenate(points),
+        np.concatenate(colors),
+        np.concatenate(scores),
+    )
+    if len(all_scores) == 0:
+        return all_points.astype(np.float32), all_colors
+    keep = all_scores >= np.percentile(all_scores, percentile)
+    return all_points[keep].astype(np.float32), all_colors[keep]
