@@ -101,6 +101,10 @@ class ReconClient(_ServiceClient):
         response = self._http.get(self.base_url + "/readyz")
         return Readiness.model_validate(response.json())
 
+    def backbones(self) -> dict:
+        """{"default": name, "available": [names]}"""
+        return self._request("GET", "/v1/backbones").json()
+
     def upload_scene(
         self,
         images: Sequence[ImageLike],

@@ -143,6 +143,7 @@ class Clue(_Model):
 
 
 class SolveTimings(_Model):
+    reconstruction_ms: float = Field(..., description="Reconstructing the scene (or reading the cache).")
     codegen_ms: float
     execution_ms: float
     answering_ms: float

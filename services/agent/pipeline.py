@@ -103,7 +103,16 @@ class SolvePipeline:
         max_repairs: int | None,
     ) -> SolveResponse:
         started = time.perf_counter()
+        if backbone is not None:
+            available = self.recon.backbones()["available"]
+            if backbone not in available:
+                raise SolveError(422, f"unknown backbone {backbone!r}; available: {', '.join(available)}")
         scene_id, input_pngs = self._scene(image_files, scene_id)
+        # Reconstruct first: input the backbone cannot use is a clear 4xx here rather than a failed
+        # program, and the program's own reconstruct() is then a cache hit.
+        reconstruct_started = time.perf_counter()
+        summary = self.recon.reconstruct(scene_id, backbone)
+        reconstruction_ms = (time.perf_counter() - reconstruct_started) * 1e3
         tools = ReconToolProvider(self.recon, scene_id, backbone, input_pngs)
         stage = _Stage()
 
@@ -116,7 +125,7 @@ class SolvePipeline:
             return ExecutionOutcome(ok=result.ok, error=result.error, payload=result)
 
         codegen_started = time.perf_counter()
-        attempts, program = self._generate(question, input_pngs, execute, max_repairs)
+        attempts, program, code_model = self._generate(question, input_pngs, execute, max_repairs)
         codegen_ms = (time.perf_counter() - codegen_started - stage.execution_s) * 1e3
 
         result = stage.last if program is not None else None
@@ -152,10 +161,11 @@ class SolvePipeline:
             clue=clue,
             attempts=attempts,
             scene_id=scene_id,
-            backbone=tools.backbone_used or backbone or "service default",
-            code_model=self.code_model_name,
+            backbone=summary.backbone,
+            code_model=code_model,
             answer_model=self.answer_model_name,
             timings=SolveTimings(
+                reconstruction_ms=round(reconstruction_ms, 2),
                 codegen_ms=round(codegen_ms, 2),
                 execution_ms=round(stage.execution_s * 1e3, 2),
                 answering_ms=round(answering_ms, 2),
@@ -191,19 +201,12 @@ class SolvePipeline:
 
     def _generate(
         self, question: str, input_pngs: list[bytes], execute, max_repairs: int | None
-    ) -> tuple[list[AttemptRecord], str | None]:
+    ) -> tuple[list[AttemptRecord], str | None, str]:
+        """Returns the attempts, the program that ran (or None) and the name of what wrote it."""
         repairs = self.settings.max_repairs if max_repairs is None else max_repairs
         if self.code_client is None:
-            planned = plan_program(question, len(input_pngs))
-            run_started = time.perf_counter()
-            outcome = execute(planned.source)
-            attempt = AttemptRecord(
-                program=planned.source,
-                error=outcome.error,
-                reply=None,
-                latency_ms=round((time.perf_counter() - run_started) * 1e3, 2),
-            )
-            return [attempt], planned.source if outcome.ok else None
+            attempt, program = self._plan_offline(question, len(input_pngs), execute)
+            return [attempt], program, OFFLINE_PLANNER
         generated = generate_program(
             self.code_client,
             question,
@@ -216,4 +219,27 @@ class SolvePipeline:
             AttemptRecord(program=a.program, error=a.error, reply=a.reply, latency_ms=round(a.latency_ms, 2))
             for a in generated.attempts
         ]
-        return attempts, generated.program if generated.ok else None
+        if generated.failure == "model":
+            # The model could not be reached even after retries: the planner still gives an honest
+            # result, and the response says who wrote the program.
+            log.warning("code model failed (%s); falling back to the offline planner", generated.error)
+            attempt, program = self._plan_offline(question, len(input_pngs), execute)
+            return (
+                [*attempts, attempt],
+                program,
+                f"{OFFLINE_PLANNER} (fallback: {self.code_model_name} failed)",
+            )
+        return attempts, generated.program if generated.ok else None, self.code_model_name
+
+    @staticmethod
+    def _plan_offline(question: str, num_images: int, execute) -> tuple[AttemptRecord, str | None]:
+        planned = plan_program(question, num_images)
+        run_started = time.perf_counter()
+        outcome = execute(planned.source)
+        attempt = AttemptRecord(
+            program=planned.source,
+            error=outcome.error,
+            reply=None,
+            latency_ms=round((time.perf_counter() - run_started) * 1e3, 2),
+        )
+        return attempt, planned.source if outcome.ok else None

@@ -13,6 +13,7 @@ from fastapi.responses import JSONResponse, Response
 from pydantic import ValidationError
 from starlette.datastructures import UploadFile
 
+from services.recon.backbones import available_backbones
 from services.recon.errors import InvalidInput, PayloadTooLarge, ReconServiceError
 from services.recon.scene_store import SceneInput
 from services.recon.service import ReconService
@@ -95,6 +96,11 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
     async def image_error(_: Request, error: ImageError) -> JSONResponse:
         status = 413 if "limit" in str(error) else 400
         return JSONResponse({"detail": str(error)}, status_code=status)
+
+    @app.get("/v1/backbones", tags=["health"])
+    async def backbones() -> dict:
+        """The registered backbones and the default one."""
+        return {"default": settings.backbone, "available": available_backbones()}
 
     @app.get("/healthz", tags=["health"])
     async def healthz() -> dict:
