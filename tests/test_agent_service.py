@@ -173,10 +173,13 @@ def test_solve_with_uploaded_images_multipart(offline_agent, views):
         ({"question": "which way?", "images": ["bm90IGFuIGltYWdl"]}, 400, "not an image"),
         ({"question": "which way?", "images": ["%%%"]}, 400, "base64"),
         ({"question": "which way?", "images": ["eA=="], "scene_id": "0" * 24}, 422, "not both"),
+        ({"question": "From image 9, what is behind me? A. x B. y", "scene_id": "SCENE"}, 422, "view 9"),
     ],
-    ids=["nothing", "empty-question", "unknown-scene", "not-image", "bad-base64", "both"],
+    ids=["nothing", "empty-question", "unknown-scene", "not-image", "bad-base64", "both", "no-such-view"],
 )
-def test_bad_requests_get_clear_4xx(offline_agent, body, status, message):
+def test_bad_requests_get_clear_4xx(offline_agent, scene_id, body, status, message):
+    if body.get("scene_id") == "SCENE":
+        body = {**body, "scene_id": scene_id}
     response = httpx.post(offline_agent.url + "/v1/solve", json=body, timeout=60)
     assert response.status_code == status, response.text
     assert message in response.json()["detail"]

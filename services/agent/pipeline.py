@@ -13,7 +13,7 @@ from PIL import Image
 from services.agent.answering import AnswerResult, answer_offline, answer_with_model
 from services.agent.codegen import ExecutionOutcome, generate_program
 from services.agent.llm import ChatClient, ChatModelConfig
-from services.agent.planner import plan_program
+from services.agent.planner import PlanningError, plan_program
 from services.agent.recon_tools import ReconToolProvider
 from services.agent.sandbox import ExecutionResult, SandboxLimits, run_program
 from shared.client import ReconClient
@@ -233,7 +233,10 @@ class SolvePipeline:
 
     @staticmethod
     def _plan_offline(question: str, num_images: int, execute) -> tuple[AttemptRecord, str | None]:
-        planned = plan_program(question, num_images)
+        try:
+            planned = plan_program(question, num_images)
+        except PlanningError as error:  # e.g. the question names image 5 of 3
+            raise SolveError(422, f"cannot plan a program for this question: {error}") from error
         run_started = time.perf_counter()
         outcome = execute(planned.source)
         attempt = AttemptRecord(

@@ -25,7 +25,7 @@ from typing import Any
 import httpx
 from fastapi import FastAPI, Request
 from fastapi.responses import JSONResponse
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, Field, model_validator
 
 from tests.support.processes import ServiceProcess, start_service
 
@@ -38,6 +38,11 @@ class ScriptEntry(BaseModel):
     error_message: str | None = None
     retry_after: float | None = Field(None, ge=0, description="Retry-After header (seconds) of an error.")
     delay_s: float = Field(0.0, ge=0, description="Wait this long before answering.")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _plain_text(cls, value: Any) -> Any:
+        return {"text": value} if isinstance(value, str) else value  # "hello" is a text reply
 
 
 class Script(BaseModel):
@@ -199,8 +204,7 @@ class ScriptedLLM:
         self, replies: list[dict[str, Any] | str], model: str | None = None, append: bool = False
     ) -> None:
         """Queue replies; a plain string is a text reply."""
-        entries = [{"text": reply} if isinstance(reply, str) else reply for reply in replies]
-        body = {"replies": entries, "model": model, "append": append}
+        body = {"replies": replies, "model": model, "append": append}
         httpx.post(self.service.url + "/script", json=body, timeout=5.0).raise_for_status()
 
     def requests(self) -> list[dict[str, Any]]:

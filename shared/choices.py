@@ -1,0 +1,206 @@
+"""Read multiple-choice questions and answers: option letters, answer letters, direction wording.
+
+MindCube questions inline their options ("... A. Left B. Right C. Behind") or put one per line,
+sometimes as "(A) Left". Models answer "C", "(C) the sofa", "Answer: C" or "**C**". Directions
+come in many spellings ("front left", "forward-left", "diagonally forward and left"); this module
+maps them onto the eight canonical names that shared/camera_motion.py prints, and keeps turns
+("turned left") apart from movements ("moved left") because they answer different questions.
+"""
+
+from __future__ import annotations
+
+import re
+import string
+from collections.abc import Iterable
+
+DIRECTIONS = (
+    "forward",
+    "diagonally forward and right",
+    "right",
+    "diagonally back and right",
+    "backward",
+    "diagonally back and left",
+    "left",
+    "diagonally forward and left",
+)
+TURNS = ("turn left", "turn right", "turn around", "no turn")
+
+# An option marker: "A." / "A)" / "A:" or "(A)", not glued to a preceding word, followed by space.
+_OPTION_MARKER = re.compile(r"(?<![A-Za-z0-9])(?:\(([A-Z])\)|([A-Z])[.):])(?=\s)")
+
+
+def parse_options(question: str) -> dict[str, str]:
+    """Options of a multiple-choice question, e.g. {"A": "Left", "B": "Right"}; {} when none.
+
+    Options must run A, B, C, ... in order. Of several such runs the longest wins, the later one on a
+    tie (options close a question). An option's text ends at the next marker or at the line end.
+    """
+    markers = [
+        (match.group(1) or match.group(2), match.start(), match.end())
+        for match in _OPTION_MARKER.finditer(question)
+    ]
+    best: list[tuple[str, int, int]] = []
+    for start_index, (letter, _, _) in enumerate(markers):
+        if letter != "A":
+            continue
+        run = [markers[start_index]]
+        for candidate in markers[start_index + 1 :]:
+            if candidate[0] == chr(ord(run[-1][0]) + 1):
+                run.append(candidate)
+        if len(run) >= 2 and len(run) >= len(best):
+            best = run
+    options: dict[str, str] = {}
+    for position, (letter, _, text_start) in enumerate(best):
+        text_end = best[position + 1][1] if position + 1 < len(best) else len(question)
+        text = question[text_start:text_end].split("\n", 1)[0]
+        options[letter] = text.strip().rstrip(",;").strip()
+    return options
+
+
+_MARKDOWN = re.compile(r"[*_`#]")
+_ALONE = re.compile(r"^\s*[\(\[]?([A-Z])[\)\]]?\s*[.:)]?\s*$")
+_KEYWORD = re.compile(
+    r"(?i:answer|option|choice)(?i:\s+is)?\s*[:=\-]?\s*(?i:option\s+)?[\(\[]?((?-i:[A-Z]))(?![A-Za-z0-9'])"
+)
+_LEADING = re.compile(r"^\s*[\(\[]?([A-Z])(?:[\)\]]|[.:)](?=\s|$))")
+_STANDALONE = re.compile(r"(?<![A-Za-z0-9'])([A-Z])(?![A-Za-z0-9'])")
+
+
+def extract_letter(text: str, valid_letters: Iterable[str] | None = None) -> str | None:
+    """The option letter an answer names, or None when it names none (or several, ambiguously).
+
+    Accepts "C", "C.", "(C) the sofa", "Answer: C", "The answer is **C**". When `valid_letters` is
+    given, only those letters count.
+    """
+    allowed = set(valid_letters) if valid_letters is not None else set(string.ascii_uppercase)
+    plain = _MARKDOWN.sub("", text or "").strip()
+    if not plain:
+        return None
+    alone = _ALONE.match(plain)
+    if alone and alone.group(1) in allowed:
+        return alone.group(1)
+    keyed = [match.group(1) for match in _KEYWORD.finditer(plain) if match.group(1) in allowed]
+    if keyed:
+        return keyed[-1]  # "The answer is not A ... the answer is C": the conclusion comes last
+    leading = _LEADING.match(plain)
+    if leading and leading.group(1) in allowed:
+        return leading.group(1)
+    found = set()
+    for match in _STANDALONE.finditer(plain):
+        letter = match.group(1)
+        # "A chair", "I think": the article and the pronoun are words, not options.
+        if letter in "AI" and re.match(r"\s+[a-z]", plain[match.end() :]):
+            continue
+        if letter in allowed:
+            found.add(letter)
+    return found.pop() if len(found) == 1 else None
+
+
+def _words(text: str) -> str:
+    """Lower case, hyphens and punctuation to spaces, single spaces."""
+    lowered = re.sub(r"[-_/]", " ", (text or "").lower())
+    lowered = re.sub(r"[^a-z0-9°.\s]", " ", lowered)
+    return " ".join(lowered.split())
+
+
+# Words allowed between a turn verb and its side: "turned 90 degrees to the left", "rotated by about 45°".
+_TURN_FILLER = (
+    r"(?:(?:by|to|the|your|my|its|about|around|roughly|approximately|slightly|sharply"
+    r"|\d+(?:\.\d+)?°?|°|degrees?|deg)\s+)*"
+)
+_TURN = re.compile(
+    r"\b(?:turn|turned|turning|turns|rotate|rotated|rotating|rotates|rotation|pan|panned|panning|yaw|yawed)\s+"
+    + _TURN_FILLER
+    + r"(left|right|around|round|back)\b"
+)
+_TURN_AROUND = re.compile(r"\b(?:about face|u turn|180 degrees?|180 ?°|face the opposite direction)\b")
+_NO_TURN = re.compile(
+    r"\b(?:no (?:significant )?(?:rotation|turn|turning)|without (?:turning|rotating)|did not (?:turn|rotate)"
+    r"|didn t (?:turn|rotate)|not (?:turn|rotate)|nor turned)"
+)
+
+_FORWARD = re.compile(r"\b(?:forwards?|forth|ahead|front|frontward|frontwards|straight)\b")
+_BACKWARD = re.compile(r"\b(?:back|backs|backward|backwards|behind|rear|rearward|rearwards|reverse)\b")
+_LEFT = re.compile(r"\b(?:left|leftward|leftwards)\b")
+_RIGHT = re.compile(r"\b(?:right|rightward|rightwards)\b")
+_NO_MOVE = re.compile(
+    r"\b(?:no (?:significant )?movement|neither moved|stayed in place|did not move|didn t move|stood still)\b"
+)
+
+
+def _without_turns(words: str) -> str:
+    words = _TURN.sub(" ", words)
+    words = _TURN_AROUND.sub(" ", words)
+    return _NO_TURN.sub(" ", words)
+
+
+def normalize_direction(text: str) -> str | None:
+    """The canonical movement direction a phrase names (one of DIRECTIONS), or None.
+
+    Turning is not moving: "turned left" gives None, "turn left and walk forward" gives "forward".
+    Contradictions ("back and forth", "left or right") give None.
+    """
+    words = _without_turns(_words(text))
+    if _NO_MOVE.search(words):
+        return None
+    forward = bool(_FORWARD.search(words))
+    backward = bool(_BACKWARD.search(words))
+    left = bool(_LEFT.search(words))
+    right = bool(_RIGHT.search(words))
+    if (forward and backward) or (left and right):
+        return None
+    side = "left" if left else "right" if right else None
+    depth = "forward" if forward else "back" if backward else None
+    if depth and side:
+        return f"diagonally {depth} and {side}"
+    if depth:
+        return "forward" if depth == "forward" else "backward"
+    return side
+
+
+def normalize_turn(text: str) -> str | None:
+    """The turn a phrase names: "turn left", "turn right", "turn around", "no turn", or None.
+
+    "Turned left by about 45 degrees", "rotated 90° to the right", "did a U-turn", "without turning".
+    Several different turns in one phrase give None.
+    """
+    words = _words(text)
+    found = set()
+    for match in _TURN.finditer(words):
+        side = match.group(1)
+        found.add("turn around" if side in ("around", "round", "back") else f"turn {side}")
+    if _TURN_AROUND.search(words):
+        found.add("turn around")
+    if not found and _NO_TURN.search(words):
+        found.add("no turn")
+    return found.pop() if len(found) == 1 else None
+
+
+_DEGREES = re.compile(r"(\d+(?:\.\d+)?)\s*(?:°|degrees?\b|deg\b)")
+
+
+def turn_degrees(text: str) -> float | None:
+    """How many degrees a turn phrase states ("turned left by about 45 degrees" gives 45.0).
+
+    A turn around with no number is 180; no turn is 0; a phrase with no turn gives None.
+    """
+    turn = normalize_turn(text)
+    if turn is None:
+        return None
+    if turn == "no turn":
+        return 0.0
+    stated = _DEGREES.search(_words(text))
+    if stated:
+        return float(stated.group(1))
+    return 180.0 if turn == "turn around" else None
+
+
+__all__ = [
+    "DIRECTIONS",
+    "TURNS",
+    "extract_letter",
+    "normalize_direction",
+    "normalize_turn",
+    "parse_options",
+    "turn_degrees",
+]
