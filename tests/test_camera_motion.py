@@ -1,0 +1,152 @@
+"""Camera motion descriptions for cameras whose motion is known by construction."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from shared.camera_motion import (
+    DIRECTIONS,
+    NO_MOVEMENT,
+    NO_ROTATION,
+    describe_camera_motion,
+    direction_name,
+    robust_extent,
+    round_turn,
+)
+from shared.poses import as_4x4, move_forward, rotate_left, rotate_right
+
+WORLD_UP = np.array([0.0, 0.0, 1.0])
+
+
+def level_pose(center: np.ndarray, heading_deg: float) -> np.ndarray:
+    """A level camera in a z-up world; heading 0 looks along +x, positive headings turn left."""
+    heading = np.radians(heading_deg)
+    forward = np.array([np.cos(heading), np.sin(heading), 0.0])
+    right = np.cross(forward, WORLD_UP)
+    rotation = np.stack([right, np.cross(forward, right), forward])
+    return np.hstack([rotation, (-rotation @ center)[:, None]])
+
+
+def step(heading_deg: float, move_deg: float, distance: float = 1.0) -> np.ndarray:
+    """Two views: the second camera stands `distance` away at `move_deg` (0 fwd, +90 right)."""
+    first = level_pose(np.array([2.0, -1.0, 1.5]), heading_deg)
+    ahead = np.radians(heading_deg - move_deg)  # a move to the right lowers the world heading
+    second_center = np.array([2.0, -1.0, 1.5]) + distance * np.array([np.cos(ahead), np.sin(ahead), 0.0])
+    return np.stack([first, level_pose(second_center, heading_deg)])
+
+
+@pytest.mark.parametrize(("move_deg", "expected"), list(zip(range(0, 360, 45), DIRECTIONS, strict=True)))
+def test_all_eight_directions(move_deg: int, expected: str) -> None:
+    for heading in (0.0, 37.0, -120.0):
+        [motion] = describe_camera_motion(step(heading, move_deg + 10.0), up=WORLD_UP)
+        assert motion.direction == expected
+        assert motion.turn == NO_ROTATION
+        assert motion.distance == pytest.approx(1.0)
+        assert motion.angle_deg % 360 == pytest.approx((move_deg + 10.0) % 360)
+        assert f"moved {expected} without turning" in motion.sentence
+
+
+def test_displacement_is_in_the_first_cameras_frame() -> None:
+    [motion] = describe_camera_motion(step(60.0, -90.0, distance=2.0))  # up estimated from cameras
+    assert motion.direction == "left"
+    np.testing.assert_allclose(motion.displacement_in_first_camera, [-2.0, 0.0, 0.0], atol=1e-12)
+
+
+def test_sector_bounds_are_22_5_degrees() -> None:
+    assert direction_name(22.4) == "forward" and direction_name(-22.4) == "forward"
+    assert direction_name(22.6) == "diagonally forward and right"
+    assert direction_name(-22.6) == "diagonally forward and left"
+    assert direction_name(180.0) == "backward" and direction_name(-170.0) == "backward"
+
+
+def test_no_movement_below_threshold_of_scene_scale() -> None:
+    cameras = step(0.0, 0.0, distance=0.04)
+    [small] = describe_camera_motion(cameras, scene_scale=1.0)
+    assert small.direction == NO_MOVEMENT
+    assert small.sentence == "From view 1 to view 2 the camera neither moved nor turned significantly."
+    [same] = describe_camera_motion(cameras, scene_scale=0.5)
+    assert same.direction == "forward"
+
+
+def test_default_scale_comes_from_camera_centres() -> None:
+    far = level_pose(np.array([10.0, 0.0, 0.0]), 0.0)
+    near = step(0.0, 0.0, distance=0.1)  # 0.1 against an extent of ~10: not significant
+    motions = describe_camera_motion(np.stack([near[0], near[1], far]))
+    assert motions[0].direction == NO_MOVEMENT
+    assert motions[1].direction == "forward"
+    assert robust_extent(np.stack([np.zeros(3), np.ones(3)])) == pytest.approx(np.sqrt(3.0))
+
+
+def test_all_centres_coincide_uses_unit_scale() -> None:
+    first = level_pose(np.zeros(3), 0.0)
+    motions = describe_camera_motion(np.stack([first, rotate_left(first, 90.0), rotate_right(first, 45.0)]))
+    assert [m.direction for m in motions] == [NO_MOVEMENT, NO_MOVEMENT]
+    assert motions[0].turn == "turned left by about 90 degrees"
+    assert motions[0].yaw_deg == pytest.approx(90.0)
+    assert motions[1].turn == "turned right by about 135 degrees"
+    assert motions[0].sentence == (
+        "From view 1 to view 2 the camera stayed in place and turned left by about 90 degrees."
+    )
+
+
+@pytest.mark.parametrize(
+    ("yaw", "expected"),
+    [
+        (8.0, NO_ROTATION),
+        (-12.0, "turned right by about 10 degrees"),
+        (23.0, "turned left by about 25 degrees"),
+        (43.0, "turned left by about 45 degrees"),
+        (-88.0, "turned right by about 90 degrees"),
+        (178.0, "turned around by about 180 degrees"),
+    ],
+)
+def test_pure_rotations(yaw: float, expected: str) -> None:
+    first = level_pose(np.array([0.0, 1.0, 1.0]), 20.0)
+    second = rotate_left(first, yaw, up=WORLD_UP)
+    [motion] = describe_camera_motion(np.stack([first, second]), up=WORLD_UP)
+    assert motion.direction == NO_MOVEMENT and motion.turn == expected
+    assert motion.yaw_deg == pytest.approx(yaw)
+
+
+def test_combined_move_and_turn_with_a_tilted_camera() -> None:
+    pitch_down = np.radians(-25.0)
+    tilt = np.array(
+        [[1, 0, 0], [0, np.cos(pitch_down), -np.sin(pitch_down)], [0, np.sin(pitch_down), np.cos(pitch_down)]]
+    )
+    first = level_pose(np.array([0.0, 0.0, 1.6]), 0.0)
+    first[:, :3] = tilt @ first[:, :3]
+    first[:, 3] = -first[:, :3] @ np.array([0.0, 0.0, 1.6])
+    moved = move_forward(rotate_left(first, 45.0, up=WORLD_UP), 1.0, up=WORLD_UP)
+    second = rotate_left(moved, 45.0, up=WORLD_UP)
+    [motion] = describe_camera_motion(np.stack([as_4x4(first), as_4x4(second)]), up=WORLD_UP)
+    assert motion.direction == "diagonally forward and left"
+    assert motion.angle_deg == pytest.approx(-45.0)
+    assert motion.vertical == pytest.approx(0.0, abs=1e-12)
+    assert motion.yaw_deg == pytest.approx(90.0)
+    assert motion.sentence == (
+        "From view 1 to view 2 the camera moved diagonally forward and left "
+        "and turned left by about 90 degrees."
+    )
+    payload = json.loads(json.dumps(motion.to_dict()))
+    assert payload["from_view"] == 0 and payload["to_view"] == 1
+    assert len(payload["displacement_in_first_camera"]) == 3
+
+
+def test_custom_pairs_and_validation() -> None:
+    cameras = np.concatenate([step(0.0, 90.0), step(0.0, 180.0)[1:]])
+    [motion] = describe_camera_motion(cameras, pairs=[(1, 2)], up=WORLD_UP)
+    assert motion.from_view == 1 and motion.direction == "diagonally back and left"
+    assert motion.sentence.startswith("From view 2 to view 3")
+    with pytest.raises(ValueError, match="out of range"):
+        describe_camera_motion(cameras, pairs=[(0, 3)])
+    with pytest.raises(ValueError, match="shape"):
+        describe_camera_motion(cameras[0])
+    with pytest.raises(ValueError, match="scene_scale"):
+        describe_camera_motion(cameras, scene_scale=0.0)
+
+
+def test_round_turn_steps() -> None:
+    assert [round_turn(a) for a in (12, 17, 28, 31, 52, 98, -134)] == [10, 15, 30, 30, 45, 105, 135]
