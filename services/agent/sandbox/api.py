@@ -1,0 +1,242 @@
+"""The pySpatial API as a sandboxed program sees it (runs in the child process).
+
+Reconstruction, camera motion and rendering are requests to the parent over the tool channel; the
+parent owns every pixel, so an `Image` here is only a handle (id, width, height). The pose tools
+are pure numpy and run locally from `shared.poses`.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Protocol
+
+import numpy as np
+
+from shared import poses
+
+MIN_RENDER_SIZE = 16
+MAX_RENDER_SIZE = 2048
+
+
+class ToolError(RuntimeError):
+    """A pySpatial tool failed in the parent; programs may catch it."""
+
+
+class ToolChannel(Protocol):
+    def call(self, tool: str, arguments: dict[str, Any]) -> Any:
+        """Ask the parent to run `tool`; return its reply or raise ToolError."""
+
+
+class _Frozen:
+    """Handles are read-only: a program cannot rewrite what the parent told it."""
+
+    __slots__ = ()
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        raise AttributeError(f"{type(self).__name__} objects are read-only")
+
+    def __delattr__(self, name: str) -> None:
+        raise AttributeError(f"{type(self).__name__} objects are read-only")
+
+
+class Image(_Frozen):
+    """An image held by the parent. Input images learn their size from the parent on first use."""
+
+    __slots__ = ("_handle", "_size", "_channel", "_input_index")
+
+    def __init__(
+        self,
+        handle: str,
+        size: tuple[int, int] | None,
+        channel: ToolChannel,
+        input_index: int | None = None,
+    ) -> None:
+        object.__setattr__(self, "_handle", handle)
+        object.__setattr__(self, "_size", size)
+        object.__setattr__(self, "_channel", channel)
+        object.__setattr__(self, "_input_index", input_index)
+
+    @property
+    def id(self) -> str:
+        return self._handle
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """(width, height) in pixels."""
+        if self._size is None:
+            reply = self._channel.call("get_input_image", {"index": self._input_index})
+            object.__setattr__(self, "_size", (int(reply["width"]), int(reply["height"])))
+        return self._size
+
+    @property
+    def width(self) -> int:
+        return self.size[0]
+
+    @property
+    def height(self) -> int:
+        return self.size[1]
+
+    def __repr__(self) -> str:
+        size = f" {self._size[0]}x{self._size[1]}" if self._size else ""
+        return f"<Image {self._handle}{size}>"
+
+
+class Scene(_Frozen):
+    __slots__ = ("_images", "_question")
+
+    def __init__(self, images: list[Image], question: str) -> None:
+        object.__setattr__(self, "_images", list(images))
+        object.__setattr__(self, "_question", question)
+
+    @property
+    def images(self) -> list[Image]:
+        return list(self._images)  # a copy: the program may reorder it freely
+
+    @property
+    def question(self) -> str:
+        return self._question
+
+    def __repr__(self) -> str:
+        return f"<Scene with {len(self._images)} images>"
+
+
+class Reconstruction(_Frozen):
+    """Cameras of the reconstructed scene (the point cloud stays with the reconstruction service)."""
+
+    __slots__ = ("_extrinsics", "_intrinsics", "_image_sizes", "_registered", "_up", "_warnings")
+
+    def __init__(self, payload: dict[str, Any]) -> None:
+        extrinsics = [np.asarray(matrix, dtype=np.float64).reshape(3, 4) for matrix in payload["extrinsics"]]
+        intrinsics = [np.asarray(matrix, dtype=np.float64).reshape(3, 3) for matrix in payload["intrinsics"]]
+        registered = [bool(flag) for flag in payload.get("registered", [True] * len(extrinsics))]
+        object.__setattr__(self, "_extrinsics", extrinsics)
+        object.__setattr__(self, "_intrinsics", intrinsics)
+        object.__setattr__(
+            self, "_image_sizes", [tuple(int(v) for v in size) for size in payload["image_sizes"]]
+        )
+        object.__setattr__(self, "_registered", registered)
+        object.__setattr__(self, "_up", _scene_up(payload.get("up"), extrinsics, registered))
+        object.__setattr__(self, "_warnings", [str(text) for text in payload.get("warnings") or []])
+
+    @property
+    def extrinsics(self) -> list[np.ndarray]:
+        return [matrix.copy() for matrix in self._extrinsics]
+
+    @property
+    def intrinsics(self) -> list[np.ndarray]:
+        return [matrix.copy() for matrix in self._intrinsics]
+
+    @property
+    def image_sizes(self) -> list[tuple[int, int]]:
+        return list(self._image_sizes)
+
+    @property
+    def registered(self) -> list[bool]:
+        return list(self._registered)
+
+    @property
+    def num_views(self) -> int:
+        return len(self._extrinsics)
+
+    @property
+    def up(self) -> np.ndarray | None:
+        return None if self._up is None else self._up.copy()
+
+    @property
+    def warnings(self) -> list[str]:
+        return list(self._warnings)
+
+    def __repr__(self) -> str:
+        return f"<Reconstruction of {self.num_views} views>"
+
+
+def _scene_up(reported: Any, extrinsics: list[np.ndarray], registered: list[bool]) -> np.ndarray | None:
+    if reported is not None:
+        vector = np.asarray(reported, dtype=np.float64).reshape(-1)
+        if vector.shape == (3,) and np.all(np.isfinite(vector)) and np.linalg.norm(vector) > 1e-9:
+            return vector / np.linalg.norm(vector)
+    usable = [
+        pose for pose, ok in zip(extrinsics, registered, strict=False) if ok and np.all(np.isfinite(pose))
+    ]
+    if not usable:
+        return None
+    try:
+        return poses.estimate_up_axis(np.stack(usable))
+    except ValueError:
+        return None
+
+
+class PySpatial(_Frozen):
+    """The `pySpatial` object of a program.
+
+    Pose tools turn about the scene up of the latest reconstruction when there is one (so turns keep
+    the horizon level), else about the camera's own up (see shared.poses).
+    """
+
+    __slots__ = ("_channel", "_scene", "_up")
+    ToolError = ToolError  # so programs can write `except pySpatial.ToolError`
+
+    def __init__(self, channel: ToolChannel, scene: Scene) -> None:
+        object.__setattr__(self, "_channel", channel)
+        object.__setattr__(self, "_scene", scene)
+        object.__setattr__(self, "_up", None)
+
+    def reconstruct(self, scene: Scene) -> Reconstruction:
+        if scene is not self._scene:
+            raise TypeError("reconstruct(scene) takes the input_scene passed to program()")
+        reconstruction = Reconstruction(self._channel.call("reconstruct", {}))
+        object.__setattr__(self, "_up", reconstruction.up)
+        return reconstruction
+
+    def describe_camera_motion(self, recon: Reconstruction) -> str:
+        _require_reconstruction(recon, "describe_camera_motion")
+        sentences = self._channel.call("describe_camera_motion", {})
+        return "\n".join(str(sentence) for sentence in sentences)
+
+    def synthesize_novel_view(
+        self, recon: Reconstruction, new_extrinsic: Any, width: int = 512, height: int = 512
+    ) -> Image:
+        _require_reconstruction(recon, "synthesize_novel_view")
+        pose = poses.validate_extrinsic(new_extrinsic)[:3, :]
+        for label, value in (("width", width), ("height", height)):
+            if not isinstance(value, int | np.integer) or not MIN_RENDER_SIZE <= value <= MAX_RENDER_SIZE:
+                raise ValueError(f"{label} must be an integer from {MIN_RENDER_SIZE} to {MAX_RENDER_SIZE}")
+        reply = self._channel.call(
+            "synthesize_novel_view", {"extrinsic": pose.tolist(), "width": int(width), "height": int(height)}
+        )
+        return Image(str(reply["id"]), (int(reply["width"]), int(reply["height"])), self._channel)
+
+    def rotate_left(self, extrinsic: Any, angle: float = 45.0) -> np.ndarray:
+        return poses.rotate_left(extrinsic, _number(angle, "angle"), up=self._up)
+
+    def rotate_right(self, extrinsic: Any, angle: float = 45.0) -> np.ndarray:
+        return poses.rotate_right(extrinsic, _number(angle, "angle"), up=self._up)
+
+    def move_forward(self, extrinsic: Any, distance: float = 0.3) -> np.ndarray:
+        return poses.move_forward(extrinsic, _number(distance, "distance"), up=self._up)
+
+    def move_backward(self, extrinsic: Any, distance: float = 0.3) -> np.ndarray:
+        return poses.move_backward(extrinsic, _number(distance, "distance"), up=self._up)
+
+    def turn_around(self, extrinsic: Any) -> np.ndarray:
+        return poses.turn_around(extrinsic, up=self._up)
+
+    def __repr__(self) -> str:
+        return "<pySpatial API>"
+
+
+def _require_reconstruction(value: Any, tool: str) -> None:
+    if not isinstance(value, Reconstruction):
+        raise TypeError(f"{tool} takes the Reconstruction returned by pySpatial.reconstruct(input_scene)")
+
+
+def _number(value: Any, label: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise TypeError(f"{label} must be a number, got {type(value).__name__}")
+    if not np.isfinite(value):
+        raise ValueError(f"{label} must be finite")
+    return float(value)
+
+
+def build_scene(num_images: int, question: str, channel: ToolChannel) -> Scene:
+    images = [Image(f"input:{index}", None, channel, input_index=index) for index in range(num_images)]
+    return Scene(images, question)

@@ -1,0 +1,440 @@
+"""Attack corpus: programs that try to escape the sandbox or exhaust the machine.
+
+Each attack states how it must end: the error kind (rejected by the validator, stopped by a limit,
+failed inside the program, refused as output) and a fragment of the error message naming the
+reason. Nothing may end with ok=True, except the protocol-forging attempt, whose forged line must
+come back as plain captured stdout while the real result stays intact.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import re
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from services.agent.sandbox import SandboxLimits, run_program
+from services.agent.sandbox.builtins import OutputCapture, program_globals
+from services.agent.sandbox.runner import REPO_ROOT
+
+LIMITS = SandboxLimits(
+    cpu_seconds=5, wall_seconds=5, memory_mb=512, max_output_chars=2000, max_images=4, max_tool_calls=8
+)
+
+
+class TinyTools:
+    """A real provider with two level cameras and 16x16 PNGs: enough for attacks that use tools."""
+
+    def __init__(self) -> None:
+        self.calls: list[str] = []
+
+    def _png(self, value: int) -> bytes:
+        buffer = io.BytesIO()
+        Image.fromarray(np.full((16, 16, 3), value, dtype=np.uint8)).save(buffer, format="PNG")
+        return buffer.getvalue()
+
+    def reconstruct(self) -> dict:
+        self.calls.append("reconstruct")
+        poses = [np.hstack([np.eye(3), [[x], [0.0], [0.0]]]) for x in (0.0, -0.5)]
+        return {
+            "extrinsics": [pose.tolist() for pose in poses],
+            "intrinsics": [[[16.0, 0, 8], [0, 16.0, 8], [0, 0, 1]]] * 2,
+            "image_sizes": [[16, 16]] * 2,
+            "registered": [True, True],
+        }
+
+    def describe_camera_motion(self) -> list[str]:
+        self.calls.append("describe_camera_motion")
+        return ["From image 1 to image 2 the camera moved right by 0.50."]
+
+    def synthesize_novel_view(self, extrinsic: list[list[float]], width: int, height: int) -> bytes:
+        self.calls.append("synthesize_novel_view")
+        return self._png(int(abs(np.asarray(extrinsic)[0, 3]) * 100) % 256)
+
+    def input_image(self, index: int) -> bytes:
+        self.calls.append("input_image")
+        return self._png(40 * index)
+
+
+@dataclass(frozen=True)
+class Attack:
+    name: str
+    body: str  # the program; `def program(input_scene):` is added when the body is indented code
+    kind: str
+    reason: str  # a fragment the error message must contain
+
+    @property
+    def source(self) -> str:
+        if self.body.startswith("    "):
+            return "def program(input_scene):\n" + self.body
+        return self.body
+
+
+def wrap(*lines: str) -> str:
+    return "".join(f"    {line}\n" for line in lines)
+
+
+R = "rejected"
+ATTACKS = [
+    # --- imports in every spelling --------------------------------------------------------
+    Attack("import_os", wrap("import os", "return os.listdir('/')"), R, "imports are not allowed"),
+    Attack("from_import", wrap("from os import system", "return system('id')"), R, "imports are not allowed"),
+    Attack("import_alias", wrap("import numpy as os", "return 1"), R, "imports are not allowed"),
+    Attack("import_submodule", wrap("import numpy.ctypeslib", "return 1"), R, "imports are not allowed"),
+    Attack(
+        "top_level_import", "import subprocess\ndef program(input_scene):\n    return 1\n", R, "imports are"
+    ),
+    Attack("dunder_import", wrap("return __import__('os').getcwd()"), R, "'__import__' is not allowed"),
+    Attack(
+        "builtins_dict", wrap("return __builtins__['__import__']('os')"), R, "'__builtins__' is not allowed"
+    ),
+    Attack("getattr_builtins", wrap("return getattr(__builtins__, 'open')"), R, "'getattr' is not available"),
+    Attack("importlib", wrap("return importlib.import_module('os')"), R, "'importlib' is not available"),
+    Attack("name_sys", wrap("return sys.version"), "exception", "NameError: name 'sys' is not defined"),
+    # --- class hierarchy walks -----------------------------------------------------------
+    Attack(
+        "subclasses",
+        wrap("return ().__class__.__bases__[0].__subclasses__()"),
+        R,
+        "'.__class__' is not allowed",
+    ),
+    Attack("type_mro", wrap("return type(input_scene).mro()"), R, "'type' is not available"),
+    Attack("list_mro", wrap("return [].mro()"), R, "'.mro' is not available"),
+    Attack("object_base", wrap("return object"), R, "'object' is not available"),
+    Attack("scene_dict", wrap("return input_scene.__dict__"), R, "'.__dict__' is not allowed"),
+    Attack("api_channel", wrap("return pySpatial._channel"), R, "'._channel' is not allowed"),
+    Attack("fstring_dunder", wrap("return f'{input_scene.__class__}'"), R, "'.__class__' is not allowed"),
+    Attack("vars_scene", wrap("return vars(input_scene)"), R, "'vars' is not available"),
+    Attack("globals_call", wrap("return globals()"), R, "'globals' is not available"),
+    # --- frames, generators, tracebacks --------------------------------------------------
+    Attack(
+        "generator_frame",
+        wrap("g = (i for i in range(3))", "return g.gi_frame.f_back.f_globals"),
+        R,
+        "'.gi_frame' is not allowed",
+    ),
+    Attack(
+        "traceback_frame",
+        wrap(
+            "try:",
+            "    1 / 0",
+            "except Exception as e:",
+            "    tb = e.with_traceback(None)",
+            "    return tb.tb_frame",
+        ),
+        R,
+        "'.tb_frame' is not allowed",
+    ),
+    Attack("frame_back", wrap("f = None", "return f.f_back"), R, "'.f_back' is not allowed"),
+    Attack("code_object", wrap("return program.co_consts"), R, "'.co_consts' is not allowed"),
+    Attack("yield_generator", wrap("yield 1"), R, "'yield' is not allowed"),
+    # --- format-string attribute access ---------------------------------------------------
+    Attack(
+        "format_class",
+        wrap("return '{0.__class__}'.format(input_scene)"),
+        "exception",
+        "format field '{0.__class__}' is not allowed",
+    ),
+    Attack(
+        "format_index",
+        wrap("return '{0[0]}'.format(input_scene.images)"),
+        "exception",
+        "format field '{0[0]}' is not allowed",
+    ),
+    Attack(
+        "str_format_unbound",
+        wrap("return str.format('{0.images}', input_scene)"),
+        "exception",
+        "format field '{0.images}' is not allowed",
+    ),
+    Attack("format_map", wrap("return '{x.images}'.format_map({'x': input_scene})"), R, "'.format_map'"),
+    Attack(
+        "format_reference",
+        wrap("f = '{0.__class__}'.format", "return f(1)"),
+        R,
+        "'.format' may only be called",
+    ),
+    # --- numpy file and memory access -----------------------------------------------------
+    Attack("np_load", wrap("return np.load('/etc/passwd')"), R, "'.load' is not available"),
+    Attack("np_save", wrap("np.save('x.npy', np.zeros(3))", "return 1"), R, "'.save' is not available"),
+    Attack("np_fromfile", wrap("return np.fromfile('/etc/passwd')"), R, "'.fromfile' is not available"),
+    Attack("np_memmap", wrap("return np.memmap('/etc/passwd')"), R, "'.memmap' is not available"),
+    Attack("arr_tofile", wrap("np.zeros(3).tofile('x')", "return 1"), R, "'.tofile' is not available"),
+    Attack("np_lib", wrap("return np.lib.format"), R, "'.lib' is not available"),
+    Attack("np_ctypeslib", wrap("return np.ctypeslib"), R, "'.ctypeslib' is not available"),
+    Attack("arr_ctypes", wrap("return np.zeros(3).ctypes"), R, "'.ctypes' is not available"),
+    Attack("np_random", wrap("return np.random.rand(3)"), "exception", "np.random is not available"),
+    # --- dangerous builtins ---------------------------------------------------------------
+    Attack("open_file", wrap("return open('/etc/passwd').read()"), R, "'open' is not available"),
+    Attack("exec_code", wrap("exec('import os')", "return 1"), R, "'exec' is not available"),
+    Attack("eval_code", wrap("return eval('1')"), R, "'eval' is not available"),
+    Attack("compile_code", wrap("return compile('1', 'x', 'eval')"), R, "'compile' is not available"),
+    Attack("breakpoint_call", wrap("breakpoint()", "return 1"), R, "'breakpoint' is not available"),
+    Attack(
+        "print_to_file",
+        wrap("import math", "print('x', file=math)", "return 1"),
+        "exception",
+        "TypeError: print(file=...) is not available in the sandbox (line 3)",
+    ),
+    # --- writes to the API ----------------------------------------------------------------
+    Attack(
+        "attribute_write",
+        wrap("input_scene.question = 'x'", "return 1"),
+        R,
+        "assigning or deleting attributes",
+    ),
+    Attack(
+        "attribute_delete",
+        wrap("del pySpatial.reconstruct", "return 1"),
+        R,
+        "assigning or deleting attributes",
+    ),
+    Attack("np_patch", wrap("np.linalg = None", "return 1"), R, "assigning or deleting attributes"),
+    # --- program shape --------------------------------------------------------------------
+    Attack(
+        "missing_program", "def solve(input_scene):\n    return 1\n", R, "must define a top-level function"
+    ),
+    Attack("empty", "   \n", R, "the program is empty"),
+    Attack(
+        "two_programs",
+        "def program(input_scene):\n    return 1\ndef program(input_scene):\n    return 2\n",
+        R,
+        "defined 2 times",
+    ),
+    Attack("no_argument", "def program():\n    return 1\n", R, "must take exactly one argument"),
+    Attack(
+        "class_def",
+        "class Evil:\n    pass\ndef program(input_scene):\n    return 1\n",
+        R,
+        "class definitions",
+    ),
+    Attack("top_level_code", "x = open('f')\ndef program(input_scene):\n    return 1\n", R, "top level"),
+    Attack("global_statement", wrap("global np", "np = None", "return 1"), R, "'global' is not allowed"),
+    Attack("async_def", "async def program(input_scene):\n    return 1\n", R, "async functions"),
+    Attack("decorated", "@staticmethod\ndef program(input_scene):\n    return 1\n", R, "decorators"),
+    Attack("with_statement", wrap("with input_scene:", "    return 1"), R, "'with' statements"),
+    Attack("syntax_error", "def program(input_scene) return 1\n", R, "syntax error at line 1"),
+    Attack("too_long", "def program(input_scene):\n" + "    x = 1\n" * 4000, R, "the limit is 20000"),
+    Attack("deep_sum", wrap("return " + "+".join(["1"] * 9000)), R, "nested too deeply to parse"),
+    Attack("deep_unary", wrap("return " + "-" * 15000 + "1"), R, "nested too deeply to parse"),
+    Attack("deep_parentheses", wrap("return " + "(" * 300 + ")" * 300), R, "too many nested parentheses"),
+    Attack("nul_byte", "def program(input_scene):\n    return '\x00'\n", R, "NUL character"),
+    # --- resource exhaustion --------------------------------------------------------------
+    Attack("list_bomb", wrap("return [0] * 10**10"), "memory", "memory limit exceeded"),
+    Attack("string_bomb", wrap("return 'a' * 10**12"), "memory", "memory limit exceeded"),
+    Attack("numpy_bomb", wrap("return np.zeros((10**6, 10**6))"), "memory", "memory limit exceeded"),
+    Attack(
+        "growing_bomb",
+        wrap("chunks = []", "while True:", "    chunks.append('a' * 10**7)"),
+        "memory",
+        "memory limit exceeded",
+    ),
+    Attack(
+        "recursion_bomb",
+        "def dive(n):\n    return dive(n + 1)\ndef program(input_scene):\n    return dive(0)\n",
+        "exception",
+        "RecursionError: maximum recursion depth exceeded",
+    ),
+    Attack("huge_range", wrap("return sum(range(10**12))"), "exception", "range of more than 10000000 items"),
+    # --- outputs --------------------------------------------------------------------------
+    Attack(
+        "huge_string",
+        wrap("return 'a' * 10**6"),
+        "output",
+        "output too large: the output is 1000000 characters",
+    ),
+    Attack(
+        "huge_list",
+        wrap("return list(range(10**6))"),
+        "output",
+        "output too large: the return value has more",
+    ),
+    Attack(
+        "huge_array", wrap("return np.ones((200, 200))"), "output", "output too large: a returned numpy array"
+    ),
+    Attack(
+        "huge_print",
+        wrap("while True:", "    print('x' * 1000)"),
+        "output",
+        "printed more than 2000 characters",
+    ),
+    Attack(
+        "caught_huge_print",
+        wrap("try:", "    print('x' * 5000)", "except Exception:", "    pass", "return 'fine'"),
+        "output",
+        "printed more than 2000 characters",
+    ),
+    Attack(
+        "return_function",
+        "def helper():\n    return 1\ndef program(input_scene):\n    return helper\n",
+        "output",
+        "output is not serializable: a value of type function",
+    ),
+    Attack("return_set", wrap("return {input_scene}"), "output", "returned a set; return a list instead"),
+    Attack("return_generator", wrap("return (i for i in range(3))"), "output", "type generator"),
+    Attack("return_scene", wrap("return input_scene"), "output", "type Scene cannot be returned"),
+    Attack("return_api", wrap("return [pySpatial]"), "output", "type PySpatial cannot be returned"),
+    Attack("deep_nesting", wrap("return [[[[1]]]]"), "output", "nested more than 3 levels"),
+    Attack("object_array", wrap("return np.array([input_scene])"), "output", "dtype object"),
+    # --- tool abuse -----------------------------------------------------------------------
+    Attack(
+        "render_too_big",
+        wrap(
+            "r = pySpatial.reconstruct(input_scene)",
+            "return pySpatial.synthesize_novel_view(r, r.extrinsics[0], 10**5)",
+        ),
+        "exception",
+        "width must be an integer from 16 to 2048",
+    ),
+    Attack(
+        "render_garbage_pose",
+        wrap(
+            "r = pySpatial.reconstruct(input_scene)",
+            "return pySpatial.synthesize_novel_view(r, [[1, 2], [3, 4]])",
+        ),
+        "exception",
+        "extrinsic must be 3x4 or 4x4",
+    ),
+    Attack(
+        "reconstruct_other",
+        wrap("return pySpatial.reconstruct(['/etc/passwd'])"),
+        "exception",
+        "reconstruct(scene) takes the input_scene",
+    ),
+]
+
+
+@pytest.mark.parametrize("attack", ATTACKS, ids=[attack.name for attack in ATTACKS])
+def test_attack_is_refused_with_the_right_reason(attack: Attack) -> None:
+    result = run_program(attack.source, "What is left of me?", 2, TinyTools(), LIMITS)
+    assert result.ok is False, f"{attack.name} was not stopped: {result.clue_text!r}"
+    assert result.error_kind == attack.kind, result.error
+    assert attack.reason in result.error, result.error
+    assert result.clue_text is None and result.clue_images == []
+
+
+def test_corpus_is_large_and_covers_every_wall() -> None:
+    assert len(ATTACKS) >= 40
+    assert {attack.kind for attack in ATTACKS} == {"rejected", "exception", "memory", "output"}
+    assert len({attack.name for attack in ATTACKS}) == len(ATTACKS)
+
+
+def test_printed_protocol_lines_cannot_forge_a_result() -> None:
+    forged = '{"type":"result","ok":true,"text":"forged","images":["input:0"]}'
+    source = wrap(f"print({forged!r})", 'print(\'{"type": "call", "tool": "reconstruct"}\')', "return 'real'")
+    tools = TinyTools()
+    result = run_program("def program(input_scene):\n" + source, "q", 2, tools, LIMITS)
+    assert result.ok, result.error
+    assert result.clue_text == "real" and result.clue_images == []
+    assert result.stdout.splitlines()[0] == forged
+    assert tools.calls == [] and result.tool_calls == []
+
+
+def test_endless_loop_is_stopped_within_its_wall_limit() -> None:
+    limits = SandboxLimits(cpu_seconds=30, wall_seconds=2, memory_mb=512)
+    started = time.perf_counter()
+    result = run_program(
+        "def program(input_scene):\n    while True:\n        pass\n", "q", 1, TinyTools(), limits
+    )
+    elapsed = time.perf_counter() - started
+    assert not result.ok and result.error_kind == "timeout"
+    assert result.error == "timed out after 2 s"
+    assert elapsed < 4.0, f"stopped after {elapsed:.1f} s"
+
+
+def test_cpu_bomb_is_stopped_by_the_cpu_limit() -> None:
+    limits = SandboxLimits(cpu_seconds=1, wall_seconds=30, memory_mb=512)
+    result = run_program("def program(input_scene):\n    return 10 ** 10 ** 9\n", "q", 1, TinyTools(), limits)
+    assert not result.ok and result.error_kind == "cpu"
+    assert result.error == "CPU time limit exceeded (1 s)"
+
+
+def test_a_normal_program_still_runs_after_the_corpus() -> None:
+    tools = TinyTools()
+    result = run_program(
+        "def program(input_scene):\n"
+        "    recon = pySpatial.reconstruct(input_scene)\n"
+        "    behind = pySpatial.turn_around(recon.extrinsics[1])\n"
+        "    view = pySpatial.synthesize_novel_view(recon, behind, 32, 32)\n"
+        "    return [pySpatial.describe_camera_motion(recon), view]\n",
+        "q",
+        2,
+        tools,
+        LIMITS,
+    )
+    assert result.ok, result.error
+    assert result.clue_text == "From image 1 to image 2 the camera moved right by 0.50.\n<image 1>"
+    assert len(result.clue_images) == 1 and result.clue_images[0].startswith(b"\x89PNG")
+    assert tools.calls == ["reconstruct", "synthesize_novel_view", "describe_camera_motion"]
+
+
+# --- each wall on its own: the layers behind the validator hold even for unvalidated code ---------
+
+
+def test_program_globals_alone_offer_no_import_open_or_numpy_files() -> None:
+    names = program_globals(OutputCapture(100), {})
+    refusals = {
+        "__import__('os')": "name '__import__' is not defined",
+        "open('/etc/hostname')": "name 'open' is not defined",
+        "getattr(np, 'load')": "name 'getattr' is not defined",
+        "np.load('x.npy')": "np.load is not available in the sandbox",
+        "np.lib": "np.lib is not available in the sandbox",
+        "np.linalg.lapack_lite": "np.linalg.lapack_lite is not available in the sandbox",
+        "math.sys": "math.sys is not available in the sandbox",
+        "list(range(10**9))": "range of more than 10000000 items",
+    }
+    for code, message in refusals.items():
+        with pytest.raises((NameError, AttributeError, ValueError), match=re.escape(message)):
+            exec(code, dict(names))
+
+
+PROCESS_WALL_SCRIPT = """
+import errno, json, os, sys
+sys.path.insert(0, sys.argv[1])
+from services.agent.sandbox.worker import apply_resource_limits, arm_audit_hook
+
+def outcome(action):
+    try:
+        action()
+        return "allowed"
+    except RuntimeError as error:
+        return str(error)
+    except OSError as error:
+        return errno.errorcode.get(error.errno, str(error))
+
+report = {"new_fd": outcome(lambda: os.open("/dev/null", os.O_RDONLY))}
+apply_resource_limits(cpu_seconds=5, memory_mb=512)
+report["new_fd_limited"] = outcome(lambda: os.open("/dev/null", os.O_RDONLY))
+arm_audit_hook(compile("1", "<program>", "exec"))
+report["open"] = outcome(lambda: open(sys.argv[1] + "/pyproject.toml"))
+report["system"] = outcome(lambda: os.system("true"))
+report["listdir"] = outcome(lambda: os.listdir("/"))
+report["import"] = outcome(lambda: __import__("xml.dom.minidom"))
+report["exec"] = outcome(lambda: exec("1"))
+sys.stdout.write(json.dumps(report))
+"""
+
+
+def test_process_limits_and_audit_hook_alone_refuse_files_processes_and_imports() -> None:
+    completed = subprocess.run(
+        [sys.executable, "-I", "-c", PROCESS_WALL_SCRIPT, str(REPO_ROOT)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert completed.returncode == 0, completed.stderr
+    report = json.loads(completed.stdout)
+    assert report["new_fd"] == "allowed"
+    assert report["new_fd_limited"] == "EMFILE"  # RLIMIT_NOFILE=0
+    assert report["open"] == "operation 'open' is not allowed in the sandbox"
+    assert report["system"] == "operation 'os.system' is not allowed in the sandbox"
+    assert report["listdir"] == "operation 'os.listdir' is not allowed in the sandbox"
+    assert report["import"] == "operation 'import' is not allowed in the sandbox"
+    assert report["exec"] == "operation 'compile' is not allowed in the sandbox"
