@@ -1,0 +1,181 @@
+"""`pyspatial eval ...`: benchmark harnesses (MindCube, Omni3D-Bench, answer-model baseline).
+
+Every command writes one JSON line per item to --out as soon as the item is done; --resume skips
+the ids already there, so an interrupted run continues where it stopped.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from evaluation.dataset import DatasetError, read_mindcube
+from evaluation.metrics import summarize_mindcube
+from evaluation.mindcube import MINDCUBE_INSTRUCTION, evaluate_mindcube
+from evaluation.omni3d import OMNI3D_INSTRUCTION, evaluate_omni3d
+from evaluation.report import mindcube_report, omni3d_report, report_console
+from evaluation.runner import read_results
+from evaluation.solvers import BaselineSolver, NoAnswerModel, answer_model_config, pyspatial_solver
+from services.agent.llm import ChatClient
+from shared.settings import DEFAULT_AGENT_PORT, DEFAULT_RECON_PORT, AgentSettings
+
+eval_app = typer.Typer(help="Run benchmarks against the services and print the paper's tables.")
+console = report_console()
+
+JsonlOption = Annotated[
+    Path, typer.Option("--jsonl", exists=True, dir_okay=False, help="Benchmark questions (JSONL).")
+]
+ImageRootOption = Annotated[
+    Path, typer.Option("--image-root", exists=True, file_okay=False, help="Image paths are relative to it.")
+]
+LimitOption = Annotated[int | None, typer.Option("--limit", min=1, help="Only the first N items.")]
+ConcurrencyOption = Annotated[int, typer.Option("--concurrency", min=1, help="Items in flight at once.")]
+ResumeOption = Annotated[bool, typer.Option("--resume", help="Skip the ids already in --out.")]
+ProgressOption = Annotated[bool, typer.Option("--progress/--no-progress", help="Show a progress bar.")]
+AgentUrlOption = Annotated[
+    str, typer.Option("--agent-url", envvar="PYSPATIAL_AGENT_URL", help="The agent service.")
+]
+ReconUrlOption = Annotated[
+    str,
+    typer.Option(
+        "--recon-url",
+        envvar="PYSPATIAL_RECON_URL",
+        help="The recon service, for uploading exact cameras and depth with --backbone posed-rgbd.",
+    ),
+]
+BackboneOption = Annotated[
+    str | None,
+    typer.Option(
+        "--backbone",
+        help="classical, posed-rgbd or vggt. With posed-rgbd, items whose meta_info names a scene file "
+        "with exact cameras and depth (the synthetic generator writes them) are uploaded with those first.",
+    ),
+]
+
+DEFAULT_AGENT_URL = f"http://127.0.0.1:{DEFAULT_AGENT_PORT}"
+DEFAULT_RECON_URL = f"http://127.0.0.1:{DEFAULT_RECON_PORT}"
+
+
+def _fail(message: str) -> typer.Exit:
+    console.print(f"[red]error:[/red] {message}")
+    return typer.Exit(code=2)
+
+
+@eval_app.command("mindcube")
+def mindcube(
+    jsonl: JsonlOption,
+    image_root: ImageRootOption,
+    limit: LimitOption = None,
+    concurrency: ConcurrencyOption = 4,
+    out: Annotated[Path, typer.Option("--out", help="Results, one JSON line per item.")] = Path(
+        "mindcube_results.jsonl"
+    ),
+    resume: ResumeOption = False,
+    agent_url: AgentUrlOption = DEFAULT_AGENT_URL,
+    backbone: BackboneOption = None,
+    recon_url: ReconUrlOption = DEFAULT_RECON_URL,
+    progress: ProgressOption = True,
+) -> None:
+    """Answer MindCube questions with pySpatial (POST /v1/solve) and print accuracy by setting."""
+    try:
+        with pyspatial_solver(agent_url, image_root, backbone, recon_url) as solver:
+            run = evaluate_mindcube(
+                jsonl, image_root, solver.solve, out, limit, concurrency, resume, console, progress
+            )
+    except DatasetError as error:
+        raise _fail(str(error)) from error
+    console.print(mindcube_report([run.summary]))
+    console.print(f"results: {out}")
+
+
+@eval_app.command("omni3d")
+def omni3d(
+    jsonl: JsonlOption,
+    image_root: ImageRootOption,
+    limit: LimitOption = None,
+    concurrency: ConcurrencyOption = 4,
+    out: Annotated[Path, typer.Option("--out", help="Results, one JSON line per item.")] = Path(
+        "omni3d_results.jsonl"
+    ),
+    resume: ResumeOption = False,
+    agent_url: AgentUrlOption = DEFAULT_AGENT_URL,
+    backbone: BackboneOption = None,
+    progress: ProgressOption = True,
+) -> None:
+    """Answer Omni3D-Bench questions with pySpatial: exact match and mean relative accuracy.
+
+    The agent answers with option letters; for these free-form questions its answer text and
+    reasoning are parsed for the value (see evaluation/omni3d.py for what that means for scores).
+    """
+    try:
+        with pyspatial_solver(agent_url, image_root, backbone) as solver:
+            run = evaluate_omni3d(
+                jsonl, image_root, solver.solve, out, limit, concurrency, resume, console, progress
+            )
+    except DatasetError as error:
+        raise _fail(str(error)) from error
+    console.print(omni3d_report([run.summary]))
+    console.print(f"results: {out}")
+
+
+@eval_app.command("baseline")
+def baseline(
+    jsonl: JsonlOption,
+    image_root: ImageRootOption,
+    benchmark: Annotated[
+        str, typer.Option("--benchmark", help="mindcube or omni3d: the JSONL's format.")
+    ] = "mindcube",
+    limit: LimitOption = None,
+    concurrency: ConcurrencyOption = 4,
+    out: Annotated[Path, typer.Option("--out", help="Results, one JSON line per item.")] = Path(
+        "baseline_results.jsonl"
+    ),
+    resume: ResumeOption = False,
+    model: Annotated[
+        str | None, typer.Option("--model", help="Answer model; PYSPATIAL_ANSWER_MODEL when unset.")
+    ] = None,
+    compare: Annotated[
+        Path | None,
+        typer.Option(
+            "--compare",
+            exists=True,
+            dir_okay=False,
+            help="A pySpatial results file of the same items (from `eval mindcube`): adds its row.",
+        ),
+    ] = None,
+    progress: ProgressOption = True,
+) -> None:
+    """The same questions answered by the answer model alone (no program, no 3D tools)."""
+    if benchmark not in ("mindcube", "omni3d"):
+        raise _fail(f"--benchmark must be mindcube or omni3d, not {benchmark!r}")
+    try:
+        config = answer_model_config(AgentSettings(), model)
+    except NoAnswerModel as error:
+        raise _fail(str(error)) from error
+    try:
+        with ChatClient(config) as chat:
+            if benchmark == "omni3d":
+                solver = BaselineSolver(chat, OMNI3D_INSTRUCTION)
+                run = evaluate_omni3d(
+                    jsonl, image_root, solver.solve, out, limit, concurrency, resume, console, progress
+                )
+                console.print(omni3d_report([run.summary], title="Omni3D-Bench: answer model alone"))
+                return
+            solver = BaselineSolver(chat, MINDCUBE_INSTRUCTION)
+            items = read_mindcube(jsonl, image_root, limit)
+            run = evaluate_mindcube(
+                jsonl, image_root, solver.solve, out, limit, concurrency, resume, console, progress, items
+            )
+    except DatasetError as error:
+        raise _fail(str(error)) from error
+    rows = [run.summary]
+    if compare is not None:
+        # Only the compared file's records of these same items, so both rows count the same questions.
+        ids = {item.id for item in items}
+        rows.append(summarize_mindcube([r for r in read_results(compare) if r["id"] in ids]))
+    console.print(
+        mindcube_report(rows, title="MindCube accuracy (%): the answer model alone and with pySpatial")
+    )
+    console.print(f"results: {out}")
