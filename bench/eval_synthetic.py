@@ -31,8 +31,8 @@ from evaluation.metrics import summarize_mindcube
 from evaluation.mindcube import evaluate_mindcube
 from evaluation.report import mindcube_report, report_console
 from evaluation.solvers import pyspatial_solver
-from shared.synthetic import make_dataset
 from shared.local_services import running_service
+from shared.synthetic import make_dataset
 
 MOTION_FAMILIES = ("motion", "turn")
 QUESTIONS_PER_SCENE = 4  # make_dataset asks 4 to 6 per scene; this over-generates slightly

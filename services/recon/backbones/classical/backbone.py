@@ -12,9 +12,9 @@ Conventions of the result (docs/ARCHITECTURE.md):
 - Scale: the median distance of the cloud's points from that first camera is 1. Monocular
   reconstruction has no metric scale; this makes scenes comparable whatever the baseline.
 - Views that only rotate about one centre (turning in place) have no baseline, so depth is
-  undefined: poses are still rotations, and the cloud is every pixel's colour at ray length 1 (a
-  unit sphere around the camera, consistent with the scale rule). A warning says so, and
-  `depths` is None.
+  undefined: poses are still rotations, and the cloud is the colour of a pixel grid (every 4th
+  working pixel) at ray length 1: a unit sphere around the camera, consistent with the scale
+  rule. A warning says so, and `depths` is None.
 - An unplaced view has `registered[i] = False`, a warning naming it, and an all-NaN extrinsic so
   that nobody mistakes it for a pose.
 """

@@ -75,7 +75,8 @@ def interpolate_depth(samples: ViewSamples) -> np.ndarray:
     if len(triangles) == 0:
         return depth
     corners, inverse_depths = vertices[triangles], 1.0 / samples.depths[triangles]
-    edges = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max(axis=1) * to_grid[0, 0] ** -1
+    working_corners = samples.pixels[triangles]
+    edges = np.linalg.norm(working_corners - np.roll(working_corners, 1, axis=1), axis=2).max(axis=1)
     ratio = inverse_depths.max(axis=1) / inverse_depths.min(axis=1)
     working_side = max(samples.image.shape[:2])
     accepted = (edges < MAX_EDGE_SHARE * working_side) & (ratio < MAX_DEPTH_RATIO)

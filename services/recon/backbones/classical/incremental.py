@@ -1,16 +1,18 @@
 """Incremental registration of views into one sparse model.
 
 1. Start from the pair with the most essential-matrix inliers among pairs with real parallax:
-   its first camera is the origin, its baseline is 1, its inliers are triangulated.
+   its first camera is the origin, its baseline is 1, its inliers are triangulated. (When no pair
+   yields enough points, the best pair with some parallax still starts the model.)
 2. Repeatedly register the unplaced view with the most 2D-3D correspondences by PnP (RANSAC, then
    Levenberg-Marquardt). When no view has enough, chain a pairwise pose from a placed view: a pure
    rotation keeps the neighbour's centre; an essential pose gets its baseline length from the
-   depths of points both views already share.
+   depths of points both views already share, or, failing that, the typical baseline of the
+   placed cameras (with a warning: that view's distance is a guess, its direction is not).
 3. After each new view, extend tracks and triangulate the new matches with every placed view.
 4. Refine by alternating re-triangulation (all observations) and per-camera pose refinement.
 
 When no pair has parallax, the set is treated as rotations about one centre and chained along
-the strongest pairs, then refined on all matched rays. Views that nothing connects stay unplaced.
+the strongest rotation pairs, then refined on all matched rays. Views that nothing connects stay unplaced.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from .triangulation import (
 from .two_view import TwoViewGeometry
 
 MIN_INIT_PARALLAX_DEG = 2.0  # an initial pair needs rays that meet at a useful angle
+MIN_PARALLAX_DEG = 1.0  # below this a pair's translation is noise: it counts as a rotation
 MIN_INIT_POINTS = 25
 MIN_PNP_CORRESPONDENCES = 15
 MIN_PNP_INLIER_SHARE = 0.25
@@ -103,7 +106,11 @@ class IncrementalMapper:
     # ---- initialization -------------------------------------------------------------------
 
     def _initialize(self) -> bool:
-        candidates = [key for key, pair in self.pairs.items() if not pair.is_rotation]
+        candidates = [
+            key
+            for key, pair in self.pairs.items()
+            if not pair.is_rotation and pair.median_parallax_deg >= MIN_PARALLAX_DEG
+        ]
         candidates.sort(
             key=lambda key: (
                 self.pairs[key].median_parallax_deg >= MIN_INIT_PARALLAX_DEG,
@@ -112,25 +119,34 @@ class IncrementalMapper:
             reverse=True,
         )
         for first, second in candidates[:5]:
-            pair = self.pairs[(first, second)]
-            if pair.median_parallax_deg < MIN_INIT_PARALLAX_DEG / 2:
-                break
-            self.extrinsics = {
-                first: compose(np.eye(3), np.zeros(3)),
-                second: compose(pair.rotation, pair.translation),
-            }
-            self.points, self.tracks, self.observed = [], [], {}
-            self._triangulate_new(first, second)
+            self._start_from(first, second)
             if len(self.points) >= MIN_INIT_POINTS:
                 return True
-        self.extrinsics, self.points, self.tracks, self.observed = {}, [], [], {}
-        return False
+        if not candidates:
+            self.extrinsics, self.points, self.tracks, self.observed = {}, [], [], {}
+            return False
+        # Few points anywhere (wide viewpoint changes): the strongest pair still fixes the frame.
+        self._start_from(*candidates[0])
+        return True
+
+    def _start_from(self, first: int, second: int) -> None:
+        pair = self.pairs[(first, second)]
+        self.extrinsics = {
+            first: compose(np.eye(3), np.zeros(3)),
+            second: compose(pair.rotation, pair.translation),
+        }
+        self.points, self.tracks, self.observed = [], [], {}
+        self._triangulate_new(first, second)
 
     # ---- registration ---------------------------------------------------------------------
 
     def _register_remaining(self) -> None:
         while len(self.extrinsics) < self.num_views:
-            placed = self._register_next_by_pnp() or self._register_next_by_chaining()
+            placed = self._register_next_by_pnp()
+            if placed is None:  # view 0 is a valid answer, so compare with None, not truthiness
+                placed = self._register_next_by_chaining(guess_baseline=False)
+            if placed is None:
+                placed = self._register_next_by_chaining(guess_baseline=True)
             if placed is None:
                 return
             for other in list(self.extrinsics):
@@ -170,7 +186,7 @@ class IncrementalMapper:
                 return view
         return None
 
-    def _register_next_by_chaining(self) -> int | None:
+    def _register_next_by_chaining(self, guess_baseline: bool) -> int | None:
         options = []
         for view in self._unplaced():
             for anchor in self.extrinsics:
@@ -178,22 +194,36 @@ class IncrementalMapper:
                 if relative is not None:
                     options.append((len(relative.matches), anchor, view, relative))
         for _, anchor, view, relative in sorted(options, key=lambda option: option[0], reverse=True):
-            extrinsic = self._chained_pose(anchor, view, relative)
+            extrinsic = self._chained_pose(anchor, view, relative, guess_baseline)
             if extrinsic is not None:
                 self.extrinsics[view] = extrinsic
                 return view
         return None
 
-    def _chained_pose(self, anchor: int, view: int, relative: _Relative) -> np.ndarray | None:
+    def _chained_pose(
+        self, anchor: int, view: int, relative: _Relative, guess_baseline: bool
+    ) -> np.ndarray | None:
         anchor_pose = self.extrinsics[anchor]
         rotation = relative.rotation @ anchor_pose[:, :3]
         if relative.model == "rotation":
             return compose(rotation, relative.rotation @ anchor_pose[:, 3])
         baseline = self._baseline_from_shared_depths(anchor, view, relative)
         if baseline is None:
-            return None
+            if not guess_baseline:
+                return None
+            baseline = self._typical_baseline()
+            self.warnings.append(
+                f"view {view}: its distance from view {anchor} is a guess (no shared 3D points); "
+                "its direction and rotation are estimated"
+            )
         # x_view = R_rel x_anchor + baseline * t_rel, with x_anchor = anchor pose applied to world.
         return compose(rotation, relative.rotation @ anchor_pose[:, 3] + baseline * relative.translation)
+
+    def _typical_baseline(self) -> float:
+        centres = np.array([camera_center(extrinsic) for extrinsic in self.extrinsics.values()])
+        gaps = np.linalg.norm(centres[:, None] - centres[None], axis=2)
+        gaps = gaps[gaps > 1e-9]
+        return float(np.median(gaps)) if len(gaps) else 1.0
 
     def _baseline_from_shared_depths(self, anchor: int, view: int, relative: _Relative) -> float | None:
         """Length of the unit pairwise baseline that matches the depths the model already has."""
@@ -351,6 +381,11 @@ class IncrementalMapper:
 
     def _register_rotations_only(self) -> None:
         """Chain pairwise rotations along the strongest pairs, then refine on all matched rays."""
+        self.pairs = {
+            key: pair
+            for key, pair in self.pairs.items()
+            if pair.is_rotation or pair.median_parallax_deg < MIN_PARALLAX_DEG
+        }
         connected = sorted({view for key in self.pairs for view in key})
         if not connected:
             return
@@ -368,7 +403,7 @@ class IncrementalMapper:
             self.extrinsics[view] = compose(relative.rotation @ self.extrinsics[anchor][:, :3], np.zeros(3))
         if any(not pair.is_rotation for pair in self.pairs.values()):
             self.warnings.append(
-                "no pair of views had enough parallax to triangulate; poses were chained as pure rotations"
+                "some pairs had a little parallax, too little to triangulate: taken as rotations"
             )
         reference = connected[0]
         for _ in range(REFINE_ROUNDS):
@@ -412,6 +447,3 @@ def _solve_pnp(world: np.ndarray, pixels: np.ndarray, intrinsic: np.ndarray) -> 
     if not np.all(np.isfinite(extrinsic)):
         return None
     return extrinsic
-
-
-__all__ = ["IncrementalMapper", "SparseModel", "camera_center"]
