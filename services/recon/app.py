@@ -77,6 +77,8 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
             await service.cache.check(),
             settings.data_dir,
         )
+        if not ready:  # no silent fallback: the service answers, /readyz says 503 and why
+            log.error("backbone %s is NOT ready: %s", settings.backbone, detail)
         yield
         await service.cache.close()
 
