@@ -1,0 +1,119 @@
+"""docker-compose.yml, the Dockerfiles and the README agree with the code they deploy."""
+
+from __future__ import annotations
+
+import importlib
+import json
+import re
+import sys
+from pathlib import Path
+from urllib.parse import urlparse
+
+import pytest
+import yaml
+
+from shared.settings import DEFAULT_AGENT_PORT, DEFAULT_RECON_PORT, AgentSettings, ReconSettings
+from tests.support.processes import REPO_ROOT
+
+COMPOSE = yaml.safe_load((REPO_ROOT / "docker-compose.yml").read_text())
+SERVICES = COMPOSE["services"]
+APP_SERVICES = {"recon": DEFAULT_RECON_PORT, "recon-gpu": DEFAULT_RECON_PORT, "agent": DEFAULT_AGENT_PORT}
+SETTING_ENV_NAMES = {
+    f"PYSPATIAL_{name.upper()}" for name in (*ReconSettings.model_fields, *AgentSettings.model_fields)
+}
+SETTING_ENV_NAMES |= {"REDIS_URL"}
+
+
+def default_of(value: str) -> str:
+    """The value compose uses when the variable is unset: `${VAR:-default}` gives default."""
+    match = re.fullmatch(r"\$\{\w+:-(.*)\}", value)
+    return match.group(1) if match else value
+
+
+def dockerfile_command(path: Path) -> list[str]:
+    lines = [line for line in path.read_text().splitlines() if line.startswith("CMD ")]
+    assert len(lines) == 1, f"{path} needs exactly one CMD"
+    return json.loads(lines[0].removeprefix("CMD "))
+
+
+def test_every_service_is_there_with_a_healthcheck():
+    assert {"redis", "recon", "recon-gpu", "agent"} <= set(SERVICES)
+    for name, service in SERVICES.items():
+        assert service.get("healthcheck", {}).get("test"), f"{name} has no healthcheck"
+    assert SERVICES["redis"]["image"].startswith("redis:7")
+    assert "redis-cli" in SERVICES["redis"]["healthcheck"]["test"]
+
+
+def test_ports_and_urls_agree_with_the_settings_defaults():
+    for name, port in APP_SERVICES.items():
+        published = [str(entry).split(":")[-1] for entry in SERVICES[name]["ports"]]
+        assert published == [str(port)], f"{name} must publish container port {port}"
+        assert f":{port}/healthz" in " ".join(SERVICES[name]["healthcheck"]["test"])
+    recon_url = urlparse(default_of(SERVICES["agent"]["environment"]["PYSPATIAL_RECON_URL"]))
+    assert (recon_url.hostname, recon_url.port) == ("recon", DEFAULT_RECON_PORT)
+    redis_url = urlparse(SERVICES["recon"]["environment"]["REDIS_URL"])
+    assert redis_url.hostname == "redis" and redis_url.port == 6379
+    assert urlparse(AgentSettings.model_fields["recon_url"].default).port == DEFAULT_RECON_PORT
+
+
+def test_start_order_waits_for_health():
+    assert SERVICES["recon"]["depends_on"]["redis"]["condition"] == "service_healthy"
+    assert SERVICES["agent"]["depends_on"]["recon"]["condition"] == "service_healthy"
+    for name in APP_SERVICES:
+        assert SERVICES[name]["restart"] == "unless-stopped"
+
+
+def test_recon_storage_and_models():
+    recon = SERVICES["recon"]
+    assert recon["environment"]["PYSPATIAL_DATA_DIR"] == "/data"
+    assert "./models:/models:ro" in recon["volumes"]
+    assert recon["environment"]["PYSPATIAL_VGGT_CHECKPOINT"].startswith("/models/")
+    data_volume = next(v.split(":")[0] for v in recon["volumes"] if v.endswith(":/data"))
+    assert data_volume in COMPOSE["volumes"]
+
+
+def test_gpu_service_reserves_an_nvidia_device_under_a_profile():
+    gpu = SERVICES["recon-gpu"]
+    assert gpu["profiles"] == ["gpu"]
+    devices = gpu["deploy"]["resources"]["reservations"]["devices"]
+    assert devices[0]["driver"] == "nvidia" and "gpu" in devices[0]["capabilities"]
+    assert "deploy" not in SERVICES["recon"]  # the default stack runs without a GPU
+
+
+def test_environment_names_are_settings_fields():
+    for name, service in SERVICES.items():
+        for variable in service.get("environment", {}):
+            assert variable in SETTING_ENV_NAMES, f"{name}: {variable} is no field of the settings"
+    for variable, value in SERVICES["agent"]["environment"].items():
+        if "MODEL" in variable:
+            assert value == f"${{{variable}:-}}", f"{variable} must pass through with an empty default"
+
+
+@pytest.mark.parametrize("name,module", [("recon", "services.recon.app"), ("agent", "services.agent.app")])
+def test_each_dockerfile_runs_its_app_factory(name, module):
+    build = SERVICES[name]["build"]
+    dockerfile = REPO_ROOT / build["context"] / build["dockerfile"]
+    assert dockerfile.is_file()
+    text = dockerfile.read_text()
+    assert text.startswith("#") and "FROM python:3.11-slim" in text
+    assert "libgomp1" in text and "libusb-1.0-0" in text
+    command = dockerfile_command(dockerfile)
+    assert command[0] == "uvicorn" and "--factory" in command
+    target = command[1]
+    module_name, factory_name = target.split(":")
+    assert module_name == module
+    assert callable(getattr(importlib.import_module(module_name), factory_name))
+    assert command[command.index("--port") + 1] == str(APP_SERVICES[name])
+
+
+def test_readme_documents_every_setting():
+    sys.path.insert(0, str(REPO_ROOT / "scripts"))
+    try:
+        settings_table = importlib.import_module("settings_table")
+    finally:
+        sys.path.remove(str(REPO_ROOT / "scripts"))
+    readme = (REPO_ROOT / "README.md").read_text()
+    for variable in SETTING_ENV_NAMES:
+        assert f"`{variable}`" in readme, f"README.md does not mention {variable}"
+    for row in settings_table.table().splitlines():
+        assert row in readme, f"README's Configuration is stale (run scripts/settings_table.py): {row}"
