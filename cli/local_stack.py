@@ -5,7 +5,6 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -16,17 +15,13 @@ from typing import IO, Literal
 
 import httpx
 
+from shared.local_services import free_port  # noqa: F401  (re-exported for cli.demo)
+
 ServiceName = Literal["recon", "agent"]
 
 
 class StackError(RuntimeError):
     """A service process exited or did not become ready; the message names its log."""
-
-
-def free_port(host: str = "127.0.0.1") -> int:
-    with socket.socket() as probe:
-        probe.bind((host, 0))
-        return probe.getsockname()[1]
 
 
 def reachable_host(host: str) -> str:

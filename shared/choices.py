@@ -13,16 +13,8 @@ import re
 import string
 from collections.abc import Iterable
 
-DIRECTIONS = (
-    "forward",
-    "diagonally forward and right",
-    "right",
-    "diagonally back and right",
-    "backward",
-    "diagonally back and left",
-    "left",
-    "diagonally forward and left",
-)
+from shared.camera_motion import DIRECTIONS
+
 TURNS = ("turn left", "turn right", "turn around", "no turn")
 
 # An option marker: "A." / "A)" / "A:" or "(A)", not glued to a preceding word, followed by space.

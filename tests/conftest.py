@@ -16,6 +16,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from tests.support.processes import RedisServer, redis_answers, start_redis  # noqa: E402
+from tests.support.scripted_llm import ScriptedLLM, start_scripted_llm  # noqa: E402
 
 
 @pytest.fixture(scope="session")
@@ -35,3 +36,13 @@ def redis_server() -> Iterator[RedisServer]:
 @pytest.fixture(scope="session")
 def redis_url(redis_server: RedisServer) -> str:
     return redis_server.url
+
+
+@pytest.fixture(scope="module")
+def llm() -> Iterator[ScriptedLLM]:
+    """A local OpenAI-compatible server replaying scripted replies: the hosted model's stand-in."""
+    server = start_scripted_llm()
+    try:
+        yield server
+    finally:
+        server.stop()

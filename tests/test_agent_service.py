@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from shared.camera_motion import DIRECTIONS
 from shared.client import AgentClient, ReconClient, ServiceError
 from shared.local_services import running_service
 from tests.support.scenes import orbit_views
-from tests.support.scripted_llm import start_scripted_llm
 
 RECON_APP = "services.recon.app:create_app"
 AGENT_APP = "services.agent.app:create_app"
@@ -46,17 +46,7 @@ def expected_direction(views, first: int, second: int) -> str:
     right = np.cross(forward, [0.0, 0.0, 1.0])
     move = centres[second] - centres[first]
     angle = np.degrees(np.arctan2(move @ right, move @ forward))
-    names = [
-        "forward",
-        "diagonally forward and right",
-        "right",
-        "diagonally back and right",
-        "backward",
-        "diagonally back and left",
-        "left",
-        "diagonally forward and left",
-    ]
-    return names[int(np.floor((angle + 22.5) / 45.0)) % 8]
+    return DIRECTIONS[int(np.floor((angle + 22.5) / 45.0)) % 8]
 
 
 def motion_question(views) -> tuple[str, str]:
@@ -100,13 +90,6 @@ def offline_agent(recon):
     env = {"PYSPATIAL_RECON_URL": recon.url, "PYSPATIAL_SANDBOX_WALL_S": "20"}
     with running_service(AGENT_APP, env) as service:
         yield service
-
-
-@pytest.fixture(scope="module")
-def llm():
-    server = start_scripted_llm()
-    yield server
-    server.stop()
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,7 @@ import pytest
 from services.agent.answering import answer_offline, answer_with_model, read_model_answer
 from services.agent.llm import ChatClient, ChatModelConfig
 from shared.choices import DIRECTIONS, parse_options
-from tests.support.scripted_llm import ScriptedLLM, start_scripted_llm
+from tests.support.scripted_llm import ScriptedLLM
 
 QUESTION = "From image 2, what is behind me? A. A door B. A window C. A bookshelf"
 PROGRAM = (
@@ -18,15 +18,6 @@ PROGRAM = (
     "    recon = pySpatial.reconstruct(input_scene)\n"
     "    return pySpatial.synthesize_novel_view(recon, pySpatial.turn_around(recon.extrinsics[1]))\n"
 )
-
-
-@pytest.fixture(scope="module")
-def llm() -> Iterator[ScriptedLLM]:
-    server = start_scripted_llm()
-    try:
-        yield server
-    finally:
-        server.stop()
 
 
 @pytest.fixture()

@@ -11,7 +11,7 @@ from services.agent.codegen import ExecutionOutcome, build_codegen_messages, ext
 from services.agent.llm import ChatClient, ChatModelConfig
 from services.agent.prompts import PromptError, load_examples, load_template
 from services.agent.sandbox.validation import ProgramRejected, validate_program
-from tests.support.scripted_llm import ScriptedLLM, start_scripted_llm
+from tests.support.scripted_llm import ScriptedLLM
 
 PNG = b"\x89PNG\r\n\x1a\n not decoded by anyone here"
 QUESTION = "From image 2, what is behind me? A. A door B. A window"
@@ -37,15 +37,6 @@ def validate_only(source: str) -> ExecutionOutcome:
     except ProgramRejected as rejected:
         return ExecutionOutcome(ok=False, error=f"rejected: {rejected}", payload=None)
     return ExecutionOutcome(ok=True, error=None, payload=tree)
-
-
-@pytest.fixture(scope="module")
-def llm() -> Iterator[ScriptedLLM]:
-    server = start_scripted_llm()
-    try:
-        yield server
-    finally:
-        server.stop()
 
 
 @pytest.fixture()

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
 
 import httpx
 import pytest
@@ -18,15 +17,6 @@ from services.agent.llm import (
 )
 from tests.support.processes import free_port
 from tests.support.scripted_llm import ScriptedLLM, start_scripted_llm
-
-
-@pytest.fixture(scope="module")
-def llm() -> Iterator[ScriptedLLM]:
-    server = start_scripted_llm()
-    try:
-        yield server
-    finally:
-        server.stop()
 
 
 @pytest.fixture(autouse=True)

@@ -12,6 +12,7 @@ import cv2
 import numpy as np
 import pytest
 
+from shared.camera_motion import DIRECTIONS as CAMERA_MOTION_DIRECTIONS
 from shared.synthetic import (
     ROOM_OBJECT_ID,
     default_intrinsic,
@@ -188,16 +189,7 @@ def test_render_is_fast():
 
 # --- dataset ---------------------------------------------------------------------------------
 
-DIRECTIONS = [
-    "forward",
-    "diagonally forward and right",
-    "right",
-    "diagonally back and right",
-    "backward",
-    "diagonally back and left",
-    "left",
-    "diagonally forward and left",
-]
+DIRECTIONS = list(CAMERA_MOTION_DIRECTIONS)
 
 
 def _heading(extrinsic: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

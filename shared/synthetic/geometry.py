@@ -11,16 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-MOTION_DIRECTIONS: tuple[str, ...] = (
-    "forward",
-    "diagonally forward and right",
-    "right",
-    "diagonally back and right",
-    "backward",
-    "diagonally back and left",
-    "left",
-    "diagonally forward and left",
-)
+from shared.camera_motion import DIRECTIONS
+
+MOTION_DIRECTIONS: tuple[str, ...] = DIRECTIONS  # the wording shared.camera_motion uses
 SECTOR_DEG = 45.0
 
 
