@@ -58,9 +58,15 @@ def show_solution(result: SolveResponse, saved_images: list[Path]) -> None:
 
 def show_timings(result: SolveResponse) -> None:
     table = Table(title="timings (ms)", show_header=True, header_style="bold")
-    for column in ("codegen", "execution", "answering", "total"):
+    for column in ("reconstruction", "codegen", "execution", "answering", "total"):
         table.add_column(column, justify="right")
     timings = result.timings
-    values = (timings.codegen_ms, timings.execution_ms, timings.answering_ms, timings.total_ms)
+    values = (
+        timings.reconstruction_ms,
+        timings.codegen_ms,
+        timings.execution_ms,
+        timings.answering_ms,
+        timings.total_ms,
+    )
     table.add_row(*(f"{value:.0f}" for value in values))
     console.print(table)
