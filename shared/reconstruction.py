@@ -63,8 +63,11 @@ class Reconstruction:
         return -np.einsum("vji,vj->vi", rotations, translations)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """Axis-aligned bounds of points and camera centres together."""
+        """Axis-aligned bounds of the points and the registered camera centres (zeros if none)."""
         everything = np.concatenate([self.points.astype(np.float64), self.camera_centers()], axis=0)
+        everything = everything[np.all(np.isfinite(everything), axis=1)]
+        if len(everything) == 0:
+            return np.zeros(3), np.zeros(3)
         return everything.min(axis=0), everything.max(axis=0)
 
     # ---- serialization -------------------------------------------------------------------

@@ -230,7 +230,7 @@ def _summary(
         )
         for i in range(recon.num_views)
     ]
-    low, high = recon.bounds() if recon.num_points or recon.registered.any() else (np.zeros(3), np.zeros(3))
+    low, high = recon.bounds()
     registered = recon.extrinsics[recon.registered]
     up = estimate_up_axis(registered) if len(registered) else np.array([0.0, -1.0, 0.0])
     return ReconstructionSummary(
@@ -239,8 +239,8 @@ def _summary(
         backbone_version=recon.backbone_version,
         cameras=cameras,
         num_points=recon.num_points,
-        bounds_min=np.nan_to_num(low).tolist(),
-        bounds_max=np.nan_to_num(high).tolist(),
+        bounds_min=low.tolist(),
+        bounds_max=high.tolist(),
         up=up.tolist(),
         warnings=recon.warnings,
         cached=cached,

@@ -1,0 +1,112 @@
+"""The Reconstruction type: validation, versioned serialization and PLY export."""
+
+from __future__ import annotations
+
+import io
+import struct
+
+import numpy as np
+import pytest
+
+from shared.reconstruction import FORMAT_VERSION, Reconstruction, ReconstructionFormatError
+
+
+def sample(num_points: int = 500, views: int = 3, with_depth: bool = True) -> Reconstruction:
+    rng = np.random.default_rng(4)
+    extrinsics = np.tile(np.hstack([np.eye(3), np.zeros((3, 1))]), (views, 1, 1))
+    extrinsics[:, :, 3] = rng.normal(size=(views, 3))
+    extrinsics[-1] = np.nan  # an unregistered view carries no pose
+    intrinsics = np.tile(np.array([[100.0, 0, 31.5], [0, 100.0, 23.5], [0, 0, 1]]), (views, 1, 1))
+    depths = (
+        [rng.uniform(0.5, 8.0, (12, 16)).astype(np.float32) for _ in range(views)] if with_depth else None
+    )
+    return Reconstruction(
+        points=rng.normal(scale=3.0, size=(num_points, 3)),
+        colors=rng.integers(0, 256, (num_points, 3)),
+        extrinsics=extrinsics,
+        intrinsics=intrinsics,
+        image_sizes=[(64, 48)] * views,
+        registered=[True] * (views - 1) + [False],
+        backbone="test",
+        backbone_version="7",
+        depths=depths,
+        depth_confidence=[np.ones_like(d) for d in depths] if depths else None,
+        warnings=["view 3 could not be registered"],
+    )
+
+
+def test_round_trip_keeps_everything():
+    original = sample()
+    restored = Reconstruction.from_bytes(original.to_bytes())
+    np.testing.assert_array_equal(restored.points, original.points)
+    np.testing.assert_array_equal(restored.colors, original.colors)
+    np.testing.assert_array_equal(restored.extrinsics, original.extrinsics)  # NaN poses survive
+    np.testing.assert_array_equal(restored.intrinsics, original.intrinsics)
+    np.testing.assert_array_equal(restored.image_sizes, original.image_sizes)
+    np.testing.assert_array_equal(restored.registered, original.registered)
+    assert (restored.backbone, restored.backbone_version) == ("test", "7")
+    assert restored.warnings == original.warnings
+    for before, after in zip(original.depths, restored.depths, strict=True):
+        # float16 storage: relative error below 1e-3 is enough for depth
+        np.testing.assert_allclose(after, before, rtol=1e-3)
+    assert restored.points.dtype == np.float32 and restored.colors.dtype == np.uint8
+
+
+def test_without_depth_and_empty_cloud():
+    empty = sample(num_points=0, with_depth=False)
+    restored = Reconstruction.from_bytes(empty.to_bytes())
+    assert restored.num_points == 0 and restored.depths is None and restored.depth_confidence is None
+
+
+def test_serialized_form_is_compact():
+    recon = sample(num_points=100_000, with_depth=False)
+    raw = recon.points.nbytes + recon.colors.nbytes
+    assert len(recon.to_bytes()) < 1.05 * raw
+
+
+def test_garbage_and_other_versions_are_refused():
+    with pytest.raises(ReconstructionFormatError, match="not a serialized reconstruction"):
+        Reconstruction.from_bytes(b"definitely not npz")
+    buffer = io.BytesIO()
+    np.savez(buffer, format_version=np.array(FORMAT_VERSION + 1))
+    with pytest.raises(ReconstructionFormatError, match="not supported"):
+        Reconstruction.from_bytes(buffer.getvalue())
+    buffer = io.BytesIO()
+    np.savez(buffer, points=np.zeros((1, 3)))
+    with pytest.raises(ReconstructionFormatError, match="format_version"):
+        Reconstruction.from_bytes(buffer.getvalue())
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"colors": np.zeros((3, 3))}, "colours"),
+        ({"intrinsics": np.zeros((2, 3, 3))}, "intrinsics"),
+        ({"registered": [True]}, "registered"),
+        ({"depths": [np.ones((2, 2))]}, "depths"),
+    ],
+)
+def test_inconsistent_fields_are_rejected(change, message):
+    fields = {**sample(num_points=4).__dict__, **change}
+    with pytest.raises(ValueError, match=message):
+        Reconstruction(**fields)
+
+
+def test_ply_is_binary_with_every_point():
+    recon = sample(num_points=10, with_depth=False)
+    ply = recon.to_ply()
+    header, body = ply.split(b"end_header\n", 1)
+    assert b"element vertex 10" in header and b"binary_little_endian" in header
+    assert len(body) == 10 * 15
+    x, y, z, r, g, b = struct.unpack_from("<fffBBB", body, 0)
+    np.testing.assert_allclose([x, y, z], recon.points[0], rtol=1e-6)
+    assert [r, g, b] == recon.colors[0].tolist()
+
+
+def test_camera_centres_and_bounds():
+    recon = sample(num_points=3, views=2)
+    recon.extrinsics[0] = np.hstack([np.eye(3), [[-1.0], [-2.0], [-3.0]]])
+    np.testing.assert_allclose(recon.camera_centers()[0], [1.0, 2.0, 3.0])
+    low, high = recon.bounds()  # the unregistered (NaN) camera is left out
+    assert np.all(np.isfinite(low)) and np.all(np.isfinite(high))
+    assert np.all(low <= [1.0, 2.0, 3.0]) and np.all(high >= [1.0, 2.0, 3.0])
