@@ -47,6 +47,8 @@ def show_solution(result: SolveResponse, saved_images: list[Path]) -> None:
     console.print(Panel(clue, title="clue", expand=False))
     for path in saved_images:
         console.print(f"clue image: {path}")
+    for note in result.clue.notes:
+        console.print(f"[yellow]note:[/] {note}")
     if result.answer:
         console.print(f"[bold green]answer: {result.answer}[/]")
     else:

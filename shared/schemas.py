@@ -140,6 +140,9 @@ class AttemptRecord(_Model):
 class Clue(_Model):
     text: str | None = None
     images: list[str] = Field(default_factory=list, description="Rendered views as base64 PNG.")
+    notes: list[str] = Field(
+        default_factory=list, description="What the service noticed about the clue, e.g. an empty view."
+    )
 
 
 class SolveTimings(_Model):

@@ -132,6 +132,9 @@ def test_offline_image_clue_gives_no_answer_with_a_reason(offline_agent, scene_i
     assert "turn_around" in result.program and len(result.clue.images) >= 1
     picture = Image.open(io.BytesIO(base64.b64decode(result.clue.images[0])))
     assert picture.format == "PNG" and min(picture.size) >= 16
+    # Nothing behind view 1 was photographed: the view is blank and the response says why.
+    drawn = np.mean(np.any(np.asarray(picture.convert("RGB")) != 255, axis=2))
+    assert (drawn < 0.05) == any("not seen in the input images" in note for note in result.clue.notes)
 
 
 def test_solve_with_uploaded_images_multipart(offline_agent, views):
@@ -241,3 +244,14 @@ def test_recon_errors_pass_through_with_their_message(offline_agent, scene_id):
         and "nerf" in error.value.message
         and "classical" in error.value.message
     )
+
+
+def test_coverage_notes_flag_blank_views_only():
+    from services.agent.pipeline import coverage_notes
+    from shared.imaging import encode_image
+
+    blank = np.full((64, 64, 3), 255, np.uint8)
+    drawn = blank.copy()
+    drawn[16:48, 16:48] = (90, 60, 30)
+    notes = coverage_notes([encode_image(drawn), encode_image(blank)])
+    assert len(notes) == 1 and notes[0].startswith("Rendered view 2 shows almost nothing (0% of it drawn)")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import base64
+import io
 import logging
 import time
 from dataclasses import dataclass, field
@@ -26,6 +27,28 @@ log = logging.getLogger("pyspatial.agent")
 OFFLINE_PLANNER = "offline-planner"
 OFFLINE_ANSWERER = "offline-answerer"
 ANSWER_IMAGE_SIDE = 1024  # images shown to the answer model are downscaled to this longest side
+
+
+EMPTY_VIEW_COVERAGE = 0.05  # a rendered view with less of its area drawn than this "shows nothing"
+
+
+def coverage_notes(clue_images: list[bytes]) -> list[str]:
+    """Say which rendered views are (nearly) empty.
+
+    Novel views are rendered on white; where the reconstruction has no points (a direction no
+    input photo looked at) the view stays blank. Saying so keeps an answer model from reading
+    meaning into an empty picture.
+    """
+    notes = []
+    for index, png in enumerate(clue_images, start=1):
+        rgb = np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
+        drawn = float(np.mean(np.any(rgb != 255, axis=2)))
+        if drawn < EMPTY_VIEW_COVERAGE:
+            notes.append(
+                f"Rendered view {index} shows almost nothing ({drawn:.0%} of it drawn): that direction "
+                "was not seen in the input images, so the reconstruction has no points there."
+            )
+    return notes
 
 
 class SolveError(Exception):
@@ -129,6 +152,7 @@ class SolvePipeline:
         codegen_ms = (time.perf_counter() - codegen_started - stage.execution_s) * 1e3
 
         result = stage.last if program is not None else None
+        notes = coverage_notes(result.clue_images) if result is not None and result.ok else []
         answer_started = time.perf_counter()
         if result is None or not result.ok:
             failure = attempts[-1].error if attempts else "no program was produced"
@@ -140,8 +164,9 @@ class SolvePipeline:
                 reason=f"no program ran successfully: {failure}",
             )
         elif self.answer_client is not None:
+            clue_text = "\n".join(filter(None, [result.clue_text, *notes])) or None
             answer = answer_with_model(
-                self.answer_client, question, input_pngs, program, result.clue_text, result.clue_images
+                self.answer_client, question, input_pngs, program, clue_text, result.clue_images
             )
         else:
             answer = answer_offline(question, result.clue_text, result.clue_images)
@@ -152,6 +177,7 @@ class SolvePipeline:
             clue = Clue(
                 text=result.clue_text,
                 images=[base64.b64encode(png).decode("ascii") for png in result.clue_images],
+                notes=notes,
             )
         return SolveResponse(
             answer=answer.answer,
