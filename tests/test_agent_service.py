@@ -87,7 +87,11 @@ def scene_id(recon, views) -> str:
 
 @pytest.fixture(scope="module")
 def offline_agent(recon):
-    env = {"PYSPATIAL_RECON_URL": recon.url, "PYSPATIAL_SANDBOX_WALL_S": "20"}
+    env = {
+        "PYSPATIAL_RECON_URL": recon.url,
+        "PYSPATIAL_SANDBOX_WALL_S": "20",
+        "PYSPATIAL_MAX_REQUEST_BYTES": "5000000",
+    }
     with running_service(AGENT_APP, env) as service:
         yield service
 
@@ -255,3 +259,16 @@ def test_coverage_notes_flag_blank_views_only():
     drawn[16:48, 16:48] = (90, 60, 30)
     notes = coverage_notes([encode_image(drawn), encode_image(blank)])
     assert len(notes) == 1 and notes[0].startswith("Rendered view 2 shows almost nothing (0% of it drawn)")
+
+
+def test_chunked_solve_body_over_the_limit_is_refused(offline_agent):
+    def stream():  # no Content-Length: the service has to count
+        yield b'{"question": "which way?", "images": ["'
+        for _ in range(60):
+            yield b"A" * 100_000
+        yield b'"]}'
+
+    response = httpx.post(
+        offline_agent.url + "/v1/solve", content=stream(), headers={"content-type": "application/json"}
+    )
+    assert response.status_code == 413 and "limit" in response.json()["detail"]

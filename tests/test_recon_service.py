@@ -30,6 +30,7 @@ def service_env(tmp_path, redis_url: str | None, **extra: str) -> dict[str, str]
         "PYSPATIAL_BACKBONE": "posed-rgbd",
         "PYSPATIAL_MAX_IMAGES": "6",
         "PYSPATIAL_MAX_IMAGE_BYTES": "2000000",
+        "PYSPATIAL_MAX_REQUEST_BYTES": "5000000",
         "REDIS_URL": redis_url or "",
         **extra,
     }
@@ -339,3 +340,17 @@ def test_redis_outage_keeps_serving_and_catches_up(tmp_path, views):
             assert len(stored) == 1  # the entry computed during the outage was written back
     finally:
         own_redis.stop()
+
+
+def test_chunked_body_over_the_limit_is_refused(recon):
+    def stream():  # no Content-Length: the service has to count
+        yield b'{"images": ["'
+        for _ in range(60):
+            yield b"A" * 100_000
+        yield b'"]}'
+
+    response = httpx.post(
+        recon.url + "/v1/scenes", content=stream(), headers={"content-type": "application/json"}
+    )
+    assert response.status_code == 413 and "limit" in response.json()["detail"]
+    assert httpx.get(recon.url + "/healthz").status_code == 200

@@ -14,6 +14,7 @@ from starlette.datastructures import UploadFile
 from services.agent.llm import LLMError
 from services.agent.pipeline import SolveError, SolvePipeline
 from shared.client import ServiceError, ServiceUnreachable
+from shared.http_bodies import BodyTooLarge, read_body_limited
 from shared.imaging import ImageError, decode_base64
 from shared.schemas import SolveRequest, SolveResponse
 from shared.settings import AgentSettings
@@ -69,6 +70,10 @@ def create_app(settings: AgentSettings | None = None) -> FastAPI:
     async def solve_error(_: Request, error: SolveError) -> JSONResponse:
         return JSONResponse({"detail": error.message}, status_code=error.status_code)
 
+    @app.exception_handler(BodyTooLarge)
+    async def body_too_large(_: Request, error: BodyTooLarge) -> JSONResponse:
+        return JSONResponse({"detail": str(error)}, status_code=413)
+
     @app.exception_handler(ImageError)
     async def image_error(_: Request, error: ImageError) -> JSONResponse:
         return JSONResponse({"detail": str(error)}, status_code=400)
@@ -123,7 +128,9 @@ async def _read_solve_request(request: Request, settings: AgentSettings) -> Solv
     content_type = request.headers.get("content-type", "")
     try:
         if content_type.startswith("application/json"):
-            return SolveRequest.model_validate_json(await request.body())
+            return SolveRequest.model_validate_json(
+                await read_body_limited(request, settings.max_request_bytes)
+            )
         if content_type.startswith("multipart/form-data"):
             return await _read_multipart(request, settings)
     except ValidationError as error:

@@ -17,6 +17,7 @@ from services.recon.backbones import available_backbones
 from services.recon.errors import InvalidInput, PayloadTooLarge, ReconServiceError
 from services.recon.scene_store import SceneInput
 from services.recon.service import ReconService
+from shared.http_bodies import BodyTooLarge, read_body_limited
 from shared.imaging import ImageError, decode_base64, media_type
 from shared.poses import estimate_up_axis
 from shared.reconstruction import Reconstruction
@@ -93,6 +94,10 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
     @app.exception_handler(ReconServiceError)
     async def service_error(_: Request, error: ReconServiceError) -> JSONResponse:
         return JSONResponse({"detail": error.message}, status_code=error.status_code)
+
+    @app.exception_handler(BodyTooLarge)
+    async def body_too_large(_: Request, error: BodyTooLarge) -> JSONResponse:
+        return JSONResponse({"detail": str(error)}, status_code=413)
 
     @app.exception_handler(ImageError)
     async def image_error(_: Request, error: ImageError) -> JSONResponse:
@@ -261,7 +266,7 @@ async def _read_scene_upload(request: Request, service: ReconService) -> SceneIn
     if content_type.startswith("multipart/form-data"):
         return await _read_multipart(request, service)
     if content_type.startswith("application/json"):
-        body = await _read_limited(request, settings.max_request_bytes)
+        body = await read_body_limited(request, settings.max_request_bytes)
         try:
             upload = SceneUpload.model_validate_json(body)
         except ValidationError as error:
@@ -339,16 +344,6 @@ def _load_npy(data: bytes, label: str) -> np.ndarray:
     if not np.issubdtype(array.dtype, np.number):
         raise InvalidInput(f"{label} must be numeric, got {array.dtype}")
     return array.astype(np.float32)
-
-
-async def _read_limited(request: Request, limit: int) -> bytes:
-    chunks, size = [], 0
-    async for chunk in request.stream():
-        size += len(chunk)
-        if size > limit:
-            raise PayloadTooLarge(f"request body exceeds the limit of {limit} bytes")
-        chunks.append(chunk)
-    return b"".join(chunks)
 
 
 def _first_error(error: ValidationError) -> str:
