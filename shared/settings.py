@@ -40,6 +40,9 @@ class ReconSettings(_Settings):
     max_request_bytes: int = Field(300 * 2**20, ge=1024, description="Largest upload request body.")
     max_render_side: int = Field(2048, ge=16, description="Largest rendered image side.")
     reconstruct_workers: int = Field(1, ge=1, description="Reconstructions run at once (CPU/GPU bound).")
+    reconstruct_lease_s: int = Field(
+        900, ge=5, description="Longest a replica may hold a reconstruction lease (crash recovery)."
+    )
 
 
 class AgentSettings(_Settings):

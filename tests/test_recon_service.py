@@ -354,3 +354,36 @@ def test_chunked_body_over_the_limit_is_refused(recon):
     )
     assert response.status_code == 413 and "limit" in response.json()["detail"]
     assert httpx.get(recon.url + "/healthz").status_code == 200
+
+
+def test_replicas_sharing_redis_reconstruct_once(tmp_path, redis_url, views):
+    """Two recon processes on one Redis and one data volume (as replicas would be deployed)."""
+    env = service_env(tmp_path, redis_url)
+    with running_service(APP, env) as first, running_service(APP, env) as second:
+        noisy = [
+            np.clip(im.astype(int) + np.random.default_rng(11).integers(-3, 4, im.shape), 0, 255).astype(
+                np.uint8
+            )
+            for im in views.images
+        ]
+        with ReconClient(first.url) as client:
+            scene_id = client.upload_scene([_png(im) for im in noisy]).scene_id
+
+        async def main() -> list[ReconstructionSummary]:
+            async with httpx.AsyncClient(timeout=120) as http:
+                responses = await asyncio.gather(
+                    *[
+                        http.post(f"{url}/v1/scenes/{scene_id}/reconstruct", json={"backbone": "classical"})
+                        for url in (first.url, second.url, first.url, second.url)
+                    ]
+                )
+            return [ReconstructionSummary.model_validate(r.json()) for r in responses]
+
+        summaries = asyncio.run(main())
+    computed = [s for s in summaries if not s.cached and not s.joined_in_flight]
+    assert len(computed) == 1, [(s.cached, s.joined_in_flight) for s in summaries]
+    assert len({s.num_points for s in summaries}) == 1
+    leases = redis.Redis.from_url(redis_url).keys(
+        f"pyspatial:{env['PYSPATIAL_CACHE_NAMESPACE']}:recon:lease:*"
+    )
+    assert leases == []  # released after use

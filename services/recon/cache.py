@@ -9,6 +9,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
+import uuid
 from collections import OrderedDict
 
 import redis
@@ -17,6 +18,10 @@ from redis import asyncio as aioredis
 log = logging.getLogger("pyspatial.recon.cache")
 
 RETRY_AFTER_FAILURE_S = 2.0  # don't hammer a dead Redis on every request
+LOCAL_LEASE = "local"  # granted without Redis: nobody else to coordinate with
+_RELEASE_IF_OWNER = (
+    "if redis.call('get', KEYS[1]) == ARGV[1] then return redis.call('del', KEYS[1]) end return 0"
+)
 
 
 class MemoryLRU:
@@ -124,6 +129,32 @@ class ReconstructionCache:
             await self._recovered()
         except (redis.RedisError, OSError) as error:
             self._pending.add(key)
+            self._failed(error)
+
+    # ---- leases: one reconstruction per key across every replica sharing this Redis ----------
+
+    async def acquire_lease(self, key: str, ttl_s: int) -> str | None:
+        """A token when this process may compute `key`; None when another replica holds the lease.
+
+        Without Redis (or while it is down) there is nobody to coordinate with: the lease is
+        granted locally (token LOCAL_LEASE). The TTL bounds how long a crashed holder blocks others.
+        """
+        if not self._available():
+            return LOCAL_LEASE
+        token = uuid.uuid4().hex
+        try:
+            acquired = await self._redis.set(self.key_prefix + "lease:" + key, token, nx=True, ex=ttl_s)
+        except (redis.RedisError, OSError) as error:
+            self._failed(error)
+            return LOCAL_LEASE
+        return token if acquired else None
+
+    async def release_lease(self, key: str, token: str) -> None:
+        if token == LOCAL_LEASE or not self._available():
+            return
+        try:  # delete only our own lease: it may have expired and been taken by another replica
+            await self._redis.eval(_RELEASE_IF_OWNER, 1, self.key_prefix + "lease:" + key, token)
+        except (redis.RedisError, OSError) as error:
             self._failed(error)
 
     async def check(self) -> str:

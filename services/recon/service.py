@@ -25,6 +25,8 @@ from shared.settings import ReconSettings
 
 log = logging.getLogger("pyspatial.recon")
 
+LEASE_POLL_S = 0.25  # how often a replica waiting on another's reconstruction looks for the result
+
 
 @dataclass
 class ReconstructOutcome:
@@ -48,6 +50,7 @@ class ReconService:
         self._backbone_errors: dict[str, str] = {}
         self._backbone_lock = threading.Lock()
         self._in_flight: dict[str, asyncio.Future] = {}
+        self._leases: dict[str, str] = {}  # key -> token of the cross-replica lease we hold
         self._decoded: OrderedDict[str, Reconstruction] = OrderedDict()  # a few hot scenes, deserialized
         self._limiter = anyio.CapacityLimiter(settings.reconstruct_workers)
 
@@ -130,8 +133,17 @@ class ReconService:
         future: asyncio.Future = asyncio.get_running_loop().create_future()
         self._in_flight[key] = future
         try:
-            reconstruction, timings = await self._run_backbone(scene_id, backbone)
-            await self.cache.set(key, reconstruction.to_bytes())
+            waited = await self._lease_or_result(key)
+            if waited is not None:  # another replica computed it while we waited
+                self._remember(key, waited)
+                timings = {"waited_ms": _ms(started)}
+                future.set_result((waited, timings))
+                return ReconstructOutcome(waited, False, True, timings)
+            try:
+                reconstruction, timings = await self._run_backbone(scene_id, backbone)
+                await self.cache.set(key, reconstruction.to_bytes())
+            finally:
+                await self.cache.release_lease(key, self._leases.pop(key))
             self._remember(key, reconstruction)
             future.set_result((reconstruction, timings))
         except asyncio.CancelledError:
@@ -144,6 +156,18 @@ class ReconService:
         finally:
             del self._in_flight[key]
         return ReconstructOutcome(reconstruction, False, False, {**timings, "total_ms": _ms(started)})
+
+    async def _lease_or_result(self, key: str) -> Reconstruction | None:
+        """Take the cross-replica lease on `key` (None), or wait for its holder's result."""
+        while True:
+            token = await self.cache.acquire_lease(key, self.settings.reconstruct_lease_s)
+            if token is not None:
+                self._leases[key] = token
+                return None
+            await asyncio.sleep(LEASE_POLL_S)
+            payload = await self.cache.get(key)
+            if payload is not None:
+                return Reconstruction.from_bytes(payload)
 
     async def _run_backbone(
         self, scene_id: str, backbone: Backbone
