@@ -117,3 +117,13 @@ def test_readme_documents_every_setting():
         assert f"`{variable}`" in readme, f"README.md does not mention {variable}"
     for row in settings_table.table().splitlines():
         assert row in readme, f"README's Configuration is stale (run scripts/settings_table.py): {row}"
+
+
+def test_gpu_service_builds_the_cuda_torch():
+    compose = yaml.safe_load((REPO_ROOT / "docker-compose.yml").read_text())
+    gpu = compose["services"]["recon-gpu"]
+    assert gpu["build"]["args"]["TORCH_VARIANT"] == "cuda"
+    assert gpu["deploy"]["resources"]["reservations"]["devices"][0]["driver"] == "nvidia"
+    assert "TORCH_VARIANT" not in str(compose["services"]["recon"].get("build", {}).get("args", {}))
+    dockerfile = (REPO_ROOT / "services" / "recon" / "Dockerfile").read_text()
+    assert "ARG TORCH_VARIANT=cpu" in dockerfile and '"$TORCH_VARIANT" = "cuda"' in dockerfile
