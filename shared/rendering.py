@@ -8,6 +8,17 @@ go to the lower index, so the result does not depend on write order.
 Splats are squares of `side` pixels. A radius r gives side = max(1, round(2 r)); the square covers
 offsets -(side-1)//2 .. side//2 around the point's pixel (pixel index = floor(u + 0.5), the integer
 pixel convention of docs/ARCHITECTURE.md).
+
+Crack filling (optional, on by default in `synthesize_novel_view`) closes pinholes where the splats of
+neighbouring points do not quite meet. An empty pixel is filled when at least CRACK_MIN_NEIGHBOURS of
+its 8 neighbours are drawn, two of them on opposite sides of it (left and right, above and below, or
+diagonally; 5 drawn always include such a pair), and the drawn neighbours' points lie within
+CRACK_DEPTH_TOLERANCE of each other in depth (one surface: no silhouette, no depth step). It takes
+the key of its nearest neighbour (smallest key: the z-test's winner). CRACK_PASSES passes, each
+computed from the previous one's buffer. A filled pixel lies between two drawn ones, so a straight or
+convex outline never grows and a concave corner gains at most one pixel per pass; a large empty
+region keeps everything but its corners. Only empty pixels are filled: a crack through which a
+farther surface was drawn keeps that surface.
 """
 
 from __future__ import annotations
@@ -27,6 +38,13 @@ SPLAT_MARGIN = 1.25
 SPLAT_SLACK = SPLAT_MARGIN - 1.0 + 0.01
 # 2**16 units in the last place of a float32 depth is about 0.8% of the depth.
 OFFSET_DEPTH_PENALTY_ULPS = 2**16
+# Crack filling: drawn neighbours (of 8) an empty pixel needs, the largest relative depth spread
+# (farthest / nearest - 1) of their points, and the number of passes. Two passes close one-pixel
+# cracks, their crossings (second pass) and holes up to 2x2; a 3x3 hole keeps its centre and cracks
+# two pixels wide stay (automatic splat sizes keep those from appearing).
+CRACK_MIN_NEIGHBOURS = 4
+CRACK_DEPTH_TOLERANCE = 0.05
+CRACK_PASSES = 2
 _EMPTY = np.iinfo(np.int64).max
 _INDEX_MASK = np.int64(0xFFFFFFFF)
 
@@ -86,6 +104,45 @@ def _square_offsets(side: int, row_stride: int) -> tuple[np.ndarray, np.ndarray]
     return offsets, (distance * OFFSET_DEPTH_PENALTY_ULPS) << 32
 
 
+def _fill_cracks(buffer: np.ndarray, depth: np.ndarray, height: int, width: int, pad: int) -> None:
+    """Fill small holes of the padded (rows, row_stride) key buffer in place (see the module doc).
+
+    The one-pixel ring around the image lies inside the padding and holds the points projecting
+    just outside it, so border pixels see true neighbours. Candidates come from a uint8 count of
+    drawn neighbours over shifted slices; only they gather their 8 neighbour keys.
+    """
+    row_stride = buffer.shape[1]
+    flat = buffer.reshape(-1)
+    rows, columns = np.mgrid[-1:2, -1:2]
+    ring = (rows * row_stride + columns).ravel()
+    ring = ring[ring != 0]
+    window = (slice(pad - 1, pad + height + 1), slice(pad - 1, pad + width + 1))
+    for _ in range(CRACK_PASSES):
+        drawn = (buffer[window] != _EMPTY).view(np.uint8)
+        count = np.zeros((height, width), dtype=np.uint8)
+        for row in range(3):
+            for column in range(3):
+                if row != 1 or column != 1:
+                    count += drawn[row : row + height, column : column + width]
+        candidate = (count >= CRACK_MIN_NEIGHBOURS) & (drawn[1:-1, 1:-1] == 0)
+        local = np.flatnonzero(candidate)
+        if len(local) == 0:
+            return
+        at = (local // width + pad) * row_stride + (local % width + pad)
+        # (8, candidates): reductions over the 8 neighbours run as element-wise operations on rows.
+        keys = flat[ring[:, None] + at[None, :]]
+        hit = keys != _EMPTY
+        # Ring order is row-major without the centre, so neighbour k faces neighbour 7 - k.
+        sandwiched = np.any(hit & hit[::-1], axis=0)
+        nearest = keys.min(axis=0)
+        farthest = np.where(hit, keys, 0).max(axis=0)
+        # The z-test's choice of nearest and farthest neighbour; their points' true depths for the
+        # spread (key depth bits carry the splat-offset penalty).
+        near_depth, far_depth = depth[nearest & _INDEX_MASK], depth[farthest & _INDEX_MASK]
+        fill = sandwiched & (far_depth <= near_depth * np.float32(1.0 + CRACK_DEPTH_TOLERANCE))
+        flat[at[fill]] = nearest[fill]
+
+
 def _packed_z_buffer(
     points: np.ndarray,
     extrinsic: np.ndarray,
@@ -94,6 +151,7 @@ def _packed_z_buffer(
     height: int,
     point_radius_px: float | np.ndarray | None,
     point_spacing: float | np.ndarray | None,
+    fill_cracks: bool = False,
 ) -> np.ndarray:
     """(height, width) int64 view: per pixel the packed (depth bits, point index) key of the winner."""
     cloud = np.asarray(points)
@@ -138,7 +196,10 @@ def _packed_z_buffer(
         offsets, penalties = _square_offsets(int(side), row_stride)
         targets = (pixel[members][:, None] + offsets[None, :]).ravel()
         np.minimum.at(buffer, targets, (keys[members][:, None] + penalties[None, :]).ravel())
-    return buffer.reshape(height + 2 * pad, row_stride)[pad : pad + height, pad : pad + width]
+    buffer = buffer.reshape(height + 2 * pad, row_stride)
+    if fill_cracks:
+        _fill_cracks(buffer, depth, height, width, pad)
+    return buffer[pad : pad + height, pad : pad + width]
 
 
 def rasterize_points(
@@ -149,15 +210,19 @@ def rasterize_points(
     height: int,
     point_radius_px: float | np.ndarray | None = None,
     point_spacing: float | np.ndarray | None = None,
+    fill_cracks: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Per pixel, the index of the nearest splat's point (-1 if none) and its z-depth (inf if none).
 
     Splat size, first that applies: `point_radius_px` (number or one per point); `point_spacing`
     (world distance between neighbouring samples, number or per point): the side is the spacing
     projected at the point's depth p = f * spacing / z, side = ceil(SPLAT_MARGIN * p - SPLAT_SLACK);
-    else one pixel.
+    else one pixel. With `fill_cracks`, small holes inside a surface take the index and depth of
+    their nearest drawn neighbour (see the module doc).
     """
-    packed = _packed_z_buffer(points, extrinsic, intrinsic, width, height, point_radius_px, point_spacing)
+    packed = _packed_z_buffer(
+        points, extrinsic, intrinsic, width, height, point_radius_px, point_spacing, fill_cracks
+    )
     hit = packed != _EMPTY
     index = np.where(hit, packed & _INDEX_MASK, -1)
     z_buffer = np.full((height, width), np.inf, dtype=np.float32)
@@ -175,16 +240,20 @@ def render_point_cloud(
     point_radius_px: float | np.ndarray | None = None,
     background: tuple[int, int, int] = (255, 255, 255),
     point_spacing: float | np.ndarray | None = None,
+    fill_cracks: bool = False,
 ) -> np.ndarray:
     """(height, width, 3) uint8 image of coloured points; the nearest point wins each pixel.
 
-    Splat sizes as in `rasterize_points`; without radius or spacing every point is one pixel.
+    Splat sizes and `fill_cracks` as in `rasterize_points`; without radius or spacing every point
+    is one pixel.
     """
     count = len(np.asarray(points))
     palette = np.asarray(colors)
     if palette.shape != (count, 3):
         raise ValueError(f"colors must be (N, 3) for {count} points, got {palette.shape}")
-    packed = _packed_z_buffer(points, extrinsic, intrinsic, width, height, point_radius_px, point_spacing)
+    packed = _packed_z_buffer(
+        points, extrinsic, intrinsic, width, height, point_radius_px, point_spacing, fill_cracks
+    )
     # Empty pixels index one extra palette row holding the background: a single gather.
     index = np.where(packed != _EMPTY, packed & _INDEX_MASK, count)
     with_background = np.concatenate([palette.astype(np.uint8, copy=False), [background]]).astype(np.uint8)
@@ -265,11 +334,14 @@ def synthesize_novel_view(
     height: int = 512,
     zoom_out: float = 0.5,
     point_radius_px: float | None = None,
+    fill_cracks: bool = True,
 ) -> np.ndarray:
     """Render the reconstruction's points from `extrinsic` on white; splats sized per point.
 
     Without `point_radius_px` each point's splat covers its `sample_spacing` projected into this
     view, so surfaces stay closed when the camera moves closer than the input views were.
+    `fill_cracks` closes the pinholes that remain where neighbouring splats do not quite meet,
+    without growing silhouettes or empty regions (see the module doc).
     """
     intrinsic = novel_view_intrinsic(recon, width, height, zoom_out)
     spacing = None if point_radius_px is not None else sample_spacing(recon)
@@ -282,6 +354,7 @@ def synthesize_novel_view(
         height,
         point_radius_px=point_radius_px,
         point_spacing=spacing,
+        fill_cracks=fill_cracks,
     )
 
 
