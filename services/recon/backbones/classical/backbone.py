@@ -52,7 +52,7 @@ class _PreparedView:
 
 class ClassicalBackbone(Backbone):
     name = "classical"
-    version = "1"
+    version = "2"
 
     def __init__(
         self,

@@ -2,8 +2,19 @@
 
 SIFT (RootSIFT-normalized) is the default: it is in OpenCV's main module and matches across the
 large viewpoint and scale changes of a few hand-held photos. ORB is the fallback for builds
-without SIFT, or when asked for. Matches pass Lowe's ratio test in both directions and must be
-mutual nearest neighbours, which removes most repeated-texture confusions before RANSAC.
+without SIFT, or when asked for.
+
+Affine simulation (after ASIFT): SIFT tolerates a foreshortening ("tilt") of about 2 between two
+views of a surface. Walking around an object changes the floor's foreshortening direction by 90
+degrees, a tilt of 4 or more between views, and plain SIFT then finds only a handful of correct
+matches. So features are also detected on the image compressed horizontally by each factor in
+TILTS (anti-aliased first), which views the floor and other receding surfaces as if from higher
+up; their positions are mapped back to the original pixels. A keypoint found again at (nearly)
+the same place in a simulated view is the same keypoint with one more descriptor.
+
+Matches pass Lowe's ratio test in both directions and must be mutual nearest neighbours, which
+removes most repeated-texture confusions before RANSAC. Descriptors of one keypoint never compete
+with each other in the ratio test: the runner-up must belong to another keypoint.
 """
 
 from __future__ import annotations
@@ -14,12 +25,16 @@ import cv2
 import numpy as np
 
 RATIO = 0.8  # Lowe's ratio: best match must be clearly better than the second best
+TILTS = (2.0,)  # horizontal compressions simulated besides the image itself
+MERGE_PX = 1.5  # a simulated-view keypoint this close to a kept one is that keypoint
+NEIGHBOURS = 4  # candidates examined per descriptor to find a runner-up from another keypoint
 
 
 @dataclass(frozen=True)
 class ViewFeatures:
     keypoints: np.ndarray  # (N, 2) float64 pixel positions in the working image
-    descriptors: np.ndarray  # (N, D) float32 (SIFT) or uint8 (ORB)
+    descriptors: np.ndarray  # (M, D) float32 (SIFT) or uint8 (ORB), M >= N
+    owners: np.ndarray  # (M,) int64: the keypoint each descriptor describes
     kind: str  # "sift" or "orb"
 
     def __len__(self) -> int:
@@ -31,24 +46,59 @@ def sift_available() -> bool:
 
 
 def detect_features(gray: np.ndarray, max_features: int, kind: str = "sift") -> ViewFeatures:
-    """Keypoints and descriptors of a uint8 grayscale image."""
-    if kind == "sift" and sift_available():
+    """Keypoints and descriptors of a uint8 grayscale image and of its simulated tilts."""
+    kind = "sift" if kind == "sift" and sift_available() else "orb"
+    positions, descriptors = _detect(gray, max_features, kind)
+    owners = np.arange(len(positions), dtype=np.int64)
+    for tilt in TILTS:
+        compressed, x_scale = _compress_horizontally(gray, tilt)
+        tilted_positions, tilted_descriptors = _detect(compressed, max_features // 2, kind)
+        if len(tilted_positions) == 0:
+            continue
+        # Map back with pixel centres aligned (the cv2.resize pixel-area model).
+        tilted_positions[:, 0] = (tilted_positions[:, 0] + 0.5) * x_scale - 0.5
+        tilted_owners, positions = _merge_keypoints(positions, tilted_positions)
+        descriptors = np.concatenate([descriptors, tilted_descriptors])
+        owners = np.concatenate([owners, tilted_owners])
+    return ViewFeatures(positions, descriptors, owners, kind)
+
+
+def _detect(gray: np.ndarray, max_features: int, kind: str) -> tuple[np.ndarray, np.ndarray]:
+    if kind == "sift":
         # A lower contrast threshold than OpenCV's 0.04 keeps features on the soft textures of
         # indoor walls and furniture; the ratio test and RANSAC reject what is unreliable.
         detector = cv2.SIFT_create(nfeatures=max_features, contrastThreshold=0.02)
-        keypoints, descriptors = detector.detectAndCompute(gray, None)
-        kind = "sift"
-        if descriptors is not None:
-            descriptors = _root_sift(descriptors)
     else:
         detector = cv2.ORB_create(nfeatures=max_features, fastThreshold=10)
-        keypoints, descriptors = detector.detectAndCompute(gray, None)
-        kind = "orb"
+    keypoints, descriptors = detector.detectAndCompute(gray, None)
     if descriptors is None or len(keypoints) == 0:
-        empty = np.zeros((0, 128 if kind == "sift" else 32), np.float32 if kind == "sift" else np.uint8)
-        return ViewFeatures(np.zeros((0, 2)), empty, kind)
-    positions = np.array([keypoint.pt for keypoint in keypoints], dtype=np.float64)
-    return ViewFeatures(positions, descriptors, kind)
+        width = 128 if kind == "sift" else 32
+        return np.zeros((0, 2)), np.zeros((0, width), np.float32 if kind == "sift" else np.uint8)
+    if kind == "sift":
+        descriptors = _root_sift(descriptors)
+    return np.array([keypoint.pt for keypoint in keypoints], dtype=np.float64), descriptors
+
+
+def _compress_horizontally(gray: np.ndarray, tilt: float) -> tuple[np.ndarray, float]:
+    """The image shrunk horizontally by `tilt`, and the factor that maps its x back."""
+    sigma = 0.8 * np.sqrt(tilt * tilt - 1.0)  # ASIFT's anti-aliasing before subsampling
+    blurred = cv2.GaussianBlur(gray, (0, 0), sigmaX=sigma, sigmaY=1e-3)
+    width = max(1, int(round(gray.shape[1] / tilt)))
+    compressed = cv2.resize(blurred, (width, gray.shape[0]), interpolation=cv2.INTER_LINEAR)
+    return compressed, gray.shape[1] / width
+
+
+def _merge_keypoints(kept: np.ndarray, new: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Owners of the new positions (a kept keypoint within MERGE_PX, else a new one) and all keypoints."""
+    owners = np.full(len(new), -1, dtype=np.int64)
+    if len(kept):
+        nearest = cv2.BFMatcher(cv2.NORM_L2).match(new.astype(np.float32), kept.astype(np.float32))
+        for match in nearest:
+            if match.distance < MERGE_PX:
+                owners[match.queryIdx] = match.trainIdx
+    fresh = owners < 0
+    owners[fresh] = len(kept) + np.arange(int(fresh.sum()))
+    return owners, np.concatenate([kept, new[fresh]])
 
 
 def _root_sift(descriptors: np.ndarray) -> np.ndarray:
@@ -58,23 +108,32 @@ def _root_sift(descriptors: np.ndarray) -> np.ndarray:
 
 
 def match_features(first: ViewFeatures, second: ViewFeatures) -> np.ndarray:
-    """(M, 2) index pairs (into first, into second) of mutual, ratio-tested nearest neighbours."""
+    """(M, 2) keypoint index pairs (into first, into second) of mutual, ratio-tested nearest neighbours."""
     if len(first) < 2 or len(second) < 2:
         return np.zeros((0, 2), dtype=np.int64)
-    norm = cv2.NORM_L2 if first.kind == "sift" else cv2.NORM_HAMMING
-    matcher = cv2.BFMatcher(norm)
-    forward = _ratio_matches(matcher, first.descriptors, second.descriptors)
-    backward = _ratio_matches(matcher, second.descriptors, first.descriptors)
-    back_lookup = dict(backward)
-    mutual = [(i, j) for i, j in forward if back_lookup.get(j) == i]
+    matcher = cv2.BFMatcher(cv2.NORM_L2 if first.kind == "sift" else cv2.NORM_HAMMING)
+    forward = _best_keypoint_matches(matcher, first, second)
+    backward = _best_keypoint_matches(matcher, second, first)
+    mutual = [(i, j) for i, (j, _) in forward.items() if backward.get(j, (-1, 0.0))[0] == i]
     if not mutual:
         return np.zeros((0, 2), dtype=np.int64)
-    return np.array(mutual, dtype=np.int64)
+    return np.array(sorted(mutual), dtype=np.int64)
 
 
-def _ratio_matches(matcher: cv2.BFMatcher, query: np.ndarray, train: np.ndarray) -> list[tuple[int, int]]:
-    pairs = []
-    for candidates in matcher.knnMatch(query, train, k=2):
-        if len(candidates) == 2 and candidates[0].distance < RATIO * candidates[1].distance:
-            pairs.append((candidates[0].queryIdx, candidates[0].trainIdx))
-    return pairs
+def _best_keypoint_matches(
+    matcher: cv2.DescriptorMatcher, query: ViewFeatures, train: ViewFeatures
+) -> dict[int, tuple[int, float]]:
+    """Per query keypoint: the train keypoint of its closest ratio-tested descriptor match."""
+    best: dict[int, tuple[int, float]] = {}
+    for candidates in matcher.knnMatch(query.descriptors, train.descriptors, k=NEIGHBOURS):
+        if not candidates:
+            continue
+        nearest = candidates[0]
+        owner = int(train.owners[nearest.trainIdx])
+        runner_up = next((c for c in candidates[1:] if train.owners[c.trainIdx] != owner), None)
+        if runner_up is None or nearest.distance >= RATIO * runner_up.distance:
+            continue
+        keypoint = int(query.owners[nearest.queryIdx])
+        if keypoint not in best or nearest.distance < best[keypoint][1]:
+            best[keypoint] = (owner, nearest.distance)
+    return best

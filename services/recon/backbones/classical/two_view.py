@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .geometry import bearings, closest_rotation, normalized_coordinates, rotation_between_bearings
+from .geometry import bearings, normalized_coordinates, rotation_between_bearings
 
 MIN_INLIERS = 15  # fewer inliers than this cannot tell a real pose from chance agreement
 ESSENTIAL_THRESHOLD_PX = 1.0  # epipolar distance, pixels
@@ -102,22 +102,24 @@ def _fit_rotation(
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """Rotation-only model: RANSAC homography in normalized coordinates, made a rotation."""
     focal = float(second_intrinsic[0, 0])
-    homography, _ = cv2.findHomography(n1, n2, cv2.RANSAC, ROTATION_THRESHOLD_PX / focal, maxIters=4000)
-    if homography is None:
+    homography, mask = cv2.findHomography(n1, n2, cv2.RANSAC, ROTATION_THRESHOLD_PX / focal, maxIters=4000)
+    if homography is None or mask is None:
         return None
     determinant = np.linalg.det(homography)
     if abs(determinant) < 1e-12:
         return None
-    rotation = closest_rotation(homography / np.cbrt(determinant))
     rays1 = bearings(first_pixels[matches[:, 0]], first_intrinsic)
     rays2 = bearings(second_pixels[matches[:, 1]], second_intrinsic)
-    inliers = np.zeros(len(matches), dtype=bool)
-    for _ in range(3):  # re-fit on the rays the rotation explains, then re-select them
-        inliers = _rotation_inliers(rotation, n1, second_pixels[matches[:, 1]], second_intrinsic)
+    # The nearest rotation to a noisy homography can be a degree off, pixels beyond the
+    # threshold everywhere: fit the rotation to the rays the homography explains instead.
+    inliers = mask.ravel() > 0
+    rotation = np.eye(3)
+    for _ in range(3):  # fit on the rays taken as inliers, then re-select them
         if inliers.sum() < 3:
             return None
         rotation = rotation_between_bearings(rays1[inliers], rays2[inliers])
-    return rotation, _rotation_inliers(rotation, n1, second_pixels[matches[:, 1]], second_intrinsic)
+        inliers = _rotation_inliers(rotation, n1, second_pixels[matches[:, 1]], second_intrinsic)
+    return rotation, inliers
 
 
 def _rotation_inliers(
