@@ -1,8 +1,12 @@
-"""Read request bodies without trusting the client about their size."""
+"""Request bodies and images from clients: size limits, and the HTTP errors both services give."""
 
 from __future__ import annotations
 
+from fastapi import FastAPI
+from fastapi.responses import JSONResponse
 from starlette.requests import Request
+
+from shared.imaging import ImageError
 
 
 class BodyTooLarge(ValueError):
@@ -24,3 +28,15 @@ async def read_body_limited(request: Request, limit: int) -> bytes:
             raise BodyTooLarge(f"request body exceeds the limit of {limit} bytes")
         chunks.append(chunk)
     return b"".join(chunks)
+
+
+def install_input_error_handlers(app: FastAPI) -> None:
+    """413 for bodies and images over a limit, 400 for images that cannot be read; the message kept."""
+
+    @app.exception_handler(BodyTooLarge)
+    async def body_too_large(_: Request, error: BodyTooLarge) -> JSONResponse:
+        return JSONResponse({"detail": str(error)}, status_code=413)
+
+    @app.exception_handler(ImageError)
+    async def image_error(_: Request, error: ImageError) -> JSONResponse:
+        return JSONResponse({"detail": str(error)}, status_code=413 if error.over_limit else 400)

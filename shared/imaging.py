@@ -14,18 +14,24 @@ from PIL import Image, UnidentifiedImageError
 class ImageError(ValueError):
     """An input image is unusable; the message says why and is safe to show a client."""
 
+    def __init__(self, message: str, over_limit: bool = False) -> None:
+        super().__init__(message)
+        self.over_limit = over_limit  # too many bytes or pixels (HTTP 413) rather than unreadable
+
 
 def decode_image(data: bytes, *, max_bytes: int, max_pixels: int, label: str = "image") -> np.ndarray:
     """Bytes of a PNG/JPEG/WebP/... file -> uint8 RGB (H, W, 3). Raises ImageError."""
     if not data:
         raise ImageError(f"{label} is empty")
     if len(data) > max_bytes:
-        raise ImageError(f"{label} is {len(data)} bytes; the limit is {max_bytes}")
+        raise ImageError(f"{label} is {len(data)} bytes; the limit is {max_bytes}", over_limit=True)
     try:
         with Image.open(io.BytesIO(data)) as probe:
             width, height = probe.size
             if width * height > max_pixels:
-                raise ImageError(f"{label} is {width}x{height} pixels; the limit is {max_pixels} pixels")
+                raise ImageError(
+                    f"{label} is {width}x{height} pixels; the limit is {max_pixels} pixels", over_limit=True
+                )
             with warnings.catch_warnings():
                 warnings.simplefilter("error", Image.DecompressionBombWarning)
                 probe.load()  # decodes fully: truncated files fail here

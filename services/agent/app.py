@@ -14,8 +14,8 @@ from starlette.datastructures import UploadFile
 from services.agent.llm import LLMError
 from services.agent.pipeline import SolveError, SolvePipeline
 from shared.client import ServiceError, ServiceUnreachable
-from shared.http_bodies import BodyTooLarge, read_body_limited
-from shared.imaging import ImageError, decode_base64
+from shared.http_bodies import install_input_error_handlers, read_body_limited
+from shared.imaging import decode_base64
 from shared.schemas import SolveRequest, SolveResponse
 from shared.settings import AgentSettings
 
@@ -70,13 +70,7 @@ def create_app(settings: AgentSettings | None = None) -> FastAPI:
     async def solve_error(_: Request, error: SolveError) -> JSONResponse:
         return JSONResponse({"detail": error.message}, status_code=error.status_code)
 
-    @app.exception_handler(BodyTooLarge)
-    async def body_too_large(_: Request, error: BodyTooLarge) -> JSONResponse:
-        return JSONResponse({"detail": str(error)}, status_code=413)
-
-    @app.exception_handler(ImageError)
-    async def image_error(_: Request, error: ImageError) -> JSONResponse:
-        return JSONResponse({"detail": str(error)}, status_code=400)
+    install_input_error_handlers(app)
 
     @app.exception_handler(ServiceError)
     async def recon_error(_: Request, error: ServiceError) -> JSONResponse:

@@ -17,8 +17,8 @@ from services.recon.backbones import available_backbones
 from services.recon.errors import InvalidInput, PayloadTooLarge, ReconServiceError
 from services.recon.scene_store import SceneInput
 from services.recon.service import ReconService
-from shared.http_bodies import BodyTooLarge, read_body_limited
-from shared.imaging import ImageError, decode_base64, media_type
+from shared.http_bodies import install_input_error_handlers, read_body_limited
+from shared.imaging import decode_base64, media_type
 from shared.poses import estimate_up_axis
 from shared.reconstruction import Reconstruction
 from shared.schemas import (
@@ -95,14 +95,7 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
     async def service_error(_: Request, error: ReconServiceError) -> JSONResponse:
         return JSONResponse({"detail": error.message}, status_code=error.status_code)
 
-    @app.exception_handler(BodyTooLarge)
-    async def body_too_large(_: Request, error: BodyTooLarge) -> JSONResponse:
-        return JSONResponse({"detail": str(error)}, status_code=413)
-
-    @app.exception_handler(ImageError)
-    async def image_error(_: Request, error: ImageError) -> JSONResponse:
-        status = 413 if "limit" in str(error) else 400
-        return JSONResponse({"detail": str(error)}, status_code=status)
+    install_input_error_handlers(app)
 
     @app.get("/v1/backbones", tags=["health"])
     async def backbones() -> dict:
