@@ -139,6 +139,7 @@ class VGGTBackbone(Backbone):
             depths=depths,
             depth_confidence=depth_confidence,
             warnings=warnings,
+            intrinsics_source=["predicted"] * len(placements),
         )
 
 
