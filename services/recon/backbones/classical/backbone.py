@@ -96,6 +96,8 @@ class ClassicalBackbone(Backbone):
         if len(images) < 2:
             raise BackboneError(f"the classical backbone needs at least 2 images, got {len(images)}")
         given, sources = _given_intrinsics(intrinsics, intrinsics_sources, len(images))
+        # Same images, same answer: RANSAC draws from OpenCV's (per-thread) generator.
+        cv2.setRNGSeed(0)
         views = [self._prepare(index, image, fov_deg, given[index]) for index, image in enumerate(images)]
         warnings: list[str] = []
         textured = [index for index, view in enumerate(views) if len(view.features) >= MIN_FEATURES]
