@@ -30,6 +30,8 @@ class Reconstruction:
     depths: list[np.ndarray] | None = None  # per view (h, w) float32 z-depth, None if not given
     depth_confidence: list[np.ndarray] | None = None  # per view (h, w) float32
     warnings: list[str] = field(default_factory=list)
+    # Per view, where the intrinsics came from: "uploaded", "exif", "predicted", "prior", ...
+    intrinsics_sources: list[str] | None = None
 
     def __post_init__(self) -> None:
         self.points = np.ascontiguousarray(self.points, dtype=np.float32).reshape(-1, 3)
@@ -48,6 +50,11 @@ class Reconstruction:
             maps = getattr(self, name)
             if maps is not None and len(maps) != views:
                 raise ValueError(f"{name} has {len(maps)} maps for {views} views")
+        if self.intrinsics_sources is not None:
+            self.intrinsics_sources = [str(source) for source in self.intrinsics_sources]
+            if len(self.intrinsics_sources) != views:
+                count = len(self.intrinsics_sources)
+                raise ValueError(f"intrinsics_sources has {count} entries for {views} views")
 
     @property
     def num_views(self) -> int:
@@ -86,6 +93,8 @@ class Reconstruction:
             "backbone_version": np.array(self.backbone_version),
             "warnings": np.array(self.warnings, dtype=np.str_),
         }
+        if self.intrinsics_sources is not None:
+            arrays["intrinsics_sources"] = np.array(self.intrinsics_sources, dtype=np.str_)
         for name in ("depths", "depth_confidence"):
             maps = getattr(self, name)
             if maps is not None:
@@ -128,6 +137,11 @@ class Reconstruction:
                 depths=maps("depths"),
                 depth_confidence=maps("depth_confidence"),
                 warnings=[str(w) for w in archive["warnings"]],
+                intrinsics_sources=(
+                    [str(s) for s in archive["intrinsics_sources"]]
+                    if "intrinsics_sources" in archive
+                    else None
+                ),
             )
 
     def to_ply(self) -> bytes:

@@ -41,7 +41,7 @@ class PosedRGBDBackbone(Backbone):
                 f"missing: {', '.join(missing)}"
             )
         try:
-            return reconstruction_from_rgbd(
+            reconstruction = reconstruction_from_rgbd(
                 images,
                 options["depths"],
                 options["extrinsics"],
@@ -52,3 +52,5 @@ class PosedRGBDBackbone(Backbone):
             )
         except ValueError as error:
             raise BackboneError(f"posed-rgbd cannot use its input: {error}") from error
+        reconstruction.intrinsics_sources = ["uploaded"] * reconstruction.num_views
+        return reconstruction
