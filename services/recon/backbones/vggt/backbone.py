@@ -122,7 +122,8 @@ class VGGTBackbone(Backbone):
             if problem is not None:
                 warnings.append(f"view {index} could not be registered: VGGT predicted {problem}")
         if point_source == "depth":
-            world = unproject_depth_maps(arrays["depth"], arrays["extrinsic"], arrays["intrinsic"])
+            with np.errstate(invalid="ignore", divide="ignore", over="ignore"):  # bad views are dropped
+                world = unproject_depth_maps(arrays["depth"], arrays["extrinsic"], arrays["intrinsic"])
             confidence = arrays["depth_conf"]
         else:
             world, confidence = arrays["world_points"], arrays["world_points_conf"]
@@ -134,11 +135,12 @@ class VGGTBackbone(Backbone):
         for index, placement in enumerate(placements):
             depths.append(placement.to_resized_grid(arrays["depth"][index, ..., 0]))
             depth_confidence.append(placement.to_resized_grid(arrays["depth_conf"][index]))
-            intrinsics.append(placement.network_to_original_intrinsics(arrays["intrinsic"][index]))
-            if not usable[index]:  # no camera: its depth cannot be placed either
+            if usable[index]:
+                intrinsics.append(placement.network_to_original_intrinsics(arrays["intrinsic"][index]))
+            else:  # no camera: its depth cannot be placed either
+                intrinsics.append(np.full((3, 3), np.nan))
                 depths[-1] = np.zeros_like(depths[-1])
                 depth_confidence[-1] = np.zeros_like(depth_confidence[-1])
-                intrinsics[-1] = np.full((3, 3), np.nan)
             if placement.dropped_rows:
                 warnings.append(
                     f"view {index}: {placement.dropped_rows} of {placement.resized_size[1]} resized rows "
