@@ -74,7 +74,7 @@ class Reconstruction:
         self.intrinsics = np.array(
             [nan_intrinsic if c.intrinsic is None else c.intrinsic for c in summary.cameras], dtype=float
         )
-        self.intrinsics_sources = [camera.intrinsics_source for camera in summary.cameras]
+        self.intrinsics_source = [camera.intrinsics_source for camera in summary.cameras]
         self.image_sizes = [(camera.width, camera.height) for camera in summary.cameras]
         self.up = np.asarray(summary.up, dtype=float)
         self.num_points = summary.num_points

@@ -79,7 +79,7 @@ def test_zero_field_of_view_views_are_not_registered(tmp_path: Path, images: lis
     ]
     assert result.num_points > 0 and np.isfinite(result.points).all()
     assert not result.depths[zero[0]].any() and not result.depth_confidence[zero[0]].any()
-    assert result.intrinsics_sources == ["predicted"] * 3
+    assert result.intrinsics_source == ["predicted"] * 3
 
 
 def test_no_usable_camera_at_all_is_an_error(tmp_path: Path, images: list[np.ndarray]) -> None:

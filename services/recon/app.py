@@ -224,7 +224,7 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
 def _summary(
     scene_id: str, recon: Reconstruction, cached: bool, joined: bool, timings: dict[str, float]
 ) -> ReconstructionSummary:
-    sources = recon.intrinsics_sources or [None] * recon.num_views
+    sources = recon.intrinsics_source or [None] * recon.num_views
     cameras = [
         CameraInfo(
             index=i,

@@ -41,7 +41,7 @@ class PosedRGBDBackbone(Backbone):
                 f"missing: {', '.join(missing)}"
             )
         try:
-            reconstruction = reconstruction_from_rgbd(
+            return reconstruction_from_rgbd(
                 images,
                 options["depths"],
                 options["extrinsics"],
@@ -52,5 +52,3 @@ class PosedRGBDBackbone(Backbone):
             )
         except ValueError as error:
             raise BackboneError(f"posed-rgbd cannot use its input: {error}") from error
-        reconstruction.intrinsics_sources = ["uploaded"] * reconstruction.num_views
-        return reconstruction

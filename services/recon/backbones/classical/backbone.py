@@ -114,7 +114,7 @@ class ClassicalBackbone(Backbone):
                 )
                 warnings.append(f"view {index} could not be registered ({reason}); its extrinsic is NaN")
         reconstruction = self._assemble(views, model, use_densify, warnings)
-        reconstruction.intrinsics_sources = [
+        reconstruction.intrinsics_source = [
             (source or "given") if intrinsic is not None else "prior"
             for intrinsic, source in zip(given, given_sources, strict=True)
         ]

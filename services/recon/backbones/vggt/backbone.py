@@ -5,7 +5,7 @@ pixels of each original image. Depth and confidence maps cover each whole origin
 grid of the resized image the network saw (width = image_size in crop mode); rows that crop mode
 cut off have depth 0 (unknown) and confidence 0, and a warning says so.
 
-Intrinsics are always VGGT's own prediction (`intrinsics_sources` = "predicted"). A predicted
+Intrinsics are always VGGT's own prediction (`intrinsics_source` = "predicted"). A predicted
 field of view outside [MIN_FOV_DEG, MAX_FOV_DEG] (0 gives an infinite focal length) is no camera:
 that view is not registered (NaN pose and intrinsics, no points, no depth) and a warning says so.
 """
@@ -155,12 +155,12 @@ class VGGTBackbone(Backbone):
             intrinsics=np.stack(intrinsics),
             image_sizes=np.array([p.original_size for p in placements]),
             registered=usable,
-            intrinsics_sources=["predicted"] * len(placements),
             backbone=self.name,
             backbone_version=self.version,
             depths=depths,
             depth_confidence=depth_confidence,
             warnings=warnings,
+            intrinsics_source=["predicted"] * len(placements),
         )
 
 
