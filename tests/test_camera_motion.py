@@ -224,3 +224,32 @@ def test_pairs_with_an_unusable_view_say_why_and_the_rest_are_described() -> Non
     everything_unknown = describe_pairs(cameras, ["a", "b", "c", "d"])
     assert [m.reason for m in everything_unknown] == ["a; b", "b; c", "c; d"]
     assert json.loads(json.dumps(motions[1].to_dict()))["described"] is False
+
+
+def test_view_problems_and_scale_of_a_reconstruction() -> None:
+    from services.recon.motion_inputs import motion_scene_scale, view_pose_problems
+    from shared.reconstruction import Reconstruction
+
+    cameras = np.concatenate([step(0.0, 90.0), step(0.0, 180.0)[1:], step(0.0, 0.0)[1:]])
+    cameras[2, :, :3] *= 1.5  # "registered", but not a rotation
+    cameras[3] = np.nan
+    room = np.random.default_rng(1).uniform(-2.0, 2.0, size=(500, 3))
+    recon = Reconstruction(
+        points=room,
+        colors=np.zeros((500, 3)),
+        extrinsics=cameras,
+        intrinsics=np.tile(np.eye(3), (4, 1, 1)),
+        image_sizes=np.full((4, 2), 64),
+        registered=[True, True, True, False],
+        backbone="classical",
+        backbone_version="2",
+    )
+    problems = view_pose_problems(recon)
+    assert problems[:2] == [None, None]
+    assert problems[2].startswith("view 3 has no valid pose (rotation block is not orthonormal")
+    assert problems[3] == "view 4 could not be registered by the classical backbone"
+    assert motion_scene_scale(recon, [0, 1]) == pytest.approx(robust_extent(room))
+    recon.points = np.zeros((0, 3), np.float32)
+    recon.colors = np.zeros((0, 3), np.uint8)
+    assert motion_scene_scale(recon, [0, 1]) == pytest.approx(1.0)  # two centres 1 apart: their extent
+    assert motion_scene_scale(recon, [0]) == 1.0  # one centre: no extent at all

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from shared.camera_motion import robust_extent
+from shared.poses import validate_extrinsic
 from shared.reconstruction import Reconstruction
 
 _TINY = 1e-9
@@ -17,13 +18,15 @@ def view_pose_problems(recon: Reconstruction) -> list[str | None]:
     """Per view, why its pose cannot be used for motion (not registered, not a valid pose), or None."""
     problems: list[str | None] = []
     for index in range(recon.num_views):
-        extrinsic = recon.extrinsics[index]
         if not recon.registered[index]:
             problems.append(f"view {index + 1} could not be registered by the {recon.backbone} backbone")
-        elif not np.all(np.isfinite(extrinsic)) or abs(np.linalg.det(extrinsic[:, :3]) - 1.0) > 1e-3:
-            problems.append(f"view {index + 1} has no valid pose")
-        else:
-            problems.append(None)
+            continue
+        try:  # the same check the motion maths applies, so a usable view never fails there
+            validate_extrinsic(recon.extrinsics[index])
+        except ValueError as error:
+            problems.append(f"view {index + 1} has no valid pose ({error})")
+            continue
+        problems.append(None)
     return problems
 
 
