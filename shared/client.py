@@ -227,6 +227,9 @@ class AgentClient(_ServiceClient):
                 if source.response.status_code >= 400:  # refused before the solve started
                     source.response.read()
                     self._raise_for_status(source.response, "POST", path)
+                if source.response.headers.get("content-type", "").startswith("application/json"):
+                    # A service that does not stream answers with the plain result: no stages to show.
+                    return SolveResponse.model_validate_json(source.response.read())
                 for sse in source.iter_sse():
                     event = _SOLVE_EVENT.validate_json(sse.data)
                     if isinstance(event, StageEvent):

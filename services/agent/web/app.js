@@ -161,6 +161,7 @@ function imageSrc(base64) {
 
 async function showResult(result) {
   $("result").hidden = false;
+  $("empty").hidden = true;
   const answer = $("answer");
   answer.className = result.answer ? "answer" : "answer none";
   answer.textContent = result.answer ? `Answer: ${result.answer}` : `No answer: ${result.answer_reason || "unknown reason"}`;

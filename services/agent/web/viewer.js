@@ -78,7 +78,7 @@ export class SceneViewer {
     const pointSize = size / 400;
     this.content.add(new THREE.Points(cloud, new THREE.PointsMaterial({ size: pointSize, vertexColors: true })));
 
-    const frustumDepth = size * 0.06;
+    const frustumDepth = size * 0.08;
     preview.cameras.forEach((c) => {
       if (!c.registered) return;
       this.addFrustum(`${c.index + 1}`, INPUT_COLOR, c.extrinsic, c.intrinsic, c.width, c.height,
@@ -99,7 +99,20 @@ export class SceneViewer {
     const up = new THREE.Vector3(...preview.up).normalize();
     this.camera.up.copy(up);
     this.camera.near = size / 1000; this.camera.far = size * 100;
-    this.home = { target: box.getCenter(new THREE.Vector3()), size, up };
+    // Start behind and above the photographers, looking the way the photos look.
+    const target = box.getCenter(new THREE.Vector3());
+    const meanCenter = new THREE.Vector3();
+    const forward = new THREE.Vector3();
+    registered.forEach((c, i) => {
+      meanCenter.add(centers[i]);
+      forward.add(new THREE.Vector3(...c.extrinsic[2].slice(0, 3)));
+    });
+    if (registered.length) meanCenter.divideScalar(registered.length);
+    if (forward.lengthSq() < 1e-12) forward.set(0, 0, 1);
+    forward.normalize();
+    const eye = (registered.length ? meanCenter : target).clone()
+      .addScaledVector(forward, -size * 0.45).addScaledVector(up, size * 0.35);
+    this.home = { target, size, up, eye };
     this.controls.dispose();
     this.controls = this.makeControls(); // its orbit axis is the camera's up at creation
     this.resetView();
@@ -126,7 +139,7 @@ export class SceneViewer {
     mesh.userData.pick = pick;
     const sprite = labelSprite(label, color);
     sprite.position.copy(corners[0].clone().add(corners[1]).multiplyScalar(0.5));
-    sprite.scale.set(depth * 0.8, depth * 0.4, 1);
+    sprite.scale.set(depth * 1.0, depth * 0.5, 1);
     sprite.userData.pick = pick;
     this.content.add(lines, mesh, sprite);
     this.pickables.push(mesh, sprite);
@@ -134,12 +147,8 @@ export class SceneViewer {
 
   resetView() {
     if (!this.home) return;
-    const { target, size, up } = this.home;
-    // Look from above and behind the scene's centre, slightly to the side.
-    const side = new THREE.Vector3(1, 0, 0).addScaledVector(up, -up.x).normalize();
-    const offset = side.multiplyScalar(size * 0.4).addScaledVector(up, size * 0.55)
-      .add(new THREE.Vector3().crossVectors(up, side).multiplyScalar(size * 0.6));
-    this.camera.position.copy(target).add(offset);
+    const { target, eye } = this.home;
+    this.camera.position.copy(eye);
     this.controls.target.copy(target);
     this.controls.update();
     this.draw();
