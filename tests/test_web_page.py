@@ -177,6 +177,9 @@ def test_solve_the_example_and_inspect_it(stack, llm, browser, shots):
     assert changed > 0.01, f"the 3D view did not change when rotated ({changed:.2%} of pixels)"
     browser.save_screenshot(str(shots / "desktop-rotated.png"))
 
+    browser.execute_script("document.getElementById('program').scrollIntoView()")
+    browser.save_screenshot(str(shots / "desktop-program-and-clue.png"))
+    browser.execute_script("arguments[0].scrollIntoView({block: 'center'})", viewer)
     browser.find_element(By.XPATH, "//div[@id='camera-buttons']/button[text()='view v1']").click()
     assert "rendered view v1" in browser.find_element(By.ID, "picked-caption").text
     browser.find_element(By.XPATH, "//div[@id='camera-buttons']/button[text()='image 2']").click()

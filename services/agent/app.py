@@ -14,7 +14,7 @@ from starlette.datastructures import UploadFile
 from services.agent.llm import LLMError
 from services.agent.pipeline import SolveError, SolvePipeline
 from services.agent.solve_stream import event_stream, wants_event_stream
-from services.agent.web import install_web_routes
+from services.agent.web_routes import install_web_routes
 from shared.client import ServiceError, ServiceUnreachable
 from shared.http_bodies import install_input_error_handlers, read_body_limited
 from shared.imaging import decode_base64

@@ -152,7 +152,8 @@ async function solve(event) {
 function poseText(extrinsic) {
   if (!extrinsic) return "pose unknown";
   const rows = extrinsic.map((row) => row.map((v) => v.toFixed(3).padStart(7)).join(" "));
-  return `camera-from-world [R|t]:\n${rows.join("\n")}`;
+  const centre = [0, 1, 2].map((j) => -extrinsic.reduce((sum, row) => sum + row[j] * row[3], 0));
+  return `camera centre (${centre.map((v) => v.toFixed(2)).join(", ")})\ncamera-from-world [R|t]:\n${rows.join("\n")}`;
 }
 
 function imageSrc(base64) {

@@ -45,7 +45,9 @@ export class SceneViewer {
   constructor(canvas, onPick) {
     this.canvas = canvas;
     this.onPick = onPick;
-    this.renderer = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: true });
+    // Multisampling costs ~10x per frame in software WebGL (measured: bench/web_viewer.py).
+    const antialias = !softwareWebGL();
+    this.renderer = new THREE.WebGLRenderer({ canvas, antialias, preserveDrawingBuffer: true });
     this.renderer.setPixelRatio(Math.min(window.devicePixelRatio, 2));
     this.scene = new THREE.Scene();
     this.scene.background = new THREE.Color(0xfbfbfd);
@@ -75,10 +77,10 @@ export class SceneViewer {
     const box = new THREE.Box3().setFromPoints(centers);
     if (preview.num_points) box.union(new THREE.Box3().setFromBufferAttribute(cloud.getAttribute("position")));
     const size = Math.max(box.getSize(new THREE.Vector3()).length(), 1e-3);
-    const pointSize = size / 400;
+    const pointSize = size / 120;
     this.content.add(new THREE.Points(cloud, new THREE.PointsMaterial({ size: pointSize, vertexColors: true })));
 
-    const frustumDepth = size * 0.08;
+    const frustumDepth = size * 0.06;
     preview.cameras.forEach((c) => {
       if (!c.registered) return;
       this.addFrustum(`${c.index + 1}`, INPUT_COLOR, c.extrinsic, c.intrinsic, c.width, c.height,
@@ -111,7 +113,7 @@ export class SceneViewer {
     if (forward.lengthSq() < 1e-12) forward.set(0, 0, 1);
     forward.normalize();
     const eye = (registered.length ? meanCenter : target).clone()
-      .addScaledVector(forward, -size * 0.45).addScaledVector(up, size * 0.35);
+      .addScaledVector(forward, -size * 0.32).addScaledVector(up, size * 0.28);
     this.home = { target, size, up, eye };
     this.controls.dispose();
     this.controls = this.makeControls(); // its orbit axis is the camera's up at creation
@@ -139,7 +141,7 @@ export class SceneViewer {
     mesh.userData.pick = pick;
     const sprite = labelSprite(label, color);
     sprite.position.copy(corners[0].clone().add(corners[1]).multiplyScalar(0.5));
-    sprite.scale.set(depth * 1.0, depth * 0.5, 1);
+    sprite.scale.set(depth * 0.8, depth * 0.4, 1);
     sprite.userData.pick = pick;
     this.content.add(lines, mesh, sprite);
     this.pickables.push(mesh, sprite);
@@ -202,4 +204,12 @@ export class SceneViewer {
 export function webglAvailable() {
   const probe = document.createElement("canvas");
   return Boolean(probe.getContext("webgl2") || probe.getContext("webgl"));
+}
+
+// True when WebGL runs on the CPU (SwiftShader, llvmpipe): no GPU to multisample cheaply.
+function softwareWebGL() {
+  const gl = document.createElement("canvas").getContext("webgl2");
+  const info = gl && gl.getExtension("WEBGL_debug_renderer_info");
+  const name = info ? String(gl.getParameter(info.UNMASKED_RENDERER_WEBGL)) : "";
+  return /swiftshader|llvmpipe|software/i.test(name);
 }
