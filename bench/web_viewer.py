@@ -44,7 +44,9 @@ const [url, repeats, done] = arguments;
     gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, pixel);
     times.push(performance.now() - started);
   }
-  done({ times: times.slice(3), renderer: gl.getParameter(gl.getExtension('WEBGL_debug_renderer_info')?.UNMASKED_RENDERER_WEBGL ?? gl.RENDERER), points: preview.num_points });
+  const info = gl.getExtension('WEBGL_debug_renderer_info');
+  const renderer = gl.getParameter(info ? info.UNMASKED_RENDERER_WEBGL : gl.RENDERER);
+  done({ times: times.slice(3), renderer, points: preview.num_points });
 })().catch((error) => done({ error: String(error) }));
 """
 

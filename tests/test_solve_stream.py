@@ -7,6 +7,7 @@ the offline planner and answerer: no stand-ins at all.
 from __future__ import annotations
 
 import base64
+import hashlib
 import json
 import uuid
 
@@ -15,7 +16,7 @@ import numpy as np
 import pytest
 
 from shared.client import AgentClient, ReconClient, ServiceError
-from shared.local_services import running_service
+from shared.local_services import REPO_ROOT, running_service
 from shared.schemas import StageEvent
 from tests.support.scenes import orbit_views
 
@@ -165,3 +166,16 @@ def test_page_and_its_assets_are_served(agent):
     image = httpx.get(agent.url + example["images"][0])
     assert image.status_code == 200 and image.content.startswith(b"\x89PNG")
     assert httpx.get(agent.url + "/v1/example/images/..%2Fexample.json").status_code == 404
+
+
+def test_vendored_libraries_are_the_published_files():
+    """The committed three.js / highlight.js files are byte for byte what scripts/vendor_web.sh fetched."""
+    vendor = REPO_ROOT / "services" / "agent" / "web" / "vendor"
+    sums = [line.split() for line in (vendor / "SHA256SUMS").read_text().splitlines() if line.strip()]
+    assert {name for _, name in sums} >= {
+        "three/three.module.js",
+        "three/OrbitControls.js",
+        "highlight/LICENSE",
+    }
+    for digest, name in sums:
+        assert hashlib.sha256((vendor / name).read_bytes()).hexdigest() == digest, name

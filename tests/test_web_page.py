@@ -21,6 +21,7 @@ from PIL import Image
 from selenium import webdriver
 from selenium.common.exceptions import TimeoutException
 from selenium.webdriver.chrome.service import Service
+from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
 from selenium.webdriver.common.keys import Keys
 from selenium.webdriver.support.ui import WebDriverWait
@@ -113,12 +114,6 @@ def _canvas_pixels(driver) -> np.ndarray:
     return np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(np.int16)
 
 
-def _visible(driver, css: str) -> bool:
-    return all(e.is_displayed() for e in driver.find_elements(By.CSS_SELECTOR, css)) and bool(
-        driver.find_elements(By.CSS_SELECTOR, css)
-    )
-
-
 def test_solve_the_example_and_inspect_it(stack, llm, browser, shots):
     spec = json.loads((EXAMPLE / "example.json").read_text())
     llm.reset()
@@ -177,6 +172,20 @@ def test_solve_the_example_and_inspect_it(stack, llm, browser, shots):
     assert changed > 0.01, f"the 3D view did not change when rotated ({changed:.2%} of pixels)"
     browser.save_screenshot(str(shots / "desktop-rotated.png"))
 
+    # Clicking a camera in the 3D view shows its photo or render: probe a grid of clicks.
+    viewer.send_keys(Keys.HOME)
+    size = viewer.size
+    picked = None
+    for fy in np.linspace(0.95, 0.05, 13):  # the cameras sit low in the reset view
+        for fx in np.linspace(0.05, 0.95, 13):
+            x, y = int((fx - 0.5) * size["width"]), int((fy - 0.5) * size["height"])
+            ActionChains(browser).move_to_element_with_offset(viewer, x, y).click().perform()
+            if browser.find_element(By.ID, "picked").is_displayed():
+                picked = browser.find_element(By.ID, "picked-caption").text
+                break
+        if picked:
+            break
+    assert picked and (picked.startswith("image ") or picked.startswith("rendered view")), picked
     browser.execute_script("document.getElementById('program').scrollIntoView()")
     browser.save_screenshot(str(shots / "desktop-program-and-clue.png"))
     browser.execute_script("arguments[0].scrollIntoView({block: 'center'})", viewer)

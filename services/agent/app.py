@@ -108,6 +108,7 @@ def create_app(settings: AgentSettings | None = None) -> FastAPI:
 
     @app.post("/v1/solve", tags=["solve"], response_model=SolveResponse, openapi_extra=_SOLVE_DOC)
     async def solve(request: Request) -> SolveResponse:
+        """Answer a question; with `Accept: text/event-stream`, stream the stages (SSE) then the result."""
         body = await _read_solve_request(request, settings)
         files = [decode_base64(text, f"image {i + 1}") for i, text in enumerate(body.images or [])]
         if wants_event_stream(request.headers.get("accept", "")):

@@ -210,6 +210,9 @@ async function showScene(result) {
   const status = $("viewer-status");
   const warnings = $("warnings");
   warnings.replaceChildren();
+  if (result.code_model.includes("fallback")) {
+    warnings.append(element("li", { textContent: `The code model could not be reached, so the offline planner wrote the program (${result.code_model}).` }));
+  }
   if (!webglAvailable()) {
     status.textContent = "This browser has no WebGL, so the 3D view is off; everything else is shown.";
     return;
@@ -223,8 +226,8 @@ async function showScene(result) {
   }
   const preview = await response.json();
   const unplaced = preview.cameras.filter((c) => !c.registered).map((c) => c.index + 1);
-  warnings.replaceChildren(...unplaced.map((n) => element("li", {
-    textContent: `image ${n} could not be placed in the reconstruction, so it has no camera in the 3D view.`,
+  warnings.append(...unplaced.map((n) => element("li", {
+    textContent: `${withFileNames(`image ${n}`)} could not be placed in the reconstruction, so it has no camera in the 3D view.`,
   })));
   if (!state.viewer) state.viewer = new SceneViewer($("viewer"), pick);
   const renderedViews = state.views.filter((v) => v.source === "rendered" && v.extrinsic);
