@@ -80,6 +80,26 @@ async def _events(run: Callable[[ProgressCallback], SolveResponse]) -> AsyncIter
         loop.call_soon_threadsafe(queue.put_nowait, event)
 
     solve = asyncio.ensure_future(anyio.to_thread.run_sync(run, progress))
+    try:
+        async for chunk in _until_done(solve, queue, current):
+            yield chunk
+    finally:
+        if not solve.done():  # the client went away: the solve finishes unobserved
+            solve.add_done_callback(lambda future: future.cancelled() or future.exception())
+    error = solve.exception()
+    if error is None:
+        yield sse(ResultEvent(result=solve.result()))
+        return
+    status, detail = failure_status(error)
+    if status >= 500:
+        log.error("solve failed: %s", detail, exc_info=error if status == 500 else None)
+    yield sse(ErrorEvent(status_code=status, detail=detail, stage=current[0] if current else None))
+
+
+async def _until_done(
+    solve: asyncio.Future, queue: asyncio.Queue[StageEvent], current: list[str]
+) -> AsyncIterator[bytes]:
+    """Stage events as they come, keep-alive comments in quiet stretches, until the solve ends."""
     while True:
         getter = asyncio.ensure_future(queue.get())
         done, _ = await asyncio.wait({getter, solve}, timeout=KEEPALIVE_S, return_when="FIRST_COMPLETED")
@@ -94,11 +114,3 @@ async def _events(run: Callable[[ProgressCallback], SolveResponse]) -> AsyncIter
         yield b": still working\n\n"
     while not queue.empty():  # events sent just before the thread returned
         yield sse(queue.get_nowait())
-    error = solve.exception()
-    if error is None:
-        yield sse(ResultEvent(result=solve.result()))
-        return
-    status, detail = failure_status(error)
-    if status >= 500:
-        log.error("solve failed: %s", detail, exc_info=error if status == 500 else None)
-    yield sse(ErrorEvent(status_code=status, detail=detail, stage=current[0] if current else None))
