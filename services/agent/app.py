@@ -42,7 +42,20 @@ _SOLVE_DOC = {
                 }
             },
         },
-    }
+    },
+    "responses": {
+        "200": {
+            "content": {
+                "text/event-stream": {
+                    "schema": {
+                        "type": "string",
+                        "description": "With Accept: text/event-stream: SSE events `stage` (StageEvent), "
+                        "then `result` (ResultEvent) or `error` (ErrorEvent).",
+                    }
+                }
+            }
+        }
+    },
 }
 
 
