@@ -161,6 +161,8 @@ def test_solve_the_example_and_inspect_it(stack, llm, browser, shots):
     WebDriverWait(browser, 60).until(lambda d: "points" in d.find_element(By.ID, "viewer-status").text)
     buttons = [e.text for e in browser.find_elements(By.CSS_SELECTOR, "#camera-buttons button")]
     assert buttons == ["image 1", "image 2", "image 3", "view v1"], buttons
+    browser.execute_script("window.scrollTo(0, 0)")
+    browser.save_screenshot(str(shots / "desktop-top.png"))
     viewer = browser.find_element(By.ID, "viewer")
     browser.execute_script("arguments[0].scrollIntoView({block: 'center'})", viewer)
     before = _canvas_pixels(browser)

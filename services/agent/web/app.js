@@ -117,6 +117,9 @@ async function solve(event) {
   form.append("question", question);
   if ($("backbone").value) form.append("backbone", $("backbone").value);
   STAGES.forEach((stage) => setStage(stage, "pending", ""));
+  $("empty").hidden = true;
+  $("progress-block").hidden = false;
+  $("progress-block").scrollIntoView({ block: "nearest" });
   setStage("upload", "started", `sending ${state.files.length} photos`);
   $("solve").disabled = true;
   $("result").hidden = true;
@@ -162,7 +165,6 @@ function imageSrc(base64) {
 
 async function showResult(result) {
   $("result").hidden = false;
-  $("empty").hidden = true;
   const answer = $("answer");
   answer.className = result.answer ? "answer" : "answer none";
   answer.textContent = result.answer ? `Answer: ${result.answer}` : `No answer: ${result.answer_reason || "unknown reason"}`;
