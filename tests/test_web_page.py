@@ -196,6 +196,16 @@ def test_solve_the_example_and_inspect_it(stack, llm, browser, shots):
     browser.find_element(By.XPATH, "//div[@id='camera-buttons']/button[text()='image 2']").click()
     assert browser.find_element(By.ID, "picked-caption").text.startswith("image 2")
 
+    # Everything is reachable with the keyboard alone: walk the page with Tab.
+    browser.execute_script("document.activeElement.blur(); window.scrollTo(0, 0)")
+    reached = set()
+    for _ in range(40):
+        ActionChains(browser).send_keys(Keys.TAB).perform()
+        focused = browser.switch_to.active_element
+        reached.add(focused.get_attribute("id") or focused.text)
+    expected = {"images", "use-example", "question", "backbone", "solve", "viewer", "reset-view", "view v1"}
+    assert expected <= reached, expected - reached
+
     _viewport(browser, 390, 844)
     overflow = browser.execute_script("return document.documentElement.scrollWidth - window.innerWidth")
     assert overflow <= 0, f"the page is {overflow} px wider than a phone screen"
