@@ -26,6 +26,7 @@ from shared.question_intent import QuestionIntent, parse_question
 
 AnswerMethod = Literal["model_json", "model_text", "model_option_text", "offline_text", "none"]
 DEFAULT_TEMPLATE = "answer_v1"
+IMAGES_ONLY_TEMPLATE = "answer_images_only_v1"
 VISION_MODEL_HINT = (
     "set PYSPATIAL_ANSWER_MODEL (and PYSPATIAL_ANSWER_MODEL_BASE_URL, PYSPATIAL_ANSWER_MODEL_API_KEY) "
     "to a vision-capable chat model"
@@ -163,6 +164,31 @@ def answer_with_model(
             reply = client.complete(messages, response_format=answer_schema(sorted(options)))
         except ModelError:
             # Many local servers refuse json_schema (a 4xx); the prompt asks for JSON anyway.
+            reply = client.complete(messages)
+    except LLMError as error:
+        return AnswerResult(answer=None, method="none", reason=f"the answer model failed: {error}")
+    return read_model_answer(reply.text, options)
+
+
+def answer_from_images(
+    client: ChatClient, question: str, images_png: list[bytes], template_version: str = IMAGES_ONLY_TEMPLATE
+) -> AnswerResult:
+    """The answer model alone, from the question and the photos: the fallback when no program ran
+    (the backbone could not reconstruct, or no program could be written or run), as the paper's code
+    does. A model failure gives answer=None with the reason."""
+    options = parse_options(question)
+    letters = sorted(options)
+    content = load_template(template_version).render_parts(
+        slots={"original_images": _labelled_images("Image", images_png)},
+        question=question.strip(),
+        num_images=len(images_png),
+        letters=", ".join(letters) if letters else "the options",
+    )
+    messages = [{"role": "user", "content": content}]
+    try:
+        try:
+            reply = client.complete(messages, response_format=answer_schema(letters))
+        except ModelError:
             reply = client.complete(messages)
     except LLMError as error:
         return AnswerResult(answer=None, method="none", reason=f"the answer model failed: {error}")
@@ -324,6 +350,7 @@ def answer_offline(
 __all__ = [
     "AnswerMethod",
     "AnswerResult",
+    "answer_from_images",
     "answer_offline",
     "answer_schema",
     "answer_with_model",
