@@ -275,14 +275,21 @@ def _write_tiny_mindcube(root: Path) -> Path:
     return jsonl
 
 
-def _table_row(output: str, system: str) -> list[str]:
-    """The cells of a printed table row whose first cell is `system`."""
+def _table_rows(output: str, system: str) -> list[list[str]]:
+    """The cells of the printed table rows whose first cell is `system`."""
+    rows = []
     for line in output.splitlines():
         cells = [c.strip() for c in re.split(r"[│┃|]", line)]
         cells = [c for c in cells if c]
         if cells and cells[0] == system:
-            return cells
-    raise AssertionError(f"no row {system!r} in:\n{output}")
+            rows.append(cells)
+    assert rows, f"no row {system!r} in:\n{output}"
+    return rows
+
+
+def _table_row(output: str, system: str) -> list[str]:
+    """The cells of the first printed table row whose first cell is `system`."""
+    return _table_rows(output, system)[0]
 
 
 def _capture_console(monkeypatch) -> io.StringIO:
@@ -342,9 +349,12 @@ def test_baseline_asks_the_model_alone_and_compares_with_pyspatial(tmp_path, mon
     assert parts[0]["text"].startswith("How did I turn?")
     assert [p["type"] for p in parts[1:]] == ["image_url", "image_url"]
 
-    output = buffer.getvalue()
-    assert _table_row(output, "vision-model")[1:6] == ["3", "33.3", "100.0", "0.0", "0.0"]
-    assert _table_row(output, "vision-model + pySpatial")[1:6] == ["3", "66.7", "100.0", "100.0", "0.0"]
+    output = buffer.getvalue().split("Models")[0]
+    # Two rows per system: over all items (MindCube's denominator), over answered items (the paper's).
+    alone_all, alone_answered = _table_rows(output, "vision-model")
+    assert alone_all[1:7] == ["all items (MindCube)", "3", "33.3", "100.0", "0.0", "0.0"]
+    assert alone_answered[1:7] == ["answered (paper's code)", "2", "50.0", "100.0", "0.0", "-"]
+    assert _table_row(output, "vision-model + pySpatial")[2:7] == ["3", "66.7", "100.0", "100.0", "0.0"]
 
 
 # ---- end to end through the real services ----------------------------------------------------
@@ -389,7 +399,7 @@ def test_mindcube_harness_through_the_real_services_with_exact_depth(tmp_path, r
     by_setting = {s: [r for r in records if r["setting"] == s] for s in ("rotation", "among", "around")}
     row = _table_row(output.split("Pipeline")[0], records[0]["system"])
     expected = [str(len(records)), accuracy(records), *(accuracy(by_setting[s]) for s in by_setting)]
-    assert row[1:6] == expected
+    assert row[2:7] == expected
     pipeline = _table_row(output.split("Pipeline")[1], records[0]["system"])
     assert pipeline[1:5] == [
         accuracy([{"correct": r["program_produced"]} for r in records]),
