@@ -362,7 +362,8 @@ def test_baseline_asks_the_model_alone_and_compares_with_pyspatial(tmp_path, mon
 
 def test_mindcube_harness_through_the_real_services_with_exact_depth(tmp_path, redis_url, monkeypatch):
     data = tmp_path / "bench"
-    jsonl = make_dataset(data, num_scenes=2, seed=3, width=128, height=96)
+    # Three scenes: one per setting (rotation, around, among), questions worded as MindCube's.
+    jsonl = make_dataset(data, num_scenes=3, seed=3, width=128, height=96)
     env = {
         "PYSPATIAL_DATA_DIR": str(tmp_path / "scenes"),
         "REDIS_URL": redis_url,
@@ -388,9 +389,25 @@ def test_mindcube_harness_through_the_real_services_with_exact_depth(tmp_path, r
         assert record["backbone"] == "posed-rgbd"
         assert record["gt_answer"] == items[record["id"]].gt_answer
         assert record["correct"] == (record["prediction"] == record["gt_answer"])
-    # Exact cameras make the camera-motion questions answerable, and they were answered right.
+    # Exact cameras make every self-movement question answerable offline: all answered, all right,
+    # each from the pair of views it asks about (every image is shown, so a wrong pair would show).
+    truth = {json.loads(line)["id"]: json.loads(line) for line in jsonl.read_text().splitlines()}
     motion = [r for r in records if items[r["id"]].type in ("motion", "turn")]
-    assert motion and all(r["correct"] for r in motion)
+    assert motion and all(r["answered"] and r["correct"] for r in motion)
+    for record in motion:
+        first, second = (v + 1 for v in truth[record["id"]]["pyspatial_scene"]["facts"]["pair"])
+        assert record["family"] == "self_movement"
+        if second == first + 1:
+            assert "describe_camera_motion" in record["program"]
+        else:
+            assert f"From view {first} to view {second}" in record["program"]
+    # The other families need a vision model: no answer, never a guess.
+    others = [r for r in records if r not in motion]
+    assert others and not any(r["answered"] for r in others)
+    # Records name what wrote the program and what answered; "answer" is MindCube's field.
+    for record in records:
+        assert record["code_model"] == "offline-planner" and record["answer_model"] == "offline-answerer"
+        assert record["answer"] == record["prediction"] and record["fallback"] is None
 
     # The printed table agrees with correct / total computed by hand from the results file.
     def accuracy(rows: list[dict]) -> str:
@@ -407,4 +424,6 @@ def test_mindcube_harness_through_the_real_services_with_exact_depth(tmp_path, r
         accuracy([{"correct": r["answered"]} for r in records]),
         "0",
     ]
-    assert {r["setting"] for r in records} == {"rotation", "around"}  # scenes 0 and 1 of make_dataset
+    assert {r["setting"] for r in records} == {"rotation", "around", "among"}
+    models = _table_row(output.split("Models")[1], records[0]["system"])
+    assert models[1:] == [f"offline-planner ({len(records)})", f"offline-answerer ({len(records)})", "0", "0"]
