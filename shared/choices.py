@@ -124,7 +124,7 @@ def _letter_in(text: str, allowed: set[str]) -> str | None:
     for match in _STANDALONE.finditer(plain):
         letter = match.group(1)
         # "A chair", "I think": the article and the pronoun are words, not options.
-        if letter in "AI" and re.match(r"\s+[a-z]", plain[match.end() :]):
+        if letter in "AI" and re.match(r"\s+(?!(?:or|and|nor|vs)\b)[a-z]", plain[match.end() :]):
             continue
         if letter in allowed:
             found.add(letter)

@@ -213,7 +213,9 @@ _MOVE_STEP = re.compile(
 # A move not yet made ("if you turn", "after turning", "you turn left and walk"), not "did I turn".
 _HYPOTHETICAL = re.compile(
     r"\b(?:if|suppose|supposing|imagine|were to|after (?:i |you )?(?:turn|turning|rotat\w*|walk\w*|mov\w*))\b"
-    r"|(?<!did )\b(?:you|i|we) (?:then )?(?:turn|rotate|walk|move|step|go)\b",
+    r"|(?<!did )\b(?:you|i|we) (?:then )?(?:turn|rotate|walk|move|step|go)\b"
+    # an imperative after a comma: "Standing at image 3, turn 180 degrees around, what is ...?"
+    r"|(?:^|[,;:]\s*)(?:and\s+)?(?:then\s+)?(?:turn|rotate|walk|move|step|go)\s+(?!did\b)",
     re.IGNORECASE,
 )
 _MOTION_VERB = re.compile(
