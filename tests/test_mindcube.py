@@ -205,7 +205,7 @@ def test_prompt_examples_most_like_the_question_come_first() -> None:
         first = choose_examples(1, intent)[0]
         assert program_kind(parse_question(first.question, 10)) == kind
     # Every example is a valid program whose output is tool output, never option text.
-    for example in choose_examples(5):
+    for example in choose_examples(6):
         validate_program(example.code)
         returned = re.findall(r"^\s*return (.+)$", example.code, re.MULTILINE)
         tool_output = ("pySpatial.", "[", "behind", "after")

@@ -22,7 +22,7 @@ from services.agent.prompts import load_template
 from shared.question_intent import QuestionIntent
 
 DEFAULT_TEMPLATE = "codegen_v1"
-MAX_EXAMPLES = 5  # the examples in the latest codegen_examples_v<N>.md
+MAX_EXAMPLES = 6  # the examples in the latest codegen_examples_v<N>.md
 # An error longer than this is cut before going back to the model: the head says what went wrong.
 _MAX_ERROR_CHARS = 2000
 
