@@ -151,12 +151,17 @@ _SETUP = re.compile(
 )
 
 
+# "(image 1, 2, 3, and 4)": a list of every view, wherever it stands, names no view in particular.
+_VIEW_LIST = re.compile(rf"\(\s*{_NOUN}\s*\d+(?:\s*(?:,|and|,\s*and)\s*\d+)+\s*\)", re.IGNORECASE)
+
+
 def _parts(stem: str) -> tuple[str, list[str], str]:
     """(opening, setup sentences, ask). The opening is the text before a colon that names views."""
     opening, rest = "", stem
     match = _OPENING.match(stem)
     if match:
         opening, rest = match.group("opening"), match.group("rest")
+    rest = _VIEW_LIST.sub("", rest)
     sentences = [s.strip() for s in _SENTENCES.split(rest) if s.strip()]
     setup = [s for s in sentences if _SETUP.match(s) and "?" not in s]
     ask = " ".join(s for s in sentences if s not in setup) or rest

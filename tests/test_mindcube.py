@@ -144,6 +144,14 @@ def test_variations(question: str, view: int, direction: str, steps: list[str]) 
     assert (intent.asked_view, intent.direction, [s.words for s in intent.steps]) == (view, direction, steps)
 
 
+def test_a_list_of_every_view_outside_an_opening_names_no_view() -> None:
+    lead = "These four images (image 1, 2, 3, and 4) show a room. "
+    motion = parse_question(lead + "How did I move from image 1 to image 3? A. Left B. Right", 4)
+    assert (motion.family, motion.motion_pair) == ("self_movement", (1, 3))
+    behind = parse_question(lead + "From image 2, what is behind you? A. x B. y", 4)
+    assert (behind.family, behind.asked_view, behind.direction) == ("relative_direction", 2, "behind")
+
+
 # ---- programs of the right kind, from the right view, in the real sandbox -------------------------
 
 PLANNABLE = [item_id for item_id, expected in EXPECTED.items() if expected[7] is not None]
