@@ -343,6 +343,21 @@ def test_eval_on_real_schema_without_an_answer_model(recon, tmp_path, monkeypatc
     monkeypatch.setattr(eval_commands, "console", eval_commands.console)
     with running_service("services.agent.app:create_app", {"PYSPATIAL_RECON_URL": recon.url}) as agent:
         code, output = _run_eval(agent.url, recon.url, tmp_path / "results.jsonl")
+        # A scene that reconstructs, with a family no offline program serves: null, saying which and why.
+        views = orbit_views(seed=2, num_views=3)
+        with ReconClient(recon.url) as client:
+            scene_id = client.upload_scene(
+                views.pngs(), depths=views.depths, extrinsics=views.extrinsics, intrinsics=views.intrinsics
+            ).scene_id
+        with AgentClient(agent.url) as client:
+            response = client.solve(
+                "If you are standing at the position of the table, facing the door, what is to your left? "
+                "A. The sofa B. The lamp",
+                scene_id=scene_id,
+            )
+    assert response.answer is None and response.fallback is None and response.attempts == []
+    reason = response.answer_reason
+    assert "object-perspective" in reason and "PYSPATIAL_ANSWER_MODEL" in reason
     assert code == 0, output
     assert "skipping among_group099_q1_1_1" in output and "1 item(s) skipped" in output
     records = read_results(tmp_path / "results.jsonl")
