@@ -61,7 +61,9 @@ class AgentSettings(_Settings):
     answer_model_text_only: bool = Field(
         False, description="The answer model takes text only: it answers text clues, never images."
     )
-    answer_model_max_tokens: int = Field(1024, ge=16, description="Longest reply of the answer model (tokens).")
+    answer_model_max_tokens: int = Field(
+        1024, ge=16, description="Longest reply of the answer model (tokens)."
+    )
     answer_model_base_url: str | None = Field(None, description="Endpoint of the answer model.")
     answer_model_api_key: SecretStr | None = Field(None, description="API key of the answer model endpoint.")
     model_timeout_s: float = Field(120.0, gt=0, description="Timeout of one model call.")
@@ -69,7 +71,9 @@ class AgentSettings(_Settings):
     num_examples: int = Field(2, ge=0, le=4, description="In-context examples in the code prompt.")
     max_repairs: int = Field(2, ge=0, le=5, description="Self-repair rounds after a failed program.")
     max_reply_chars: int = Field(
-        60_000, ge=1000, description="Longest code-model reply that is parsed; longer ones are refused unread."
+        60_000,
+        ge=1000,
+        description="Longest code-model reply that is parsed; longer ones are refused unread.",
     )
     sandbox_cpu_s: int = Field(20, ge=1, description="CPU seconds a program may use.")
     sandbox_wall_s: int = Field(120, ge=1, description="Wall-clock seconds a program may take.")

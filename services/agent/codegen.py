@@ -65,7 +65,9 @@ class Attempt(BaseModel):
     error_kind: str | None = Field(
         None, description="no_program | too_long | repeated | the sandbox's kind (rejected, exception, ...)"
     )
-    dropped: list[str] = Field(default_factory=list, description="Top-level demo code removed from the reply.")
+    dropped: list[str] = Field(
+        default_factory=list, description="Top-level demo code removed from the reply."
+    )
     temperature: float | None = None
     finish_reason: str | None = None
     prompt_tokens: int | None = None
@@ -182,17 +184,18 @@ def build_codegen_messages(
     """
     template = load_template(template_version)
     count = len(images_png)
-    fields: dict[str, object] = {
+    photos = (
+        f"There are {count} photo(s), shown below in order (image 1 first)."
+        if attach_images
+        else f"There are {count} photo(s). You do not see them: write the program from the question."
+    )
+    candidates: dict[str, object] = {
         "examples": _render_examples(num_examples),
         "num_images": count,
+        "photos": photos,
         "question": question.strip(),
     }
-    if "photos" in template.fields:
-        fields["photos"] = (
-            f"There are {count} photo(s), shown below in order (image 1 first)."
-            if attach_images
-            else f"There are {count} photo(s). You do not see them: write the program from the question alone."
-        )
+    fields = {name: value for name, value in candidates.items() if name in template.fields}
     text = template.render(**fields)
     if not attach_images:
         return [{"role": "user", "content": text}]
@@ -324,7 +327,9 @@ def generate_program(
             follow_up = _repair_message(
                 "Your reply was far too long and was not read.",
                 f"It had {len(reply.text)} characters; the limit is {max_reply_chars}.",
-                ["Send only the program: one short ```python block that defines `def program(input_scene):`."],
+                [
+                    "Send only the program: one short ```python block defining `def program(input_scene):`."
+                ],
             )
             reply_for_history = attempt.reply
         else:
@@ -370,7 +375,9 @@ def generate_program(
                     attempt.error_kind = outcome[3] if len(outcome) > 3 and outcome[3] else "execution"
                     failure = "execution"
                     failed[fingerprint] = (number, error)
-                    follow_up = _repair_message("Your program failed.", f"Error:\n{_cut(error)}", repair_hints(error))
+                    follow_up = _repair_message(
+                        "Your program failed.", f"Error:\n{_cut(error)}", repair_hints(error)
+                    )
         messages = [*messages, {"role": "assistant", "content": reply_for_history}, follow_up]
     return CodegenResult(
         ok=False,

@@ -133,7 +133,9 @@ _TRANSIENT_STATUSES = {408, 429, 502, 503, 504}
 _SECRET_PATTERNS = (
     re.compile(r"(?i)(authorization[\"']?\s*[:=]\s*[\"']?)(?:bearer|basic|token)?\s*[^\s\"',;}]+"),
     re.compile(r"(?i)\b(bearer\s+)[A-Za-z0-9._~+/=-]{6,}"),
-    re.compile(r"(?i)((?:api[_-]?key|x-api-key|access[_-]?token|secret|password)[\"']?\s*[:=]\s*[\"']?)[^\s\"',;&}]+"),
+    re.compile(
+        r"(?i)((?:api[_-]?key|x-api-key|access[_-]?token|secret|password)[\"']?\s*[:=]\s*[\"']?)[^\s\"',;&}]+"
+    ),
     re.compile(r"\b(?:sk|rk|pk)-[A-Za-z0-9_-]{12,}"),
     re.compile(r"\bhf_[A-Za-z0-9]{20,}"),
 )

@@ -132,7 +132,9 @@ def clean_program(source: str) -> CleanedProgram:
     except (SyntaxError, ValueError, RecursionError, MemoryError):
         return CleanedProgram(source)
     body = tree.body
-    programs = [i for i, node in enumerate(body) if isinstance(node, ast.FunctionDef) and node.name == PROGRAM_NAME]
+    programs = [
+        i for i, node in enumerate(body) if isinstance(node, ast.FunctionDef) and node.name == PROGRAM_NAME
+    ]
     if not programs:
         return CleanedProgram(source)
     keep: set[int] = {programs[-1]}
@@ -160,7 +162,7 @@ def clean_program(source: str) -> CleanedProgram:
     if not dropped_nodes:
         return CleanedProgram(source)
     dropped = []
-    for index, node in dropped_nodes:
+    for _, node in dropped_nodes:
         if isinstance(node, ast.FunctionDef) and node.name == PROGRAM_NAME:
             why = f"an earlier def {PROGRAM_NAME}; the last one is kept"
         else:
