@@ -256,7 +256,7 @@ class SolvePipeline:
             reason = (
                 f"{offline.reason}; the text model {self.code_model_name!r} gave none either: {answer.reason}"
             )
-            return AnswerResult(answer=None, method="none", reason=reason), OFFLINE_ANSWERER
+            return answer.model_copy(update={"reason": reason}), OFFLINE_ANSWERER
         return answer, f"{self.code_model_name} (text only)"
 
     def _scene(self, image_files: list[bytes] | None, scene_id: str | None) -> tuple[str, list[bytes]]:
