@@ -1,7 +1,7 @@
 """A real code model on synthetic MindCube-style questions, next to the offline planner on the same ones.
 
     PYSPATIAL_CODE_MODEL=qwen2.5-coder PYSPATIAL_CODE_MODEL_BASE_URL=http://127.0.0.1:8080/v1 \
-    PYSPATIAL_CODE_MODEL_TEXT_ONLY=true python -m bench real_model --questions 24
+    PYSPATIAL_CODE_MODEL_TEXT_ONLY=true python -m bench.real_model --questions 24
 
 The model is whatever OpenAI-compatible endpoint the environment names (llama.cpp / llama-cpp-python
 server, vLLM, Ollama, a hosted API): every PYSPATIAL_* agent setting is read as the agent reads it
@@ -106,7 +106,7 @@ class SystemRun:
 
 
 def _arguments(argv: list[str] | None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(prog="python -m bench real_model", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m bench.real_model", description=__doc__.split("\n")[0])
     parser.add_argument("--questions", type=int, default=24)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--width", type=int, default=320)
