@@ -13,6 +13,7 @@ from services.agent.llm import (
     ContentPartsRefused,
     ModelAuthError,
     ModelError,
+    ModelNotFound,
     ModelUnavailable,
     image_part,
     scrub_secrets,
@@ -246,3 +247,11 @@ def test_finish_reason_and_temperature_override(llm: ScriptedLLM) -> None:
     assert reply.finish_reason == "length" and reply.usage.prompt_tokens == 7
     body = llm.requests()[0]["body"]
     assert body["temperature"] == 0.6 and body["max_tokens"] == 3
+
+
+def test_an_unknown_model_is_a_configuration_error(llm: ScriptedLLM) -> None:
+    llm.script([{"status": 404, "error_message": "The model `qwen-7b` does not exist"}])
+    with make_client(llm.base_url, max_retries=2) as client, pytest.raises(ModelNotFound) as failure:
+        client.complete([{"role": "user", "content": "x"}])
+    assert "HTTP 404" in str(failure.value) and "does not exist" in str(failure.value)
+    assert len(llm.requests()) == 1

@@ -54,6 +54,10 @@ class ModelAuthError(ModelConfigurationError):
     """The endpoint rejected the API key (HTTP 401 or 403)."""
 
 
+class ModelNotFound(ModelConfigurationError):
+    """The endpoint does not serve the configured model, or the base URL is not an API root (404)."""
+
+
 class ContentPartsRefused(ModelConfigurationError):
     """The server cannot take list content (text + image parts): the model must be set text-only."""
 
@@ -295,6 +299,11 @@ class ChatClient:
             raise ModelAuthError(
                 f"{label} rejected the API key (HTTP {status}); check the model's API key setting: {reason}"
             ) from None
+        if status == 404:
+            raise ModelNotFound(
+                f"{label} answered HTTP 404: the model name or the base URL (the API root, usually "
+                f"ending in /v1) is wrong: {reason}"
+            ) from None
         if sent_parts and _CONTENT_PARTS_REFUSED.search(reason):
             raise ContentPartsRefused(
                 f"{label} cannot take messages made of content parts (text + images) and answered "
@@ -344,6 +353,7 @@ __all__ = [
     "ModelAuthError",
     "ModelConfigurationError",
     "ModelError",
+    "ModelNotFound",
     "ModelUnavailable",
     "TokenUsage",
     "as_text_only",
