@@ -341,3 +341,9 @@ def test_an_identical_program_is_never_run_again(llm: ScriptedLLM, client: ChatC
 def test_known_mistakes_get_a_hint_that_names_the_helper(error: str, expected: str) -> None:
     assert any(expected in hint for hint in repair_hints(error))
     assert repair_hints("NameError: name 'recon' is not defined") == []
+
+
+def test_the_same_prose_twice_more_ends_the_loop(llm: ScriptedLLM, client: ChatClient) -> None:
+    llm.script(["The answer is B.", "The answer is  B.", "The answer is B.", GOOD_REPLY])
+    result = generate_program(client, QUESTION, [PNG], validate_only, max_repairs=4)
+    assert not result.ok and len(result.attempts) == 3 and len(llm.requests()) == 3

@@ -294,6 +294,7 @@ def generate_program(
     messages = build_codegen_messages(question, images_png, num_examples, template_version, attach_images)
     attempts: list[Attempt] = []
     failed: dict[str, tuple[int, str]] = {}  # program fingerprint -> (attempt number, its error)
+    replies_without_program: set[str] = set()
     repeats = 0
     last_error = "no attempt made"
     failure: Failure = "no_program"
@@ -338,6 +339,12 @@ def generate_program(
             if choice is None:
                 attempt.error = last_error = "the reply contained no ```python block defining program()"
                 attempt.error_kind, failure = "no_program", "no_program"
+                said = " ".join(reply.text.split())
+                if said in replies_without_program:
+                    repeats += 1  # the same prose again: the model is going in circles
+                    if repeats >= REPEATS_BEFORE_STOPPING:
+                        break
+                replies_without_program.add(said)
                 follow_up = _no_program_message(reply)
             else:
                 cleaned = clean_program(choice.source)
