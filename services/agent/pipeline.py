@@ -179,7 +179,16 @@ class SolvePipeline:
             clue_text, typed = typed_in_lines(clue_text, program, question)  # evidence, not assertions
             notes = [*notes, *typed]
         answer_started = time.perf_counter()
-        answer, answer_model = self._answer(question, input_pngs, program, result, clue_text, notes, attempts)
+        answer, answer_model = self._answer(
+            question,
+            input_pngs,
+            program,
+            result,
+            clue_text,
+            notes,
+            attempts,
+            code_model_failed=fallback is not None,
+        )
         answering_ms = (time.perf_counter() - answer_started) * 1e3
 
         clue = Clue()
@@ -226,6 +235,7 @@ class SolvePipeline:
         clue_text: str | None,
         notes: list[str],
         attempts: list[AttemptRecord],
+        code_model_failed: bool = False,
     ) -> tuple[AnswerResult, str]:
         """The answer and the name of what gave it (a vision model, a text model, or offline)."""
         if result is None or not result.ok or program is None:
@@ -248,7 +258,7 @@ class SolvePipeline:
             )
             return AnswerResult(answer=None, method="none", reason=reason), self.answer_model_name
         offline = answer_offline(question, clue_text, result.clue_images)
-        if offline.answer is not None or not clue_text or self.code_client is None:
+        if offline.answer is not None or not clue_text or self.code_client is None or code_model_failed:
             return offline, OFFLINE_ANSWERER
         # Only a (text) code model is configured and the offline rules could not read the text clue.
         answer = answer_text_clue_with_model(self.code_client, question, program, clue_text)
