@@ -87,11 +87,11 @@ def test_programs_get_4x4_extrinsics_and_the_helpers() -> None:
     [
         (
             "    return pySpatial.rotate_left(pySpatial.camera_center(recon.extrinsics[0]))\n",
-            "pySpatial.rotate_left: extrinsic has shape (3,) (that is a 3D point; pass the camera's pose",
+            "pySpatial.rotate_left: extrinsic must be 3x4 or 4x4, got shape (3,) (that is a 3D point; pass",
         ),
         (
             "    return pySpatial.turn_around(recon.intrinsics[0])\n",
-            "has shape (3, 3) (that is a rotation or an intrinsic matrix, not a pose)",
+            "got shape (3, 3) (that is a rotation or an intrinsic matrix, not a pose)",
         ),
         (
             "    return pySpatial.distance_to_point(recon.extrinsics[0], [1.0, 2.0])\n",

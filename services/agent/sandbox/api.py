@@ -184,7 +184,8 @@ def _extrinsic(value: Any, tool: str, argument: str = "extrinsic") -> np.ndarray
         elif matrix.shape == (3, 3):
             hint = " (that is a rotation or an intrinsic matrix, not a pose)"
         raise ValueError(
-            f"pySpatial.{tool}: {argument} has shape {matrix.shape}{hint}; {EXTRINSIC_CONVENTION}"
+            f"pySpatial.{tool}: {argument} must be 3x4 or 4x4, got shape {matrix.shape}{hint}; "
+            f"{EXTRINSIC_CONVENTION}"
         )
     if not np.all(np.isfinite(matrix)):
         raise ValueError(
