@@ -176,8 +176,9 @@ class Reconstruction:
                 return [archive[f"{name}_{i}"].astype(np.float32) for i in range(views)]
 
             sources, view_confidence, pair_confidence = None, None, []
-            if version >= 2:
+            if "intrinsics_source" in archive:  # some version 1 files have it too
                 sources = [str(source) for source in archive["intrinsics_source"]]
+            if version >= 2:
                 confidence = json.loads(str(archive["confidence"]))
                 view_confidence = [ViewConfidence(**view) for view in confidence["views"]]
                 pair_confidence = [PairConfidence(**pair) for pair in confidence["pairs"]]

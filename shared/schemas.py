@@ -6,6 +6,8 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from shared.question_intent import QuestionIntent
+
 Matrix = list[list[float]]
 ImageFormat = Literal["png", "jpeg"]
 
@@ -25,7 +27,11 @@ class SceneUpload(_Model):
         None, description="Optional per-view z-depth, base64 of a float32 .npy (H, W), for posed-rgbd."
     )
     extrinsics: list[Matrix] | None = Field(None, description="Optional 3x4 camera-from-world, OpenCV axes.")
-    intrinsics: list[Matrix] | None = Field(None, description="Optional 3x3 intrinsics in pixels.")
+    intrinsics: list[Matrix | None] | None = Field(
+        None,
+        description="Optional 3x3 intrinsics in pixels of the upright image (EXIF orientation applied), "
+        "one per view; null for a view whose camera is unknown (its EXIF focal length is used if any).",
+    )
 
 
 class SceneInfo(_Model):
@@ -71,13 +77,16 @@ class PairConfidenceInfo(_Model):
 class CameraInfo(_Model):
     index: int
     extrinsic: Matrix | None = Field(..., description="3x4 camera-from-world; null when not registered.")
-    intrinsic: Matrix
+    intrinsic: Matrix | None = Field(..., description="3x3 in pixels; null when the backbone has none.")
+    intrinsics_source: str | None = Field(
+        None,
+        description="Where the intrinsics came from: uploaded, exif, self-calibrated (classical: "
+        "estimated from the views), prior (a guessed field of view), given (posed-rgbd), predicted "
+        "(vggt); null when not reported.",
+    )
     width: int
     height: int
     registered: bool
-    intrinsics_source: str = Field(
-        "prior", description="uploaded, exif, self-calibrated, prior (60 degree guess), given or predicted."
-    )
     confidence: ViewConfidenceInfo | None = None
 
 
@@ -118,23 +127,43 @@ class CameraMotionRequest(_Model):
 
 
 class CameraMotionItem(_Model):
+    """One pair of views: a description, or (described = false) the reason there is none."""
+
     from_view: int
     to_view: int
-    direction: str
-    angle_deg: float
-    distance: float
-    displacement_in_first_camera: list[float]
-    vertical: float = Field(..., description="Displacement along the up axis (positive = up).")
-    yaw_deg: float = Field(..., description="Turn between the views about the up axis; positive = left.")
-    turn: str = Field(..., description="The turn in words, e.g. 'turned left by about 90 degrees'.")
-    sentence: str
+    described: bool = Field(True, description="False when the motion is unknown; `reason` says why.")
+    reason: str | None = Field(None, description="Why there is no description (unregistered view, ...).")
+    direction: str | None = Field(None, description="Horizontal direction, or 'no significant movement'.")
+    vertical_direction: str | None = Field(None, description="'up', 'down', or null when not significant.")
+    angle_deg: float | None = None
+    distance: float | None = None
+    displacement_in_first_camera: list[float] | None = None
+    vertical: float | None = Field(None, description="Displacement along the up axis (positive = up).")
+    yaw_deg: float | None = Field(None, description="Turn about the up axis between the views; + = left.")
+    turn: str | None = Field(None, description="The turn in words, e.g. 'turned left by about 90 degrees'.")
+    sentence: str = Field(..., description="The motion in one sentence, or that it is unknown and why.")
 
 
 class CameraMotionResponse(_Model):
     scene_id: str
     backbone: str
     motions: list[CameraMotionItem]
-    text: str = Field(..., description="The sentences, one per line.")
+    text: str = Field(..., description="The sentences, one per line (unknown pairs included).")
+    scene_scale: float = Field(..., description="Size of the scene (units of the reconstruction).")
+    warnings: list[str] = Field(default_factory=list)
+
+
+class PointCloudPreview(_Model):
+    """A subsample of a reconstruction for viewers: points, colours and the cameras."""
+
+    scene_id: str
+    backbone: str
+    num_points_total: int
+    num_points: int
+    positions: str = Field(..., description="base64 of little-endian float32 (num_points, 3), world frame.")
+    colors: str = Field(..., description="base64 of uint8 RGB (num_points, 3).")
+    cameras: list[CameraInfo]
+    up: list[float]
 
 
 class Readiness(_Model):
@@ -160,15 +189,40 @@ class SolveRequest(_Model):
 
 
 class AttemptRecord(_Model):
-    program: str | None
+    program: str | None = Field(..., description="The program as checked and run (demo code dropped).")
     error: str | None
     reply: str | None = Field(None, description="The code model's raw reply (None for the offline planner).")
     latency_ms: float
+    error_kind: str | None = Field(
+        None,
+        description="no_program, too_long, repeated (not run again), or the sandbox's kind (rejected, ...).",
+    )
+    dropped: list[str] = Field(
+        default_factory=list, description="Top-level demo code removed from the reply."
+    )
+    temperature: float | None = None
+    prompt_tokens: int | None = None
+    completion_tokens: int | None = None
+
+
+class ClueView(_Model):
+    """Where one clue image came from: a view rendered from a pose, or an input photo."""
+
+    source: Literal["rendered", "input"]
+    input_index: int | None = Field(None, description="0-based input image, when source is input.")
+    extrinsic: Matrix | None = Field(
+        None, description="3x4 camera-from-world it was rendered from (or the input camera's pose)."
+    )
+    width: int
+    height: int
 
 
 class Clue(_Model):
     text: str | None = None
     images: list[str] = Field(default_factory=list, description="Rendered views as base64 PNG.")
+    views: list[ClueView] = Field(
+        default_factory=list, description="One per image, in the same order: where it came from."
+    )
     notes: list[str] = Field(
         default_factory=list, description="What the service noticed about the clue, e.g. an empty view."
     )
@@ -182,6 +236,13 @@ class SolveTimings(_Model):
     total_ms: float
 
 
+class TokenCounts(_Model):
+    code_prompt: int = 0
+    code_completion: int = 0
+    answer_prompt: int = 0
+    answer_completion: int = 0
+
+
 class SolveResponse(_Model):
     answer: str | None = Field(..., description="The option letter, or null when no honest answer exists.")
     answer_reason: str | None = Field(None, description="Why answer is null.")
@@ -191,6 +252,62 @@ class SolveResponse(_Model):
     attempts: list[AttemptRecord]
     scene_id: str
     backbone: str
-    code_model: str = Field(..., description="Model name, or 'offline-planner'.")
-    answer_model: str = Field(..., description="Model name, or 'offline-answerer'.")
+    code_model: str = Field(
+        ...,
+        description="What wrote the program: the model's name, 'offline-planner', or "
+        "'offline-planner (fallback: <model> failed)'.",
+    )
+    code_model_fallback: str | None = Field(
+        None,
+        description="Why the configured code model did not write the program (it failed; the planner did).",
+    )
+    answer_model: str = Field(..., description="What answered: model name, or 'offline-answerer'.")
+    answer_method: str | None = Field(
+        None,
+        description="model_json, model_text, text_model (a text-only model read a text clue), offline_text.",
+    )
+    tokens: TokenCounts = Field(default_factory=TokenCounts, description="Model tokens spent, per stage.")
+    fallback: Literal["images_only"] | None = Field(
+        None,
+        description="'images_only': no program ran (the backbone could not reconstruct, or no program "
+        "could be written or run), so the answer model answered from the photos alone.",
+    )
+    fallback_reason: str | None = Field(None, description="Why the fallback was taken.")
+    intent: QuestionIntent | None = Field(
+        None, description="The question as parsed once: setting, family, asked view, view pair, steps."
+    )
     timings: SolveTimings
+
+
+# ---- progress of one solve (POST /v1/solve with Accept: text/event-stream) ---------------
+
+SolveStage = Literal["upload", "reconstruction", "program", "execution", "answer"]
+
+
+class StageEvent(_Model):
+    """A stage of the solve started, finished or failed (SSE event name: `stage`)."""
+
+    type: Literal["stage"] = "stage"
+    stage: SolveStage
+    state: Literal["started", "done", "failed"]
+    detail: str = ""
+    elapsed_ms: float = Field(..., description="Since the solve began.")
+
+
+class ResultEvent(_Model):
+    """The last event of a successful solve (SSE event name: `result`)."""
+
+    type: Literal["result"] = "result"
+    result: SolveResponse
+
+
+class ErrorEvent(_Model):
+    """The last event of a failed solve (SSE event name: `error`): the status /v1/solve would return."""
+
+    type: Literal["error"] = "error"
+    status_code: int
+    detail: str
+    stage: SolveStage | None = Field(None, description="The stage that was running, if any.")
+
+
+SolveEvent = Annotated[StageEvent | ResultEvent | ErrorEvent, Field(discriminator="type")]

@@ -59,6 +59,7 @@ class _PreparedView:
 class ClassicalBackbone(Backbone):
     name = "classical"
     version = "3"
+    accepts_intrinsics = True
 
     def __init__(
         self,
