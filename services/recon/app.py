@@ -83,10 +83,10 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
         if storage:
             log.error("data dir is NOT writable: %s", storage)
         yield
-        # SIGTERM: uvicorn stops accepting and waits for requests (bounded by its graceful timeout);
-        # then queued reconstructions are dropped and running ones get `drain_s` before their
-        # leases are released for another replica.
-        await service.jobs.drain(settings.drain_s)
+        # SIGTERM: uvicorn stops accepting and gives requests `drain_s` (--timeout-graceful-shutdown);
+        # then queued reconstructions are dropped and running ones stopped, releasing their leases
+        # for another replica (the reconstruction threads are daemons: they do not delay the exit).
+        await service.jobs.drain(timeout_s=1.0)
         await service.cache.close()
 
     app = FastAPI(

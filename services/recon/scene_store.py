@@ -71,7 +71,7 @@ def check_scene_id(scene_id: str) -> str:
 def storage_error(action: str, error: OSError) -> StorageFull | StorageUnavailable:
     """An OSError of the data dir as the HTTP error that says what failed (507 full, else 503)."""
     message = f"could not {action}: {error.strerror or error} ({error.filename or 'data dir'})"
-    if error.errno in (errno.ENOSPC, errno.EDQUOT):
+    if error.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
         return StorageFull(message)
     return StorageUnavailable(message)
 
