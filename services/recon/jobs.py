@@ -97,6 +97,8 @@ class ReconstructionJobs:
             job.waiters -= 1
             if job.waiters == 0 and not job.running and not job.task.done():
                 log.info("cancelling queued reconstruction %s: every client has gone", key)
+                if self._jobs.get(key) is job:  # a new request for the key starts a new job
+                    del self._jobs[key]
                 job.task.cancel()
 
     async def _drive(
