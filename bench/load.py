@@ -103,8 +103,14 @@ def _health_during_upload(recon_url: str, count: int) -> dict:
         outcome.update(status=response.status_code, seconds=time.perf_counter() - started)
 
     worker = threading.Thread(target=upload)
-    latencies = []
+    latencies, idle = [], []
     with httpx.Client(timeout=60) as http:
+        until = time.perf_counter() + 10  # baseline: the same polling with no upload (machine noise)
+        while time.perf_counter() < until:
+            started = time.perf_counter()
+            http.get(recon_url + "/healthz")
+            idle.append((time.perf_counter() - started) * 1e3)
+            time.sleep(0.02)
         worker.start()
         while worker.is_alive():
             started = time.perf_counter()
@@ -119,7 +125,23 @@ def _health_during_upload(recon_url: str, count: int) -> dict:
         "p50": _percentile(latencies, 0.5),
         "p95": _percentile(latencies, 0.95),
         "max": max(latencies),
+        "idle": (_percentile(idle, 0.5), _percentile(idle, 0.95), max(idle)),
     }
+
+
+def _rss_over_solves(agent_url: str, images: list[np.ndarray], pids: tuple[int, int], args) -> tuple:
+    with AgentClient(agent_url, timeout=600) as agent:
+        scene_id = agent.solve(QUESTION, images=_fresh(images, 1)).scene_id
+    before = _rss_mb(*pids)
+
+    def cached_solve(_: int) -> None:
+        with AgentClient(agent_url, timeout=600) as agent:
+            agent.solve(QUESTION, scene_id=scene_id)
+
+    started = time.perf_counter()
+    with ThreadPoolExecutor(8) as pool:
+        list(pool.map(cached_solve, range(args.rss_requests)))
+    return before, _rss_mb(*pids), time.perf_counter() - started
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -128,6 +150,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--requests", type=int, default=48, help="solves per concurrency level")
     parser.add_argument("--rss-requests", type=int, default=1000)
     parser.add_argument("--upload-images", type=int, default=32)
+    parser.add_argument(
+        "--parts", nargs="+", choices=["solve", "rss", "health"], default=["solve", "rss", "health"]
+    )
     args = parser.parse_args(argv)
 
     images = orbit_views(seed=5, num_views=3).images  # 160x120: the stack, not the backbone, is measured
@@ -152,31 +177,31 @@ def main(argv: list[str] | None = None) -> None:
             running_service(AGENT_APP, {"PYSPATIAL_RECON_URL": nginx.url}) as balanced_agent,
         ):
             seed = 1000
-            for clients in args.levels:
+            for clients in args.levels if "solve" in args.parts else []:
                 for label, agent in (("1 replica", single_agent), ("2 replicas + nginx", balanced_agent)):
                     result = _throughput(agent.url, images, clients, args.requests, seed)
                     rows.append((label, clients, result))
                     seed += args.requests
 
-            with AgentClient(single_agent.url, timeout=600) as agent:
-                scene_id = agent.solve(QUESTION, images=_fresh(images, 1)).scene_id
-            pids = (first.process.pid, single_agent.process.pid)
-            before = _rss_mb(*pids)
-
-            def cached_solve(_: int) -> None:
-                with AgentClient(single_agent.url, timeout=600) as agent:
-                    agent.solve(QUESTION, scene_id=scene_id)
-
-            started = time.perf_counter()
-            with ThreadPoolExecutor(8) as pool:
-                list(pool.map(cached_solve, range(args.rss_requests)))
-            rss = (before, _rss_mb(*pids), time.perf_counter() - started)
-
-            health = _health_during_upload(second.url, args.upload_images)
+            if "rss" in args.parts:
+                rss = _rss_over_solves(
+                    single_agent.url, images, (first.process.pid, single_agent.process.pid), args
+                )
+            if "health" in args.parts:
+                health = _health_during_upload(second.url, args.upload_images)
     finally:
         if own_redis:
             own_redis.stop()
 
+    if rows:
+        _print_solve(rows)
+    if rss:
+        _print_rss(rss, args.rss_requests)
+    if health:
+        _print_health(health, args.upload_images)
+
+
+def _print_solve(rows: list) -> None:
     print("### /v1/solve under load (fresh 3-view 160x120 scene per request, offline planner)\n")
     print("| recon | clients | requests/s | p50 (s) | p95 (s) | p99 (s) | answered |")
     print("| --- | ---: | ---: | ---: | ---: | ---: | ---: |")
@@ -185,22 +210,29 @@ def main(argv: list[str] | None = None) -> None:
             f"| {label} | {clients} | {r['rps']:.2f} | {r['p50']:.2f} | {r['p95']:.2f} | {r['p99']:.2f} | "
             f"{r['ok']}/{r['n']} |"
         )
+
+
+def _print_rss(rss: tuple, requests: int) -> None:
     before, after, seconds = rss
-    print(f"\n### RSS before/after {args.rss_requests} cached-scene solves (8 clients, {seconds:.0f} s)")
+    print(f"\n### RSS before/after {requests} cached-scene solves (8 clients, {seconds:.0f} s)")
     print()
     print("| process | before (MiB) | after (MiB) | growth (MiB) |")
     print("| --- | ---: | ---: | ---: |")
     for name, b, a in zip(("recon", "agent"), before, after, strict=True):
         print(f"| {name} | {b:.0f} | {a:.0f} | {a - b:+.0f} |")
+
+
+def _print_health(health: dict, count: int) -> None:
     print(
-        f"\n### /healthz while one upload of {args.upload_images} 4000x3000 JPEGs ({health['mb']:.0f} MiB) "
-        f"is processed\n"
+        f"\n### /healthz while one upload of {count} 4000x3000 JPEGs ({health['mb']:.0f} MiB) is processed\n"
     )
-    print("| upload status | upload (s) | health polls | p50 (ms) | p95 (ms) | max (ms) |")
-    print("| ---: | ---: | ---: | ---: | ---: | ---: |")
+    print("| /healthz polled | upload status | upload (s) | polls | p50 (ms) | p95 (ms) | max (ms) |")
+    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: |")
+    p50, p95, top = health["idle"]
+    print(f"| 10 s before, no upload | | | | {p50:.1f} | {p95:.1f} | {top:.1f} |")
     print(
-        f"| {health['status']} | {health['seconds']:.1f} | {health['polls']} | {health['p50']:.1f} | "
-        f"{health['p95']:.1f} | {health['max']:.1f} |"
+        f"| during the upload | {health['status']} | {health['seconds']:.1f} | {health['polls']} | "
+        f"{health['p50']:.1f} | {health['p95']:.1f} | {health['max']:.1f} |"
     )
 
 

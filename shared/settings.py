@@ -67,6 +67,9 @@ class ReconSettings(_Settings):
     max_decoding_pixels: int = Field(
         800_000_000, ge=1, description="Most pixels decoded at once; more uploads get 503 + Retry-After."
     )
+    decode_processes: int = Field(
+        2, ge=0, description="Processes that decode uploaded images (0: threads of the service process)."
+    )
     max_motion_pairs: int = Field(1024, ge=1, description="Most view pairs in one camera-motion request.")
     drain_s: float = Field(20.0, gt=0, description="On SIGTERM: longest wait for running work before exit.")
 

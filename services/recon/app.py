@@ -82,7 +82,9 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
         storage = service.store.check_writable()
         if storage:
             log.error("data dir is NOT writable: %s", storage)
+        uploads.start()
         yield
+        uploads.close()
         # SIGTERM: uvicorn stops accepting and gives requests `drain_s` (--timeout-graceful-shutdown);
         # then queued reconstructions are dropped and running ones stopped, releasing their leases
         # for another replica (the reconstruction threads are daemons: they do not delay the exit).

@@ -7,8 +7,12 @@ decoded, and decoding runs in worker threads one image at a time, keeping only t
 
 from __future__ import annotations
 
+import asyncio
 import io
 import json
+import multiprocessing
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 
 import anyio
@@ -19,7 +23,7 @@ from starlette.datastructures import UploadFile
 from starlette.formparsers import MultiPartException, MultiPartParser
 from starlette.requests import Request
 
-from services.recon.errors import InvalidInput, Overloaded, PayloadTooLarge
+from services.recon.errors import InvalidInput, Overloaded, PayloadTooLarge, ReconServiceError
 from services.recon.offload import run_cpu
 from services.recon.scene_store import SceneInput
 from shared.http_bodies import check_declared_length, limited_stream, read_body_limited
@@ -62,7 +66,37 @@ class SceneUploads:
     def __init__(self, settings: ReconSettings) -> None:
         self.settings = settings
         self.budget = PixelBudget(settings.max_decoding_pixels)
-        self.decoders = anyio.CapacityLimiter(2)  # decoding threads at once, across requests
+        self.decoders = anyio.CapacityLimiter(2)  # header-reading threads at once, across requests
+        self._pool: ProcessPoolExecutor | None = None
+
+    def start(self) -> None:
+        """Start the decoding processes (a second is spent importing Pillow there, not per upload)."""
+        if self.settings.decode_processes and self._pool is None:
+            self._pool = ProcessPoolExecutor(
+                self.settings.decode_processes, mp_context=multiprocessing.get_context("spawn")
+            )
+            self._pool.submit(_validate_image, b"", 0, 1, 1)  # warm up: import in the workers now
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=False, cancel_futures=True)
+            self._pool = None
+
+    async def _validate(self, blob: bytes, index: int) -> None:
+        """Decode one image to prove it is whole, in a worker process when there are any: decoding
+        holds the GIL long enough, in parts, to delay the event loop by tens of milliseconds."""
+        arguments = (blob, index, self.settings.max_image_bytes, self.settings.max_image_pixels)
+        if self._pool is None:
+            _raise_image_error(await run_cpu(_validate_image, *arguments, limiter=self.decoders))
+            return
+        loop = asyncio.get_running_loop()
+        try:
+            failure = await loop.run_in_executor(self._pool, _validate_image, *arguments)
+        except BrokenProcessPool as error:  # a worker died (e.g. killed for memory): start afresh
+            self.close()
+            self.start()
+            raise DecoderFailed(f"the image decoder process failed on image {index}; retry") from error
+        _raise_image_error(failure)
 
     async def read(self, request: Request) -> SceneInput:
         check_declared_length(request, self.settings.max_request_bytes)
@@ -151,7 +185,7 @@ class SceneUploads:
         self.budget.reserve(pixels)
         try:
             for index, blob in enumerate(raw.files):  # one at a time: only one decoded image in memory
-                await run_cpu(self._validate_image, blob, index, limiter=self.decoders)
+                await self._validate(blob, index)
         finally:
             self.budget.release(pixels)
         scene = SceneInput(image_files=raw.files, sizes=sizes)
@@ -181,20 +215,43 @@ class SceneUploads:
                 )
             try:
                 with Image.open(io.BytesIO(blob)) as probe:
-                    sizes.append(probe.size)
+                    width, height = probe.size
             except UnidentifiedImageError as error:
                 raise ImageError(f"{label} is not an image file this service can read") from error
             except (OSError, SyntaxError, ValueError, Image.DecompressionBombError) as error:
                 raise ImageError(f"{label} could not be decoded: {error}") from error
+            if width * height > self.settings.max_image_pixels:
+                raise ImageError(
+                    f"{label} is {width}x{height} pixels; "
+                    f"the limit is {self.settings.max_image_pixels} pixels",
+                    over_limit=True,
+                )
+            sizes.append((width, height))
         return sizes
 
-    def _validate_image(self, blob: bytes, index: int) -> None:
-        decode_image(
-            blob,
-            max_bytes=self.settings.max_image_bytes,
-            max_pixels=self.settings.max_image_pixels,
-            label=f"image {index}",
-        )
+
+class DecoderFailed(ReconServiceError):
+    status_code = 503
+
+
+def _validate_image(blob: bytes, index: int, max_bytes: int, max_pixels: int) -> tuple[str, bool] | None:
+    """None when the image decodes within the limits, else (message, over_limit) of the ImageError.
+
+    Runs in a worker process; the error travels back as plain values (ImageError's `over_limit`
+    would not survive pickling) and is raised again in the service by `_raise_image_error`.
+    """
+    if not blob:  # the warm-up call
+        return None
+    try:
+        decode_image(blob, max_bytes=max_bytes, max_pixels=max_pixels, label=f"image {index}")
+    except ImageError as error:
+        return str(error), error.over_limit
+    return None
+
+
+def _raise_image_error(failure: tuple[str, bool] | None) -> None:
+    if failure is not None:
+        raise ImageError(failure[0], over_limit=failure[1])
 
 
 def _parse_json_upload(body: bytes) -> SceneUpload:
