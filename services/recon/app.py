@@ -82,7 +82,6 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
         storage = service.store.check_writable()
         if storage:
             log.error("data dir is NOT writable: %s", storage)
-        uploads.start()
         yield
         uploads.close()
         # SIGTERM: uvicorn stops accepting and gives requests `drain_s` (--timeout-graceful-shutdown);

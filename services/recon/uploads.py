@@ -23,11 +23,12 @@ from starlette.datastructures import UploadFile
 from starlette.formparsers import MultiPartException, MultiPartParser
 from starlette.requests import Request
 
+from services.recon.decode_worker import validate_image
 from services.recon.errors import InvalidInput, Overloaded, PayloadTooLarge, ReconServiceError
 from services.recon.offload import run_cpu
 from services.recon.scene_store import SceneInput
 from shared.http_bodies import check_declared_length, limited_stream, read_body_limited
-from shared.imaging import ImageError, decode_base64, decode_image
+from shared.imaging import ImageError, decode_base64
 from shared.schemas import SceneUpload
 from shared.settings import ReconSettings
 
@@ -69,13 +70,13 @@ class SceneUploads:
         self.decoders = anyio.CapacityLimiter(2)  # header-reading threads at once, across requests
         self._pool: ProcessPoolExecutor | None = None
 
-    def start(self) -> None:
-        """Start the decoding processes (a second is spent importing Pillow there, not per upload)."""
+    def _processes(self) -> ProcessPoolExecutor | None:
+        """The decoding processes, started with the first upload (they import only Pillow/numpy)."""
         if self.settings.decode_processes and self._pool is None:
             self._pool = ProcessPoolExecutor(
                 self.settings.decode_processes, mp_context=multiprocessing.get_context("spawn")
             )
-            self._pool.submit(_validate_image, b"", 0, 1, 1)  # warm up: import in the workers now
+        return self._pool
 
     def close(self) -> None:
         if self._pool is not None:
@@ -86,15 +87,15 @@ class SceneUploads:
         """Decode one image to prove it is whole, in a worker process when there are any: decoding
         holds the GIL long enough, in parts, to delay the event loop by tens of milliseconds."""
         arguments = (blob, index, self.settings.max_image_bytes, self.settings.max_image_pixels)
-        if self._pool is None:
-            _raise_image_error(await run_cpu(_validate_image, *arguments, limiter=self.decoders))
+        pool = self._processes()
+        if pool is None:
+            _raise_image_error(await run_cpu(validate_image, *arguments, limiter=self.decoders))
             return
         loop = asyncio.get_running_loop()
         try:
-            failure = await loop.run_in_executor(self._pool, _validate_image, *arguments)
+            failure = await loop.run_in_executor(pool, validate_image, *arguments)
         except BrokenProcessPool as error:  # a worker died (e.g. killed for memory): start afresh
             self.close()
-            self.start()
             raise DecoderFailed(f"the image decoder process failed on image {index}; retry") from error
         _raise_image_error(failure)
 
@@ -232,21 +233,6 @@ class SceneUploads:
 
 class DecoderFailed(ReconServiceError):
     status_code = 503
-
-
-def _validate_image(blob: bytes, index: int, max_bytes: int, max_pixels: int) -> tuple[str, bool] | None:
-    """None when the image decodes within the limits, else (message, over_limit) of the ImageError.
-
-    Runs in a worker process; the error travels back as plain values (ImageError's `over_limit`
-    would not survive pickling) and is raised again in the service by `_raise_image_error`.
-    """
-    if not blob:  # the warm-up call
-        return None
-    try:
-        decode_image(blob, max_bytes=max_bytes, max_pixels=max_pixels, label=f"image {index}")
-    except ImageError as error:
-        return str(error), error.over_limit
-    return None
 
 
 def _raise_image_error(failure: tuple[str, bool] | None) -> None:
