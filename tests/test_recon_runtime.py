@@ -302,9 +302,11 @@ def test_waiters_give_up_with_a_503_after_the_wait_limit(tmp_path, redis_url, vi
 
 
 def _classical_version() -> str:
+    """The version part of a classical reconstruction's cache key (backbone and input handling)."""
     from services.recon.backbones import create_backbone
+    from services.recon.camera_inputs import INPUTS_VERSION
 
-    return str(create_backbone("classical").version)
+    return f"{create_backbone('classical').version}:in{INPUTS_VERSION}"
 
 
 def test_json_upload_limits_also_hold(recon, views):

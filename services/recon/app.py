@@ -13,6 +13,8 @@ from services.recon.backbones import available_backbones
 from services.recon.disconnect import until_disconnected
 from services.recon.errors import ReconServiceError
 from services.recon.offload import run_cpu
+from services.recon.preview import MAX_PREVIEW_POINTS, point_cloud_preview
+from services.recon.scene_store import has_all_intrinsics
 from services.recon.service import ReconService
 from services.recon.uploads import SceneUploads
 from shared.http_bodies import install_input_error_handlers
@@ -24,6 +26,7 @@ from shared.schemas import (
     CameraMotionItem,
     CameraMotionRequest,
     CameraMotionResponse,
+    PointCloudPreview,
     Readiness,
     ReconstructionSummary,
     ReconstructRequest,
@@ -51,7 +54,11 @@ _UPLOAD_DOC = {
                             "description": "optional float32 .npy z-depth per image",
                         },
                         "extrinsics": {"type": "string", "description": "optional JSON list of 3x4"},
-                        "intrinsics": {"type": "string", "description": "optional JSON list of 3x3"},
+                        "intrinsics": {
+                            "type": "string",
+                            "description": "optional JSON list of 3x3 (upright image pixels), null per "
+                            "view for unknown cameras",
+                        },
                     },
                     "required": ["images"],
                 }
@@ -149,7 +156,7 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
             num_images=scene.num_images,
             image_sizes=scene.image_sizes,
             has_depth=scene.depths is not None,
-            has_cameras=scene.extrinsics is not None and scene.intrinsics is not None,
+            has_cameras=scene.extrinsics is not None and has_all_intrinsics(scene),
             created=created,
         )
         return JSONResponse(body.model_dump(), status_code=201 if created else 200)
@@ -200,6 +207,20 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
             )
         return Response(await run_cpu(recon.to_bytes), media_type="application/octet-stream")
 
+    @app.get("/v1/scenes/{scene_id}/points", tags=["scenes"], response_model=PointCloudPreview)
+    async def points(
+        http: Request,
+        scene_id: str,
+        backbone: str | None = None,
+        max_points: int = Query(30_000, ge=1, le=MAX_PREVIEW_POINTS, description="Subsample size."),
+    ) -> PointCloudPreview:
+        """A subsample of the points with their colours, and the cameras: for viewers."""
+        outcome = await until_disconnected(http, service.reconstruct(scene_id, backbone))
+        summary = _summary(scene_id, outcome.reconstruction, outcome.cached, outcome.joined_in_flight, {})
+        return await run_cpu(
+            point_cloud_preview, scene_id, outcome.reconstruction, summary.cameras, summary.up, max_points
+        )
+
     @app.post(
         "/v1/render",
         tags=["tools"],
@@ -223,7 +244,8 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
 
     @app.post("/v1/camera-motion", tags=["tools"], response_model=CameraMotionResponse)
     async def camera_motion(http: Request, request: CameraMotionRequest) -> CameraMotionResponse:
-        recon, motions = await until_disconnected(
+        """Per pair of views a description, or (described = false) why there is none."""
+        recon, motions, scale = await until_disconnected(
             http, service.camera_motion(request.scene_id, request.pairs, request.backbone)
         )
         items = [CameraMotionItem.model_validate(m.to_dict()) for m in motions]
@@ -232,6 +254,8 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
             backbone=recon.backbone,
             motions=items,
             text="\n".join(item.sentence for item in items),
+            scene_scale=scale,
+            warnings=recon.warnings,
         )
 
     return app
@@ -240,11 +264,13 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
 def _summary(
     scene_id: str, recon: Reconstruction, cached: bool, joined: bool, timings: dict[str, float]
 ) -> ReconstructionSummary:
+    sources = recon.intrinsics_source or [None] * recon.num_views
     cameras = [
         CameraInfo(
             index=i,
             extrinsic=recon.extrinsics[i].tolist() if recon.registered[i] else None,
-            intrinsic=recon.intrinsics[i].tolist(),
+            intrinsic=recon.intrinsics[i].tolist() if np.all(np.isfinite(recon.intrinsics[i])) else None,
+            intrinsics_source=sources[i],
             width=int(recon.image_sizes[i][0]),
             height=int(recon.image_sizes[i][1]),
             registered=bool(recon.registered[i]),

@@ -6,14 +6,16 @@ from __future__ import annotations
 from shared.imaging import ImageError, decode_image
 
 
-def validate_image(blob: bytes, index: int, max_bytes: int, max_pixels: int) -> tuple[str, bool] | None:
-    """None when the image decodes within the limits, else (message, over_limit) of the ImageError.
+def validate_image(
+    blob: bytes, index: int, max_bytes: int, max_pixels: int
+) -> tuple[tuple[int, int] | None, tuple[str, bool] | None]:
+    """Decode one image: ((width, height) upright, None), or (None, (message, over_limit)).
 
     The error travels back as plain values (ImageError's `over_limit` would not survive pickling)
     and is raised again in the service.
     """
     try:
-        decode_image(blob, max_bytes=max_bytes, max_pixels=max_pixels, label=f"image {index}")
+        rgb = decode_image(blob, max_bytes=max_bytes, max_pixels=max_pixels, label=f"image {index}")
     except ImageError as error:
-        return str(error), error.over_limit
-    return None
+        return None, (str(error), error.over_limit)
+    return (int(rgb.shape[1]), int(rgb.shape[0])), None

@@ -2,7 +2,7 @@
 
 Order matters: the body is counted as it streams (chunked uploads too), file counts and sizes are
 checked before any file is read into memory, image headers (sizes) are read before any image is
-decoded, and decoding runs in worker threads one image at a time, keeping only the sizes.
+decoded, and decoding runs in worker processes one image at a time, keeping only the sizes.
 """
 
 from __future__ import annotations
@@ -83,21 +83,23 @@ class SceneUploads:
             self._pool.shutdown(wait=False, cancel_futures=True)
             self._pool = None
 
-    async def _validate(self, blob: bytes, index: int) -> None:
+    async def _validate(self, blob: bytes, index: int) -> tuple[int, int]:
         """Decode one image to prove it is whole, in a worker process when there are any: decoding
         holds the GIL long enough, in parts, to delay the event loop by tens of milliseconds."""
         arguments = (blob, index, self.settings.max_image_bytes, self.settings.max_image_pixels)
         pool = self._processes()
         if pool is None:
-            _raise_image_error(await run_cpu(validate_image, *arguments, limiter=self.decoders))
-            return
+            size, failure = await run_cpu(validate_image, *arguments, limiter=self.decoders)
+            _raise_image_error(failure)
+            return size
         loop = asyncio.get_running_loop()
         try:
-            failure = await loop.run_in_executor(pool, validate_image, *arguments)
+            size, failure = await loop.run_in_executor(pool, validate_image, *arguments)
         except BrokenProcessPool as error:  # a worker died (e.g. killed for memory): start afresh
             self.close()
             raise DecoderFailed(f"the image decoder process failed on image {index}; retry") from error
         _raise_image_error(failure)
+        return size
 
     async def read(self, request: Request) -> SceneInput:
         check_declared_length(request, self.settings.max_request_bytes)
@@ -186,7 +188,7 @@ class SceneUploads:
         self.budget.reserve(pixels)
         try:
             for index, blob in enumerate(raw.files):  # one at a time: only one decoded image in memory
-                await self._validate(blob, index)
+                sizes[index] = await self._validate(blob, index)  # upright (EXIF orientation)
         finally:
             self.budget.release(pixels)
         scene = SceneInput(image_files=raw.files, sizes=sizes)
@@ -194,7 +196,10 @@ class SceneUploads:
             scene.depths = await run_cpu(
                 lambda: [_load_npy(data, f"depth {i}") for i, data in enumerate(raw.depth_files)]
             )
-        for name, value in (("extrinsics", raw.extrinsics), ("intrinsics", raw.intrinsics)):
+        intrinsics = raw.intrinsics
+        if isinstance(intrinsics, list):  # null for a view whose camera is unknown
+            intrinsics = [np.full((3, 3), np.nan) if matrix is None else matrix for matrix in intrinsics]
+        for name, value in (("extrinsics", raw.extrinsics), ("intrinsics", intrinsics)):
             if value is not None:
                 try:
                     setattr(scene, name, np.asarray(value, dtype=np.float64))
