@@ -28,7 +28,7 @@ from services.recon.errors import InvalidInput, Overloaded, PayloadTooLarge, Rec
 from services.recon.offload import run_cpu
 from services.recon.scene_store import SceneInput
 from shared.http_bodies import check_declared_length, limited_stream, read_body_limited
-from shared.imaging import ImageError, decode_base64
+from shared.imaging import ImageError, decode_base64, decode_image
 from shared.schemas import SceneUpload
 from shared.settings import ReconSettings
 
@@ -222,10 +222,15 @@ class SceneUploads:
             try:
                 with Image.open(io.BytesIO(blob)) as probe:
                     width, height = probe.size
-            except UnidentifiedImageError as error:
-                raise ImageError(f"{label} is not an image file this service can read") from error
-            except (OSError, SyntaxError, ValueError, Image.DecompressionBombError) as error:
-                raise ImageError(f"{label} could not be decoded: {error}") from error
+            except (UnidentifiedImageError, OSError, SyntaxError, ValueError, Image.DecompressionBombError):
+                # unreadable: decode_image fails at once too, with the reason it gives everywhere
+                decode_image(
+                    blob,
+                    max_bytes=self.settings.max_image_bytes,
+                    max_pixels=self.settings.max_image_pixels,
+                    label=label,
+                )
+                raise ImageError(f"{label} is not an image file this service can read") from None
             if width * height > self.settings.max_image_pixels:
                 raise ImageError(
                     f"{label} is {width}x{height} pixels; "
