@@ -19,13 +19,21 @@ from typing import Any, Literal
 
 from pydantic import BaseModel
 
-from services.agent.llm import ChatClient, LLMError, ModelError, image_part, text_part
-from services.agent.planner import view_references
+from services.agent.llm import (
+    ChatClient,
+    LLMError,
+    ModelConfigurationError,
+    ModelError,
+    image_part,
+    text_part,
+)
 from services.agent.prompts import load_template
 from shared.choices import extract_letter, normalize_direction, normalize_turn, parse_options, turn_degrees
+from shared.question_intent import QuestionIntent, parse_question
 
-AnswerMethod = Literal["model_json", "model_text", "model_option_text", "offline_text", "none"]
+AnswerMethod = Literal["model_json", "model_text", "model_option_text", "offline_text", "text_model", "none"]
 DEFAULT_TEMPLATE = "answer_v1"
+IMAGES_ONLY_TEMPLATE = "answer_images_only_v1"
 VISION_MODEL_HINT = (
     "set PYSPATIAL_ANSWER_MODEL (and PYSPATIAL_ANSWER_MODEL_BASE_URL, PYSPATIAL_ANSWER_MODEL_API_KEY) "
     "to a vision-capable chat model"
@@ -38,6 +46,17 @@ class AnswerResult(BaseModel):
     raw: str | None = None  # the model's reply, when a model answered
     method: AnswerMethod
     reason: str | None = None  # why there is no answer
+    prompt_tokens: int = 0  # spent by the answer model, when one was asked
+    completion_tokens: int = 0
+
+
+def _with_usage(result: AnswerResult, reply: Any) -> AnswerResult:
+    usage = getattr(reply, "usage", None)
+    if usage is None:
+        return result
+    return result.model_copy(
+        update={"prompt_tokens": usage.prompt_tokens or 0, "completion_tokens": usage.completion_tokens or 0}
+    )
 
 
 # ---- with a model --------------------------------------------------------------------------------
@@ -161,8 +180,72 @@ def answer_with_model(
     try:
         try:
             reply = client.complete(messages, response_format=answer_schema(sorted(options)))
+        except ModelConfigurationError:
+            raise  # a rejected key or a text-only server: the client must see it (502), not a null
         except ModelError:
             # Many local servers refuse json_schema (a 4xx); the prompt asks for JSON anyway.
+            reply = client.complete(messages)
+    except ModelConfigurationError:
+        raise
+    except LLMError as error:
+        return AnswerResult(answer=None, method="none", reason=f"the answer model failed: {error}")
+    return _with_usage(read_model_answer(reply.text, options), reply)
+
+
+# ---- a text-only model, for text clues ------------------------------------------------------------
+
+TEXT_MODEL_NOTE = "Answered by a text-only model from the program's text output; it did not see the photos."
+
+
+def answer_text_clue_with_model(
+    client: ChatClient, question: str, program: str, clue_text: str, template_version: str = "answer_text_v1"
+) -> AnswerResult:
+    """A text model reads a text clue (camera motion, turns) and picks an option, saying so.
+
+    The model sees no images, so this is only for clues that are text. A model failure or a reply
+    naming no option gives answer=None with the reason; a rejected key is raised.
+    """
+    options = parse_options(question)
+    letters = sorted(options)
+    text = load_template(template_version).render(
+        question=question.strip(),
+        program=program.strip(),
+        clue_text=clue_text.strip(),
+        letters=", ".join(letters) if letters else "the options",
+    )
+    try:
+        reply = client.complete([{"role": "user", "content": text}])
+    except ModelConfigurationError:
+        raise
+    except LLMError as error:
+        return AnswerResult(answer=None, method="none", reason=f"the text model failed: {error}")
+    read = _with_usage(read_model_answer(reply.text, options), reply)
+    if read.answer is None:
+        return read
+    return read.model_copy(
+        update={"method": "text_model", "reasoning": f"{TEXT_MODEL_NOTE} {read.reasoning}"}
+    )
+
+
+def answer_from_images(
+    client: ChatClient, question: str, images_png: list[bytes], template_version: str = IMAGES_ONLY_TEMPLATE
+) -> AnswerResult:
+    """The answer model alone, from the question and the photos: the fallback when no program ran
+    (the backbone could not reconstruct, or no program could be written or run), as the paper's code
+    does. A model failure gives answer=None with the reason."""
+    options = parse_options(question)
+    letters = sorted(options)
+    content = load_template(template_version).render_parts(
+        slots={"original_images": _labelled_images("Image", images_png)},
+        question=question.strip(),
+        num_images=len(images_png),
+        letters=", ".join(letters) if letters else "the options",
+    )
+    messages = [{"role": "user", "content": content}]
+    try:
+        try:
+            reply = client.complete(messages, response_format=answer_schema(letters))
+        except ModelError:
             reply = client.complete(messages)
     except LLMError as error:
         return AnswerResult(answer=None, method="none", reason=f"the answer model failed: {error}")
@@ -173,8 +256,6 @@ def answer_with_model(
 
 _PAIR = re.compile(r"\b(?:view|image)\s+(\d+)\b.*?\b(?:view|image)\s+(\d+)\b", re.IGNORECASE)
 _SENTENCE_END = re.compile(r"(?<=[.!?])\s+(?=[A-Z])")
-_ASKS_TURN = re.compile(r"\b(?:turn|turned|turning|rotate|rotated|rotating|rotation|face|facing)\b")
-_ASKS_MOVE = re.compile(r"\b(?:move|moved|moving|movement|walk|walked|travel\w*|went|step\w*|go)\b")
 
 
 class _Motion(BaseModel):
@@ -207,21 +288,17 @@ def _motion_statements(clue_text: str) -> list[_Motion]:
     return statements
 
 
-def _pick_statement(question: str, statements: list[_Motion]) -> tuple[_Motion | None, str]:
-    """The statement about the pair the question asks for, or None and why not."""
-    views_in_clue = max((max(s.pair) for s in statements if s.pair), default=2)
-    asked = list(dict.fromkeys(view_references(question, views_in_clue)))
-    if len(asked) >= 2:
-        pair = (asked[0], asked[1])
+def _pick_statement(intent: QuestionIntent, statements: list[_Motion]) -> tuple[_Motion | None, str]:
+    """The statement about the pair the question asks for (from its parsed intent), or None and why."""
+    named = len(intent.mentioned_views) >= 2
+    if intent.motion_pair is not None and (named or len(statements) > 1):
         for statement in statements:
-            if statement.pair == pair:
+            if statement.pair == intent.motion_pair:
                 return statement, ""
-        return None, f"the program's output has no sentence about view {pair[0]} to view {pair[1]}"
+        first, second = intent.motion_pair
+        return None, f"the program's output has no sentence about view {first} to view {second}"
     if len(statements) == 1:
         return statements[0], ""
-    first_pair = [statement for statement in statements if statement.pair == (1, 2)]
-    if len(statements) > 1 and not asked and first_pair:
-        return first_pair[0], ""
     return None, "the question does not say which pair of views it asks about"
 
 
@@ -236,9 +313,10 @@ def _option_motion(text: str, asks_turn_only: bool) -> tuple[str | None, str | N
     return direction, turn, degrees
 
 
-def _match_motion(question: str, statement: _Motion, options: dict[str, str]) -> tuple[str | None, str]:
-    stem = question.lower()
-    asks_turn_only = bool(_ASKS_TURN.search(stem)) and not _ASKS_MOVE.search(stem)
+def _match_motion(
+    intent: QuestionIntent, statement: _Motion, options: dict[str, str]
+) -> tuple[str | None, str]:
+    asks_turn_only = intent.asks_turn_only
     matches: list[tuple[str, float]] = []
     for letter, text in options.items():
         direction, turn, degrees = _option_motion(text, asks_turn_only)
@@ -261,9 +339,16 @@ def _match_motion(question: str, statement: _Motion, options: dict[str, str]) ->
     return closest[0], ""
 
 
-def answer_offline(question: str, clue_text: str | None, clue_images: list[bytes]) -> AnswerResult:
-    """Answer from a camera-motion text clue without any model; None with the reason otherwise."""
+def answer_offline(
+    question: str, clue_text: str | None, clue_images: list[bytes], intent: QuestionIntent | None = None
+) -> AnswerResult:
+    """Answer from a camera-motion text clue without any model; None with the reason otherwise.
+
+    The pair of views and whether a turn or a walk is asked come from the question's intent (parsed
+    here when not given): never from the first view the question's opening happens to mention.
+    """
     options = parse_options(question)
+    intent = intent or parse_question(question)
     if not options:
         return AnswerResult(
             answer=None,
@@ -272,11 +357,18 @@ def answer_offline(question: str, clue_text: str | None, clue_images: list[bytes
         )
     text = (clue_text or "").strip()
     statements = _motion_statements(text) if text else []
+    if statements and intent.family != "self_movement":
+        return AnswerResult(
+            answer=None,
+            method="none",
+            reason="the program's output describes camera motion, but this is a "
+            f"{intent.family.replace('_', ' ')} question, which a motion sentence does not answer",
+        )
     if statements:
-        statement, why = _pick_statement(question, statements)
+        statement, why = _pick_statement(intent, statements)
         if statement is None:
             return AnswerResult(answer=None, method="none", reason=why)
-        letter, why = _match_motion(question, statement, options)
+        letter, why = _match_motion(intent, statement, options)
         if letter is None:
             return AnswerResult(answer=None, method="none", reason=why)
         return AnswerResult(
@@ -315,8 +407,10 @@ def answer_offline(question: str, clue_text: str | None, clue_images: list[bytes
 __all__ = [
     "AnswerMethod",
     "AnswerResult",
+    "answer_from_images",
     "answer_offline",
     "answer_schema",
+    "answer_text_clue_with_model",
     "answer_with_model",
     "build_answer_messages",
     "read_model_answer",
