@@ -65,7 +65,16 @@ def views():
 def recon(tmp_path_factory, redis_url):
     env = recon_env(tmp_path_factory.mktemp("runtime"), redis_url, PYSPATIAL_MAX_REQUEST_PIXELS="150000000")
     with running_service(APP, env) as service:
+        service.namespace = env["PYSPATIAL_CACHE_NAMESPACE"]
         yield service
+
+
+def test_a_failed_reconstruction_releases_its_lease(recon, redis_url, views):
+    with ReconClient(recon.url) as client:
+        scene_id = client.upload_scene(jittered(views.images, 50)).scene_id
+    response = httpx.post(f"{recon.url}/v1/scenes/{scene_id}/reconstruct", json={"backbone": "posed-rgbd"})
+    assert response.status_code == 422 and "depth" in response.json()["detail"]
+    assert redis.Redis.from_url(redis_url).keys(f"pyspatial:{recon.namespace}:recon:lease:*") == []
 
 
 def test_agent_timeout_outlasts_the_longest_recon_wait():

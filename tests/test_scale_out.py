@@ -75,7 +75,7 @@ def test_twenty_solves_with_fresh_images_through_nginx(two_replicas, tmp_path):
 
 def test_killing_the_lease_holder_delays_others_by_one_lease_and_one_reconstruction(two_replicas, redis_url):
     first, second, namespace = two_replicas
-    views = orbit_views(seed=4, num_views=4, width=480, height=360)
+    views = orbit_views(seed=4, num_views=4, width=640, height=480)
     with ReconClient(first.url) as client:
         scene_id = client.upload_scene(jittered(views.images, 40)).scene_id
 
@@ -87,8 +87,15 @@ def test_killing_the_lease_holder_delays_others_by_one_lease_and_one_reconstruct
     doomed.start()
     store = redis.Redis.from_url(redis_url)
     deadline = time.monotonic() + 60
-    while not store.keys(f"pyspatial:{namespace}:recon:lease:{scene_id}:*"):
+    while not (leases := store.keys(f"pyspatial:{namespace}:recon:lease:{scene_id}:*")):
         assert time.monotonic() < deadline, "the first replica never took the lease"
+        time.sleep(0.05)
+    # the heartbeat renews the lease while the work runs (every third of its lifetime)
+    lowest = store.pttl(leases[0])
+    renewed_by = time.monotonic() + LEASE_S
+    while (remaining := store.pttl(leases[0])) <= lowest:
+        assert time.monotonic() < renewed_by, f"the lease was not renewed ({remaining} ms left)"
+        lowest = remaining
         time.sleep(0.05)
 
     outcome: dict = {}
