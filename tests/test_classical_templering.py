@@ -100,3 +100,18 @@ def test_confidence_over_http(tmp_path, redis_url):
         assert 0 < camera.confidence.spread <= 1 and camera.confidence.reprojection_error_px < 1.5
     assert {(pair.first, pair.second) for pair in summary.pairs} == {(0, 1), (0, 2), (1, 2)}
     assert all(pair.triangulation_angle_deg > 1 for pair in summary.pairs)
+
+
+def test_two_groups_tied_by_a_few_points_keep_only_the_larger():
+    from services.recon.backbones.classical.verification import weakly_tied_views
+    from shared.reconstruction import PairConfidence
+
+    pairs = [
+        PairConfidence(0, 1, 120, 0.3, 20.0),
+        PairConfidence(1, 2, 90, 0.3, 20.0),
+        PairConfidence(2, 3, 12, 0.4, 40.0),  # view 3 hangs on 12 points
+        PairConfidence(0, 3, 0, float("nan"), float("nan")),
+    ]
+    refused = weakly_tied_views(pairs)
+    assert list(refused) == [3] and "12 shared points" in refused[3]
+    assert weakly_tied_views(pairs[:2]) == {}

@@ -35,6 +35,7 @@ from .verification import (
     pair_confidences,
     rejection_reason,
     view_confidence,
+    weakly_tied_views,
 )
 
 MAX_CALIBRATION_ROUNDS = 5
@@ -247,6 +248,10 @@ def _verified(
             )
             if reason is not None:
                 rejected[view] = reason
+        if not rejected:
+            rejected = weakly_tied_views(
+                pair_confidences(seen, model.extrinsics, model.points, [1.0] * len(keypoints))
+            )
         if not rejected:
             break
         reasons.update(rejected)

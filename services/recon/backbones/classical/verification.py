@@ -22,10 +22,11 @@ from .geometry import camera_center, project, rotation_angle_deg
 from .two_view import TwoViewGeometry
 
 INLIER_PX = 3.0  # working-image pixels
-MIN_VIEW_INLIERS = 30
-# A view whose focal is only the prior (not given, not determinable) has a second source of
-# error; it needs more support (on templeRing a 46-degree pair with 46 inliers came out 28 off).
-MIN_VIEW_INLIERS_PRIOR_FOCAL = 50
+# On templeRing, 46-degree pairs held by 38-46 inliers came out 2-6 degrees off even with the true
+# focal (28 off with the prior); 80 and more were right.
+MIN_VIEW_INLIERS = 50
+MIN_VIEW_INLIERS_PRIOR_FOCAL = 50  # a view whose focal is only the prior: a second source of error
+MIN_PAIR_POINTS = 30  # shared points that tie two views together
 MIN_SPREAD = 2 / 16  # at least two cells of a 4x4 grid
 MAX_MEDIAN_ERROR_PX = 1.5
 MIN_POSITIVE_DEPTH = 0.9
@@ -151,4 +152,44 @@ def pair_confidences(
             )
             angle = float(np.degrees(np.median(np.arccos(np.clip(cosine, -1.0, 1.0)))))
             result.append(PairConfidence(first, second, len(shared), float(np.median(errors)), angle))
+    return result
+
+
+def weakly_tied_views(pairs: list[PairConfidence]) -> dict[int, str]:
+    """Views outside the largest group tied together by pairs with MIN_PAIR_POINTS shared points.
+
+    Two groups joined only by a handful of points can each be right and still be wrongly placed
+    relative to each other (templeRing, 4 views 46 degrees apart: two good halves, 18 points
+    between them, 5 degrees off). The larger group keeps its poses (ties: the lowest view)."""
+    views = sorted({p.first for p in pairs} | {p.second for p in pairs})
+    group = {view: view for view in views}
+
+    def root(view: int) -> int:
+        while group[view] != view:
+            view = group[view]
+        return view
+
+    for pair in pairs:
+        if pair.inliers >= MIN_PAIR_POINTS:
+            group[root(pair.second)] = root(pair.first)
+    members: dict[int, list[int]] = {}
+    for view in views:
+        members.setdefault(root(view), []).append(view)
+    if len(members) <= 1:
+        return {}
+    kept = max(members.values(), key=lambda group_views: (len(group_views), -min(group_views)))
+    result = {}
+    for view in views:
+        if view in kept:
+            continue
+        best = max(
+            (p for p in pairs if view in (p.first, p.second) and (p.first in kept or p.second in kept)),
+            key=lambda p: p.inliers,
+            default=None,
+        )
+        shared = 0 if best is None else best.inliers
+        result[view] = (
+            f"only weakly tied to views {', '.join(map(str, kept))} ({shared} shared points, "
+            f"at least {MIN_PAIR_POINTS} needed)"
+        )
     return result
