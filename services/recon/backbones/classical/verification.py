@@ -5,7 +5,8 @@ A wrong pose is worse than no pose. After bundle adjustment every registered vie
 - spread over the image (a pose from one small patch is poorly constrained),
 - a low median reprojection error,
 - its points in front of it,
-- agreement with the two-view geometry of its best-matched partner (consistency with the others).
+- agreement with the two-view geometry of its best-matched partner (consistency with the others),
+- ties to the others: groups of views joined by only a few shared points keep the larger group.
 A view that fails is unregistered with the reason; a view whose points all meet at shallow angles
 keeps its pose but gets a warning that its position is uncertain.
 """
@@ -25,7 +26,7 @@ INLIER_PX = 3.0  # working-image pixels
 # On templeRing, 46-degree pairs held by 38-46 inliers came out 2-6 degrees off even with the true
 # focal (28 off with the prior); 80 and more were right.
 MIN_VIEW_INLIERS = 50
-MIN_VIEW_INLIERS_PRIOR_FOCAL = 50  # a view whose focal is only the prior: a second source of error
+MIN_VIEW_INLIERS_PRIOR_FOCAL = 50  # a prior focal is a second source of error: never fewer
 MIN_PAIR_POINTS = 30  # shared points that tie two views together
 MIN_SPREAD = 2 / 16  # at least two cells of a 4x4 grid
 MAX_MEDIAN_ERROR_PX = 1.5
