@@ -17,7 +17,11 @@ fi
 # ---- system packages (Debian/Ubuntu) ----
 # libusb-1.0-0, libgomp1: Open3D; redis-server: the tests' real Redis;
 # mesa-vulkan-drivers, libvulkan1, libegl1: Open3D's offscreen renderer (render benchmark).
-REQUIRED_PACKAGES=(libusb-1.0-0 libgomp1 redis-server mesa-vulkan-drivers libvulkan1 libegl1)
+REQUIRED_PACKAGES=(
+    libusb-1.0-0 libgomp1 redis-server mesa-vulkan-drivers libvulkan1 libegl1
+    bubblewrap   # the OS jail of the agent's program sandbox (namespaces, read-only view)
+    libseccomp2  # the sandbox worker's seccomp filter (through PyPI pyseccomp)
+)
 if command -v dpkg-query >/dev/null 2>&1; then
     missing=()
     for package in "${REQUIRED_PACKAGES[@]}"; do

@@ -282,7 +282,12 @@ ATTACKS = [
     Attack("return_scene", wrap("return input_scene"), "output", "type Scene cannot be returned"),
     Attack("return_api", wrap("return [pySpatial]"), "output", "type PySpatial cannot be returned"),
     Attack("deep_nesting", wrap("return [[[[1]]]]"), "output", "nested more than 3 levels"),
-    Attack("object_array", wrap("return np.array([input_scene])"), "output", "dtype object"),
+    Attack(
+        "object_array",
+        wrap("return np.array([input_scene])"),
+        "exception",
+        "np.array would make a numpy array of dtype object",
+    ),
     # --- tool abuse -----------------------------------------------------------------------
     Attack(
         "render_too_big",
