@@ -17,6 +17,7 @@ from services.agent.llm import ChatClient, ChatModelConfig
 from services.agent.planner import PlanningError, plan_program
 from services.agent.recon_tools import ReconToolProvider
 from services.agent.sandbox import ExecutionResult, SandboxLimits, run_program
+from services.agent.sandbox.jail import JailMode, JailStatus, probe
 from shared.client import ReconClient
 from shared.imaging import decode_image, encode_image
 from shared.schemas import AttemptRecord, Clue, SolveResponse, SolveTimings
@@ -100,6 +101,16 @@ class SolvePipeline:
             wall_seconds=settings.sandbox_wall_s,
             memory_mb=settings.sandbox_memory_mb,
         )
+        self._jail: JailStatus | None = None
+
+    @property
+    def jail(self) -> JailStatus:
+        """The OS jail of the program sandbox, probed once (a real program run, ~0.1 s)."""
+        if self._jail is None:
+            self._jail = probe(JailMode(self.settings.sandbox_jail))
+            if self.settings.sandbox_test_only_unchecked and not self._jail.jailed:
+                raise RuntimeError("PYSPATIAL_SANDBOX_TEST_ONLY_UNCHECKED needs an active OS jail")
+        return self._jail
 
     @property
     def code_model_name(self) -> str:
@@ -130,6 +141,8 @@ class SolvePipeline:
             available = self.recon.backbones()["available"]
             if backbone not in available:
                 raise SolveError(422, f"unknown backbone {backbone!r}; available: {', '.join(available)}")
+        if not self.jail.runs_programs:
+            raise SolveError(503, f"the program sandbox is unavailable: {self.jail.detail}")
         scene_id, input_pngs = self._scene(image_files, scene_id)
         # Reconstruct first: input the backbone cannot use is a clear 4xx here rather than a failed
         # program, and the program's own reconstruct() is then a cache hit.
@@ -141,7 +154,15 @@ class SolvePipeline:
 
         def execute(source: str) -> ExecutionOutcome:
             run_started = time.perf_counter()
-            result = run_program(source, question, len(input_pngs), tools, self.limits)
+            result = run_program(
+                source,
+                question,
+                len(input_pngs),
+                tools,
+                self.limits,
+                jail_status=self.jail,
+                python_checks=not self.settings.sandbox_test_only_unchecked,
+            )
             stage.execution_s += time.perf_counter() - run_started
             stage.last = result
             stage.runs.append(result)

@@ -155,8 +155,30 @@ def bwrap_command(worker_arguments: list[str]) -> list[str]:
     return command + [interpreter(), *worker_arguments]
 
 
+def workdir_prefix() -> str:
+    """Host work directories (opt-out mode only) carry the owning process id: pyspatial-sandbox-PID-."""
+    return f"{WORKDIR_PREFIX}{os.getpid()}-"
+
+
+def _owner_alive(name: str) -> bool:
+    owner = name.removeprefix(WORKDIR_PREFIX).split("-", 1)[0]
+    if not owner.isdigit():
+        return False
+    try:
+        os.kill(int(owner), 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
 def remove_stale_workdirs(root: str | None = None) -> int:
-    """Delete `pyspatial-sandbox-*` directories a killed agent left behind; returns how many."""
+    """Delete `pyspatial-sandbox-*` directories whose agent process is gone; returns how many.
+
+    The jail itself leaves nothing on the host (its /tmp is a private tmpfs); these come from the
+    opt-out mode or from versions before the jail.
+    """
     root = root or tempfile.gettempdir()
     removed = 0
     try:
@@ -164,7 +186,9 @@ def remove_stale_workdirs(root: str | None = None) -> int:
     except OSError:
         return 0
     for entry in entries:
-        if entry.name.startswith(WORKDIR_PREFIX) and entry.is_dir(follow_symlinks=False):
+        if not entry.name.startswith(WORKDIR_PREFIX) or not entry.is_dir(follow_symlinks=False):
+            continue
+        if not _owner_alive(entry.name):
             shutil.rmtree(entry.path, ignore_errors=True)
             removed += 1
     return removed

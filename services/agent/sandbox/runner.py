@@ -261,7 +261,7 @@ def run_program(
         command = jail.bwrap_command(["-I", "-S", "-c", boot])
         result = _run_child(command, "/", _child_environment("/tmp"), job, broker, limits)
     else:  # operator opt-out: a host temporary directory, Python-level walls and rlimits only
-        with tempfile.TemporaryDirectory(prefix=jail.WORKDIR_PREFIX) as workdir:
+        with tempfile.TemporaryDirectory(prefix=jail.workdir_prefix()) as workdir:
             command = [sys.executable, "-I", "-c", _BOOT]
             result = _run_child(command, workdir, _child_environment(workdir), job, broker, limits)
     result.tool_calls = list(broker.calls)
