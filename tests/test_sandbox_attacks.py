@@ -316,7 +316,7 @@ ATTACKS = [
 ]
 
 
-E, O, OK = "exception", "output", "ok"
+E, OUT, OK = "exception", "output", "ok"
 NDARRAY = "TypeError: np.ndarray(...) is not available in the sandbox; use np.array, np.zeros or np.ones"
 OBJECT_DTYPE = "TypeError: numpy arrays of dtype object are not available in the sandbox"
 HIDDEN = "<function program.<locals>.f at (address hidden)>"
@@ -463,7 +463,7 @@ MEMORY_ATTACKS = [
     Attack(
         "astype_void_returned",
         wrap("return np.zeros(2).astype('V8')"),
-        O,
+        OUT,
         "output is not serializable: numpy arrays of dtype |V8 cannot be returned; return numbers",
     ),
     Attack("memoryview_name", wrap("return memoryview(bytearray(8))"), R, "'memoryview' is not available"),
@@ -618,7 +618,7 @@ MEMORY_ATTACKS = [
     ),
     Attack(
         "too_many_blocks",
-        wrap(*["    " * i + "for i%d in range(1):" % i for i in range(21)], "    " * 21 + "pass", "return 1"),
+        wrap(*["    " * i + f"for i{i} in range(1):" for i in range(21)], "    " * 21 + "pass", "return 1"),
         R,
         "rejected: syntax error at line 22: too many statically nested blocks",
     ),
