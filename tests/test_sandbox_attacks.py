@@ -14,6 +14,7 @@ import re
 import subprocess
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -627,18 +628,34 @@ MEMORY_ATTACKS = [
 ATTACKS += MEMORY_ATTACKS
 
 
-@pytest.mark.parametrize("attack", ATTACKS, ids=[attack.name for attack in ATTACKS])
-def test_attack_is_refused_with_the_right_reason(attack: Attack) -> None:
-    result = run_program(attack.source, "What is left of me?", 2, TinyTools(), LIMITS)
+def outcome_problem(attack: Attack, result) -> str | None:
+    """None when `result` is exactly how `attack` must end, else what differs."""
     if attack.kind == "ok":  # harmless by construction (hidden addresses, replaced surrogates)
-        assert result.ok, result.error
-        assert result.clue_text == attack.reason
+        if not result.ok or result.clue_text != attack.reason:
+            got = f"ok={result.ok} {result.clue_text!r} {result.error!r}"
+            return f"expected ok with {attack.reason!r}, got {got}"
         result.clue_text.encode("utf-8")
-        return
-    assert result.ok is False, f"{attack.name} was not stopped: {result.clue_text!r}"
-    assert result.error_kind == attack.kind, result.error
-    assert attack.reason in result.error, result.error
-    assert result.clue_text is None and result.clue_images == []
+        return None
+    if result.ok:
+        return f"was not stopped: {result.clue_text!r}"
+    if result.error_kind != attack.kind or attack.reason not in result.error:
+        return f"expected {attack.kind} with {attack.reason!r}, got {result.error_kind}: {result.error!r}"
+    if result.clue_text is not None or result.clue_images:
+        return "a failed run carried a clue"
+    return None
+
+
+def test_every_attack_ends_exactly_as_stated() -> None:
+    """The whole corpus through the runner, four programs at a time (each in its own process)."""
+
+    def run_one(attack: Attack) -> str | None:
+        result = run_program(attack.source, "What is left of me?", 2, TinyTools(), LIMITS)
+        problem = outcome_problem(attack, result)
+        return f"{attack.name}: {problem}" if problem else None
+
+    with ThreadPoolExecutor(max_workers=4) as pool:
+        problems = [problem for problem in pool.map(run_one, ATTACKS) if problem]
+    assert problems == []
 
 
 def test_corpus_is_large_and_covers_every_wall() -> None:

@@ -26,8 +26,30 @@ and keeps every pixel; the program holds opaque `Image` handles. Pose tools (sha
 locally in the child. Time spent in the parent's tools does not count against `wall_seconds`.
 """
 
-from services.agent.sandbox.runner import ExecutionResult, SandboxLimits, ToolProvider, run_program
-from services.agent.sandbox.validation import ProgramRejected, validate_program
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from services.agent.sandbox.runner import ExecutionResult, SandboxLimits, ToolProvider, run_program
+    from services.agent.sandbox.validation import ProgramRejected, validate_program
+
+_EXPORTS = {
+    "ExecutionResult": "runner",
+    "SandboxLimits": "runner",
+    "ToolProvider": "runner",
+    "run_program": "runner",
+    "ProgramRejected": "validation",
+    "validate_program": "validation",
+}
+
+
+def __getattr__(name: str):  # noqa: ANN202
+    """Lazy exports: the worker imports this package too, and needs none of the parent's modules."""
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+
+    return getattr(importlib.import_module(f"{__name__}.{_EXPORTS[name]}"), name)
+
 
 __all__ = [
     "ExecutionResult",
