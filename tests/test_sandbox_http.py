@@ -130,28 +130,32 @@ ESCAPES = {
 
 def test_the_jail_alone_holds_over_http_while_a_concurrent_solve_succeeds(recon, llm, scene_id) -> None:
     env = agent_env(recon.url, llm.base_url, PYSPATIAL_SANDBOX_TEST_ONLY_UNCHECKED="1")
+    # Each escape first waits a moment, so that all of them and the ordinary solve run side by side.
+    escapes = {name: attempt("import time", "time.sleep(1.0)", step) for name, (step, _) in ESCAPES.items()}
+    llm.reset()
+    llm.script([fenced(source) for source in escapes.values()], model="coder")
     with running_service(AGENT_APP, env) as agent:
         ready = httpx.get(agent.url + "/readyz", timeout=30).json()
         assert ready["sandbox"]["jail"] == "active" and ready["sandbox"]["runs_programs"] is True
-        for name, (action, expected) in ESCAPES.items():
-            llm.reset()
-            # Each escape first waits a moment, so the ordinary solve runs next to it.
-            escape = attempt("import time", "time.sleep(0.5)", action)
-            llm.script([fenced(escape), fenced(MOTION_PROGRAM)], model="coder")
-            with ThreadPoolExecutor(max_workers=2) as pool:
-                attack = pool.submit(solve, agent.url, scene_id)
-                _wait_for_code_requests(llm, 1)
-                ordinary = pool.submit(solve, agent.url, scene_id)
-                attack_body, ordinary_body = attack.result().json(), ordinary.result().json()
-            assert attack_body["clue"]["text"] == expected, (name, attack_body["attempts"])
-            assert ordinary_body["attempts"][0]["error"] is None, (name, ordinary_body["attempts"])
-            assert "moved" in ordinary_body["clue"]["text"]
-            assert httpx.get(agent.url + "/healthz", timeout=5).status_code == 200
+        with ThreadPoolExecutor(max_workers=len(escapes) + 1) as pool:
+            attacks = [pool.submit(solve, agent.url, scene_id) for _ in escapes]
+            _wait_for_code_requests(llm, len(escapes))
+            llm.script([fenced(MOTION_PROGRAM)], model="coder")
+            ordinary = pool.submit(solve, agent.url, scene_id).result()
+            bodies = [future.result().json() for future in attacks]
+        assert ordinary.status_code == 200, ordinary.text
+        assert ordinary.json()["attempts"][0]["error"] is None, ordinary.json()["attempts"]
+        assert "moved" in ordinary.json()["clue"]["text"]
+        assert httpx.get(agent.url + "/healthz", timeout=5).status_code == 200
         assert agent.process.poll() is None  # the agent survived every escape
+    by_program = {body["attempts"][0]["program"].strip(): body for body in bodies}
+    for name, source in escapes.items():
+        body = by_program[source.strip()]
+        assert body["clue"]["text"] == ESCAPES[name][1], (name, body["attempts"])
 
 
 def _wait_for_code_requests(llm, count: int) -> None:
-    for _ in range(400):
+    for _ in range(1200):
         if len(llm.requests()) >= count:
             return
         time.sleep(0.025)
