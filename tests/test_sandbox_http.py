@@ -20,6 +20,7 @@ from services.agent.codegen import extract_program
 from shared.client import AgentClient, ReconClient
 from shared.local_services import running_service
 from tests.support.scenes import orbit_views
+from tests.test_sandbox import FALSE_POSITIVES, FALSE_POSITIVES_CLUE
 from tests.test_sandbox_attacks import ATTACKS, LIMITS, Attack
 from tests.test_sandbox_jail import EPERM, attempt
 
@@ -87,6 +88,8 @@ def through_http(attack: Attack) -> bool:
 def test_the_attack_corpus_ends_the_same_way_through_v1_solve(recon, llm, scene_id) -> None:
     attacks = [attack for attack in ATTACKS if through_http(attack)]
     assert len(attacks) >= 150
+    # and, as a control, the ordinary code that must never be refused
+    attacks.append(Attack("false_positives", FALSE_POSITIVES, "ok", FALSE_POSITIVES_CLUE))
     llm.reset()
     llm.script([fenced(attack.source) for attack in attacks], model="coder")
     env = agent_env(recon.url, llm.base_url)
