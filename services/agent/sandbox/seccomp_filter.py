@@ -9,22 +9,31 @@ this filter) and kernel-level odds and ends. Nothing here relies on the Python-l
 
 from __future__ import annotations
 
-import ctypes.util
 import errno
 import os
+import sys
+import types
 
-LIBSECCOMP = "libseccomp.so.2"
+SONAMES = {"seccomp": "libseccomp.so.2", "c": "libc.so.6"}  # Linux with glibc, as the jail needs
 
 
 def _import_bindings():  # noqa: ANN202
-    """pyseccomp finds libseccomp with ctypes.util.find_library, which runs /sbin/ldconfig; the jail
-    has no /sbin and may not exec, so the library is named by its soname for that one import."""
-    find_library = ctypes.util.find_library
-    ctypes.util.find_library = lambda name: LIBSECCOMP if name == "seccomp" else find_library(name)
+    """pyseccomp looks libseccomp up with ctypes.util.find_library, which imports subprocess and
+    friends (~15 ms of start-up) and runs /sbin/ldconfig, absent from the jail. For that one import,
+    a stand-in ctypes.util names the libraries by their sonames, which the dynamic loader finds."""
+    import ctypes
+
+    stand_in = types.ModuleType("ctypes.util")
+    stand_in.find_library = SONAMES.get
+    real = sys.modules.get("ctypes.util")
+    sys.modules["ctypes.util"] = ctypes.util = stand_in
     try:
         import pyseccomp
     finally:
-        ctypes.util.find_library = find_library
+        if real is None:
+            del sys.modules["ctypes.util"], ctypes.util
+        else:
+            sys.modules["ctypes.util"] = ctypes.util = real
     return pyseccomp
 
 
