@@ -18,6 +18,7 @@ from services.agent.planner import PlanningError, plan_program
 from services.agent.recon_tools import ReconToolProvider
 from services.agent.sandbox import ExecutionResult, SandboxLimits, run_program
 from services.agent.sandbox.jail import JailMode, JailStatus, probe
+from services.agent.sandbox.text import clean_text
 from shared.client import ReconClient
 from shared.imaging import decode_image, encode_image
 from shared.schemas import AttemptRecord, Clue, SolveResponse, SolveTimings
@@ -263,7 +264,12 @@ class SolvePipeline:
             num_examples=self.settings.num_examples,
         )
         attempts = [
-            AttemptRecord(program=a.program, error=a.error, reply=a.reply, latency_ms=round(a.latency_ms, 2))
+            AttemptRecord(
+                program=_encodable(a.program),
+                error=_encodable(a.error),
+                reply=_encodable(a.reply),
+                latency_ms=round(a.latency_ms, 2),
+            )
             for a in generated.attempts
         ]
         if generated.failure == "model":
@@ -276,7 +282,8 @@ class SolvePipeline:
                 program,
                 f"{OFFLINE_PLANNER} (fallback: {self.code_model_name} failed)",
             )
-        return attempts, generated.program if generated.ok else None, self.code_model_name
+        program = _encodable(generated.program) if generated.ok else None
+        return attempts, program, self.code_model_name
 
     @staticmethod
     def _plan_offline(question: str, num_images: int, execute) -> tuple[AttemptRecord, str | None]:
@@ -293,3 +300,8 @@ class SolvePipeline:
             latency_ms=round((time.perf_counter() - run_started) * 1e3, 2),
         )
         return attempt, planned.source if outcome.ok else None
+
+
+def _encodable(text: str | None) -> str | None:
+    """A model's text in the response: lone surrogates (valid in JSON, not in UTF-8) replaced."""
+    return None if text is None else clean_text(text)
