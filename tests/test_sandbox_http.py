@@ -17,6 +17,7 @@ import httpx
 import pytest
 
 from services.agent.codegen import extract_program
+from services.agent.sandbox.text import clean_text
 from shared.client import AgentClient, ReconClient
 from shared.local_services import running_service
 from tests.support.scenes import orbit_views
@@ -81,8 +82,11 @@ def solve(url: str, scene_id: str, timeout: float = 120.0) -> httpx.Response:
 
 
 def through_http(attack: Attack) -> bool:
-    """Attacks the code model's reply can carry: a fenced block that defines program()."""
-    return "\x00" not in attack.source and extract_program(fenced(attack.source)) is not None
+    """Attacks the code model's reply can carry: a fenced block that defines program(), and text the
+    scripted model server can send (it cannot send lone surrogates: its JSON is encoded as UTF-8)."""
+    if "\x00" in attack.source or clean_text(attack.source) != attack.source:
+        return False
+    return extract_program(fenced(attack.source)) is not None
 
 
 def test_the_attack_corpus_ends_the_same_way_through_v1_solve(recon, llm, scene_id) -> None:
