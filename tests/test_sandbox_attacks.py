@@ -513,6 +513,12 @@ MEMORY_ATTACKS = [
         OK,
         "<built-in function len><function make_print.<",
     ),
+    Attack(
+        "address_in_error",
+        F + wrap("return {}[f]"),
+        E,
+        "program raised KeyError: <function program.<locals>.f at (address hidden)> (line 4)",
+    ),
     Attack("address_id", wrap("return id(input_scene)"), R, "'id' is not available"),
     Attack("address_hash", wrap("return hash(input_scene)"), E, "NameError: name 'hash' is not defined"),
     Attack(

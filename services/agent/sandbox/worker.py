@@ -28,6 +28,7 @@ from services.agent.sandbox.builtins import (
     FORMAT_FUNCTION_NAME,
     OutputCapture,
     OutputLimitExceeded,
+    hide_addresses,
     program_globals,
 )
 from services.agent.sandbox.output import OutputRejected, OutputTooLarge, render_output
@@ -181,7 +182,7 @@ def describe_exception(error: BaseException) -> str:
         # numpy's C code tried to import a module on the program's behalf; programs have no __import__
         return f"program used a numpy feature that is not available in the sandbox{where}"
     try:
-        message = str(error)
+        message = hide_addresses(str(error))
     except Exception:  # a message that cannot even be printed
         message = "(message unavailable)"
     if len(message) > MAX_ERROR_CHARS:
