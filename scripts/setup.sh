@@ -17,8 +17,10 @@ fi
 # ---- system packages (Debian/Ubuntu) ----
 # libusb-1.0-0, libgomp1: Open3D; redis-server: the tests' real Redis;
 # mesa-vulkan-drivers, libvulkan1, libegl1: Open3D's offscreen renderer (render benchmark).
+# chromium, chromium-driver: the web page's browser tests (selenium drives Debian's headless Chromium).
 REQUIRED_PACKAGES=(
     libusb-1.0-0 libgomp1 redis-server mesa-vulkan-drivers libvulkan1 libegl1
+    chromium chromium-driver
     bubblewrap   # the OS jail of the agent's program sandbox (namespaces, read-only view)
     libseccomp2  # the sandbox worker's seccomp filter (through PyPI pyseccomp)
 )

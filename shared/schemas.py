@@ -25,7 +25,11 @@ class SceneUpload(_Model):
         None, description="Optional per-view z-depth, base64 of a float32 .npy (H, W), for posed-rgbd."
     )
     extrinsics: list[Matrix] | None = Field(None, description="Optional 3x4 camera-from-world, OpenCV axes.")
-    intrinsics: list[Matrix] | None = Field(None, description="Optional 3x3 intrinsics in pixels.")
+    intrinsics: list[Matrix | None] | None = Field(
+        None,
+        description="Optional 3x3 intrinsics in pixels of the upright image (EXIF orientation applied), "
+        "one per view; null for a view whose camera is unknown (its EXIF focal length is used if any).",
+    )
 
 
 class SceneInfo(_Model):
@@ -49,7 +53,12 @@ class ReconstructRequest(_Model):
 class CameraInfo(_Model):
     index: int
     extrinsic: Matrix | None = Field(..., description="3x4 camera-from-world; null when not registered.")
-    intrinsic: Matrix
+    intrinsic: Matrix | None = Field(..., description="3x3 in pixels; null when the backbone has none.")
+    intrinsics_source: str | None = Field(
+        None,
+        description="Where the intrinsics came from: uploaded, exif, predicted (vggt), prior (a guessed "
+        "field of view), or what the backbone says (e.g. self-calibrated); null when not reported.",
+    )
     width: int
     height: int
     registered: bool
@@ -89,23 +98,43 @@ class CameraMotionRequest(_Model):
 
 
 class CameraMotionItem(_Model):
+    """One pair of views: a description, or (described = false) the reason there is none."""
+
     from_view: int
     to_view: int
-    direction: str
-    angle_deg: float
-    distance: float
-    displacement_in_first_camera: list[float]
-    vertical: float = Field(..., description="Displacement along the up axis (positive = up).")
-    yaw_deg: float = Field(..., description="Turn between the views about the up axis; positive = left.")
-    turn: str = Field(..., description="The turn in words, e.g. 'turned left by about 90 degrees'.")
-    sentence: str
+    described: bool = Field(True, description="False when the motion is unknown; `reason` says why.")
+    reason: str | None = Field(None, description="Why there is no description (unregistered view, ...).")
+    direction: str | None = Field(None, description="Horizontal direction, or 'no significant movement'.")
+    vertical_direction: str | None = Field(None, description="'up', 'down', or null when not significant.")
+    angle_deg: float | None = None
+    distance: float | None = None
+    displacement_in_first_camera: list[float] | None = None
+    vertical: float | None = Field(None, description="Displacement along the up axis (positive = up).")
+    yaw_deg: float | None = Field(None, description="Turn about the up axis between the views; + = left.")
+    turn: str | None = Field(None, description="The turn in words, e.g. 'turned left by about 90 degrees'.")
+    sentence: str = Field(..., description="The motion in one sentence, or that it is unknown and why.")
 
 
 class CameraMotionResponse(_Model):
     scene_id: str
     backbone: str
     motions: list[CameraMotionItem]
-    text: str = Field(..., description="The sentences, one per line.")
+    text: str = Field(..., description="The sentences, one per line (unknown pairs included).")
+    scene_scale: float = Field(..., description="Size of the scene (units of the reconstruction).")
+    warnings: list[str] = Field(default_factory=list)
+
+
+class PointCloudPreview(_Model):
+    """A subsample of a reconstruction for viewers: points, colours and the cameras."""
+
+    scene_id: str
+    backbone: str
+    num_points_total: int
+    num_points: int
+    positions: str = Field(..., description="base64 of little-endian float32 (num_points, 3), world frame.")
+    colors: str = Field(..., description="base64 of uint8 RGB (num_points, 3).")
+    cameras: list[CameraInfo]
+    up: list[float]
 
 
 class Readiness(_Model):
@@ -137,9 +166,24 @@ class AttemptRecord(_Model):
     latency_ms: float
 
 
+class ClueView(_Model):
+    """Where one clue image came from: a view rendered from a pose, or an input photo."""
+
+    source: Literal["rendered", "input"]
+    input_index: int | None = Field(None, description="0-based input image, when source is input.")
+    extrinsic: Matrix | None = Field(
+        None, description="3x4 camera-from-world it was rendered from (or the input camera's pose)."
+    )
+    width: int
+    height: int
+
+
 class Clue(_Model):
     text: str | None = None
     images: list[str] = Field(default_factory=list, description="Rendered views as base64 PNG.")
+    views: list[ClueView] = Field(
+        default_factory=list, description="One per image, in the same order: where it came from."
+    )
     notes: list[str] = Field(
         default_factory=list, description="What the service noticed about the clue, e.g. an empty view."
     )
@@ -165,3 +209,37 @@ class SolveResponse(_Model):
     code_model: str = Field(..., description="Model name, or 'offline-planner'.")
     answer_model: str = Field(..., description="Model name, or 'offline-answerer'.")
     timings: SolveTimings
+
+
+# ---- progress of one solve (POST /v1/solve with Accept: text/event-stream) ---------------
+
+SolveStage = Literal["upload", "reconstruction", "program", "execution", "answer"]
+
+
+class StageEvent(_Model):
+    """A stage of the solve started, finished or failed (SSE event name: `stage`)."""
+
+    type: Literal["stage"] = "stage"
+    stage: SolveStage
+    state: Literal["started", "done", "failed"]
+    detail: str = ""
+    elapsed_ms: float = Field(..., description="Since the solve began.")
+
+
+class ResultEvent(_Model):
+    """The last event of a successful solve (SSE event name: `result`)."""
+
+    type: Literal["result"] = "result"
+    result: SolveResponse
+
+
+class ErrorEvent(_Model):
+    """The last event of a failed solve (SSE event name: `error`): the status /v1/solve would return."""
+
+    type: Literal["error"] = "error"
+    status_code: int
+    detail: str
+    stage: SolveStage | None = Field(None, description="The stage that was running, if any.")
+
+
+SolveEvent = Annotated[StageEvent | ResultEvent | ErrorEvent, Field(discriminator="type")]

@@ -14,6 +14,8 @@ from starlette.datastructures import UploadFile
 from services.agent.llm import LLMError
 from services.agent.pipeline import SolveError, SolvePipeline
 from services.agent.sandbox.jail import announce, remove_stale_workdirs
+from services.agent.solve_stream import event_stream, wants_event_stream
+from services.agent.web_routes import install_web_routes
 from shared.client import ServiceError, ServiceUnreachable
 from shared.http_bodies import install_input_error_handlers, read_body_limited
 from shared.imaging import decode_base64
@@ -41,7 +43,20 @@ _SOLVE_DOC = {
                 }
             },
         },
-    }
+    },
+    "responses": {
+        "200": {
+            "content": {
+                "text/event-stream": {
+                    "schema": {
+                        "type": "string",
+                        "description": "With Accept: text/event-stream: SSE events `stage` (StageEvent), "
+                        "then `result` (ResultEvent) or `error` (ErrorEvent).",
+                    }
+                }
+            }
+        }
+    },
 }
 
 
@@ -113,12 +128,20 @@ def create_app(settings: AgentSettings | None = None) -> FastAPI:
 
     @app.post("/v1/solve", tags=["solve"], response_model=SolveResponse, openapi_extra=_SOLVE_DOC)
     async def solve(request: Request) -> SolveResponse:
+        """Answer a question; with `Accept: text/event-stream`, stream the stages (SSE) then the result."""
         body = await _read_solve_request(request, settings)
-        files = [decode_base64(text, f"image {i}") for i, text in enumerate(body.images or [])]
+        files = [decode_base64(text, f"image {i + 1}") for i, text in enumerate(body.images or [])]
+        if wants_event_stream(request.headers.get("accept", "")):
+            return event_stream(
+                lambda progress: pipeline.solve(
+                    body.question, files or None, body.scene_id, body.backbone, body.max_repairs, progress
+                )
+            )
         return await anyio.to_thread.run_sync(
             pipeline.solve, body.question, files or None, body.scene_id, body.backbone, body.max_repairs
         )
 
+    install_web_routes(app, pipeline)
     return app
 
 

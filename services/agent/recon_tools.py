@@ -21,14 +21,17 @@ class ReconToolProvider:
         self.backbone = backbone
         self.input_pngs = input_pngs
         self.backbone_used: str | None = None
+        # What each rendered PNG was rendered from, so the clue can say so (keyed by its bytes).
+        self.rendered_poses: dict[bytes, tuple[list[list[float]], int, int]] = {}
 
     def reconstruct(self) -> dict:
         summary = self.client.reconstruct(self.scene_id, self.backbone)
         self.backbone_used = summary.backbone
         nan_pose = np.full((3, 4), np.nan).tolist()  # unregistered views: no pose to invent
+        nan_intrinsic = np.full((3, 3), np.nan).tolist()
         return {
             "extrinsics": [c.extrinsic if c.registered else nan_pose for c in summary.cameras],
-            "intrinsics": [c.intrinsic for c in summary.cameras],
+            "intrinsics": [nan_intrinsic if c.intrinsic is None else c.intrinsic for c in summary.cameras],
             "image_sizes": [[c.width, c.height] for c in summary.cameras],
             "registered": [c.registered for c in summary.cameras],
             "up": summary.up,
@@ -36,12 +39,14 @@ class ReconToolProvider:
         }
 
     def describe_camera_motion(self) -> list[str]:
-        return [m.sentence for m in self.client.camera_motion(self.scene_id, backbone=self.backbone).motions]
+        """One sentence per pair: its motion, or that it is unknown and why (never fails for one view)."""
+        response = self.client.camera_motion(self.scene_id, backbone=self.backbone)
+        return [motion.sentence for motion in response.motions]
 
     def synthesize_novel_view(self, extrinsic: list[list[float]], width: int, height: int) -> bytes:
-        return self.client.render(
-            self.scene_id, extrinsic, width=width, height=height, backbone=self.backbone
-        )
+        png = self.client.render(self.scene_id, extrinsic, width=width, height=height, backbone=self.backbone)
+        self.rendered_poses[png] = (extrinsic, width, height)
+        return png
 
     def input_image(self, index: int) -> bytes:
         if not 0 <= index < len(self.input_pngs):
