@@ -6,6 +6,8 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from shared.question_intent import QuestionIntent
+
 Matrix = list[list[float]]
 ImageFormat = Literal["png", "jpeg"]
 
@@ -206,8 +208,21 @@ class SolveResponse(_Model):
     attempts: list[AttemptRecord]
     scene_id: str
     backbone: str
-    code_model: str = Field(..., description="Model name, or 'offline-planner'.")
+    code_model: str = Field(
+        ...,
+        description="What wrote the program: the model's name, 'offline-planner', or "
+        "'offline-planner (fallback: <model> failed)'.",
+    )
     answer_model: str = Field(..., description="Model name, or 'offline-answerer'.")
+    fallback: Literal["images_only"] | None = Field(
+        None,
+        description="'images_only': no program ran (the backbone could not reconstruct, or no program "
+        "could be written or run), so the answer model answered from the photos alone.",
+    )
+    fallback_reason: str | None = Field(None, description="Why the fallback was taken.")
+    intent: QuestionIntent | None = Field(
+        None, description="The question as parsed once: setting, family, asked view, view pair, steps."
+    )
     timings: SolveTimings
 
 
