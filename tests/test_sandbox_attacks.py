@@ -69,7 +69,8 @@ class Attack:
     name: str
     body: str  # the program; `def program(input_scene):` is added when the body is indented code
     kind: str
-    reason: str  # a fragment the error message must contain
+    reason: str  # a fragment the error message must contain (for "ok": the exact clue text)
+    stdout: str | None = None  # for "ok": what the program printed, exactly (checked by the runner)
 
     @property
     def source(self) -> str:
@@ -494,7 +495,7 @@ MEMORY_ATTACKS = [
     Attack("address_ascii", F + wrap("return ascii(f)"), OK, HIDDEN),
     Attack("address_in_list", F + wrap("return str([f])"), OK, f"[{HIDDEN}]"),
     Attack("address_in_dict", F + wrap("return repr({'k': f})"), OK, f"{{'k': {HIDDEN}}}"),
-    Attack("address_print", F + wrap("print(f)", "return 'printed'"), OK, "printed"),
+    Attack("address_print", F + wrap("print(f)", "return 1 + 1"), OK, "2", stdout=HIDDEN + "\n"),
     Attack(
         "address_lambda",
         wrap("return repr(lambda: 1)"),
@@ -602,7 +603,7 @@ MEMORY_ATTACKS = [
         "rejected: the program cannot be parsed: 'utf-8' codec can't encode character '\\ud800' in "
         "position 39: surrogates not allowed",
     ),
-    Attack("surrogate_print", wrap("print('\\ud800')", "return 'done'"), OK, "done"),
+    Attack("surrogate_print", wrap("print('\\ud800')", "return 1 + 2"), OK, "3", stdout="\ufffd\n"),
     Attack("surrogate_chr", wrap("return chr(0xDFFF) + chr(0xD800)"), OK, "\ufffd\ufffd"),
     # --- honest compile errors ---------------------------------------------------------------
     Attack("break_outside_loop", wrap("break"), R, "rejected: syntax error at line 2: 'break' outside loop"),
@@ -647,7 +648,10 @@ def outcome_problem(attack: Attack, result) -> str | None:
         if not result.ok or result.clue_text != attack.reason:
             got = f"ok={result.ok} {result.clue_text!r} {result.error!r}"
             return f"expected ok with {attack.reason!r}, got {got}"
+        if attack.stdout is not None and result.stdout != attack.stdout:
+            return f"expected stdout {attack.stdout!r}, got {result.stdout!r}"
         result.clue_text.encode("utf-8")
+        result.stdout.encode("utf-8")
         return None
     if result.ok:
         return f"was not stopped: {result.clue_text!r}"

@@ -17,6 +17,7 @@ import httpx
 import pytest
 
 from services.agent.codegen import extract_program
+from services.agent.program_cleanup import clean_program
 from services.agent.sandbox.text import clean_text
 from shared.client import AgentClient, ReconClient
 from shared.local_services import running_service
@@ -35,6 +36,13 @@ MOTION_PROGRAM = (
 QUESTION = "Which way did the camera move from view 1 to view 2? A. left B. right"
 
 
+ANSWER_REPLY = '{"reasoning": "the clue says so", "answer": "A"}'
+
+
+def script_answers(llm, count: int) -> None:
+    llm.script([ANSWER_REPLY] * count, model="answerer")
+
+
 def fenced(source: str) -> str:
     return f"Here is the program.\n```python\n{source}```\n"
 
@@ -44,6 +52,9 @@ def agent_env(recon_url: str, llm_url: str, **extra: str) -> dict[str, str]:
         "PYSPATIAL_RECON_URL": recon_url,
         "PYSPATIAL_CODE_MODEL": "coder",
         "PYSPATIAL_CODE_MODEL_BASE_URL": llm_url,
+        # an answer model of its own, so that the code model's queue holds programs only
+        "PYSPATIAL_ANSWER_MODEL": "answerer",
+        "PYSPATIAL_ANSWER_MODEL_BASE_URL": llm_url,
         "PYSPATIAL_MODEL_TIMEOUT_S": "10",
         "PYSPATIAL_MODEL_MAX_RETRIES": "0",
         "PYSPATIAL_SANDBOX_CPU_S": str(LIMITS.cpu_seconds),
@@ -96,6 +107,7 @@ def test_the_attack_corpus_ends_the_same_way_through_v1_solve(recon, llm, scene_
     attacks.append(Attack("false_positives", FALSE_POSITIVES, "ok", FALSE_POSITIVES_CLUE))
     llm.reset()
     llm.script([fenced(attack.source) for attack in attacks], model="coder")
+    script_answers(llm, 2 * len(attacks))
     env = agent_env(recon.url, llm.base_url)
     with running_service(AGENT_APP, env) as agent:
         with ThreadPoolExecutor(max_workers=4) as pool:
@@ -105,19 +117,27 @@ def test_the_attack_corpus_ends_the_same_way_through_v1_solve(recon, llm, scene_
     for response in responses:
         assert response.status_code == 200, response.text
         body = response.json()
-        by_program[body["attempts"][0]["program"].strip()] = body
+        by_program[body["attempts"][0]["reply"]] = body
+    problems = []
     for attack in attacks:
-        body = by_program[attack.source.strip()]  # replies are taken in arrival order
+        body = by_program[fenced(attack.source)]  # replies are taken in arrival order
         attempt_record = body["attempts"][0]
+        error, text = attempt_record["error"], body["clue"]["text"]
+        cleaned = clean_program(attack.source)
+        if cleaned.source.strip() != attack.source.strip():
+            # codegen drops top-level code program() does not use before anything runs: the attack
+            # never reaches the sandbox, and the response says what was dropped
+            if attempt_record["program"].strip() != cleaned.source.strip():
+                problems.append(f"{attack.name}: ran {attempt_record['program']!r}")
+            if attempt_record["dropped"] != cleaned.dropped:
+                problems.append(f"{attack.name}: dropped {attempt_record['dropped']!r}")
+            continue
         if attack.kind == "ok":
-            assert attempt_record["error"] is None, (attack.name, attempt_record["error"])
-            assert body["clue"]["text"] == attack.reason, attack.name
-        else:
-            assert attempt_record["error"] is not None and attack.reason in attempt_record["error"], (
-                attack.name,
-                attempt_record["error"],
-            )
-            assert body["answer"] is None and body["clue"]["text"] is None, attack.name
+            if error is not None or text != attack.reason:
+                problems.append(f"{attack.name}: expected {attack.reason!r}, got {text!r} / {error!r}")
+        elif error is None or attack.reason not in error or text is not None:
+            problems.append(f"{attack.name}: expected {attack.reason!r}, got {error!r} / {text!r}")
+    assert problems == []
 
 
 # The list: each must fail on the OS jail alone.
@@ -141,6 +161,7 @@ def test_the_jail_alone_holds_over_http_while_a_concurrent_solve_succeeds(recon,
     escapes = {name: attempt("import time", "time.sleep(1.0)", step) for name, (step, _) in ESCAPES.items()}
     llm.reset()
     llm.script([fenced(source) for source in escapes.values()], model="coder")
+    script_answers(llm, 4 * len(escapes))
     with running_service(AGENT_APP, env) as agent:
         ready = httpx.get(agent.url + "/readyz", timeout=30).json()
         assert ready["sandbox"]["jail"] == "active" and ready["sandbox"]["runs_programs"] is True
@@ -155,15 +176,16 @@ def test_the_jail_alone_holds_over_http_while_a_concurrent_solve_succeeds(recon,
         assert "moved" in ordinary.json()["clue"]["text"]
         assert httpx.get(agent.url + "/healthz", timeout=5).status_code == 200
         assert agent.process.poll() is None  # the agent survived every escape
-    by_program = {body["attempts"][0]["program"].strip(): body for body in bodies}
+    by_reply = {body["attempts"][0]["reply"]: body for body in bodies}
     for name, source in escapes.items():
-        body = by_program[source.strip()]
+        body = by_reply[fenced(source)]
+        assert body["attempts"][0]["error"] is None, (name, body["attempts"][0]["error"])
         assert body["clue"]["text"] == ESCAPES[name][1], (name, body["attempts"])
 
 
 def _wait_for_code_requests(llm, count: int) -> None:
     for _ in range(1200):
-        if len(llm.requests()) >= count:
+        if sum(request["model"] == "coder" for request in llm.requests()) >= count:
             return
         time.sleep(0.025)
     raise AssertionError("the agent never asked the code model")
@@ -192,6 +214,7 @@ def test_an_agent_without_a_jail_says_so_and_refuses_programs(recon, llm, scene_
 def test_an_operator_opt_out_runs_programs_and_says_so(recon, llm, scene_id) -> None:
     llm.reset()
     llm.script([fenced(MOTION_PROGRAM)], model="coder")
+    script_answers(llm, 2)
     env = agent_env(recon.url, llm.base_url, PYSPATIAL_SANDBOX_JAIL="off")
     with running_service(AGENT_APP, env) as agent:
         ready = httpx.get(agent.url + "/readyz", timeout=30).json()
