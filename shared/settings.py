@@ -7,6 +7,7 @@ REDIS_URL, which follows the common convention.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Literal
 
 from pydantic import AliasChoices, Field, SecretStr
 from pydantic_settings import BaseSettings, SettingsConfigDict
@@ -111,6 +112,16 @@ class AgentSettings(_Settings):
     sandbox_cpu_s: int = Field(20, ge=1, description="CPU seconds a program may use.")
     sandbox_wall_s: int = Field(120, ge=1, description="Wall-clock seconds a program may take.")
     sandbox_memory_mb: int = Field(2048, ge=256, description="Address-space limit of a program.")
+    sandbox_jail: Literal["required", "off"] = Field(
+        "required",
+        description="OS jail of generated programs (bubblewrap + seccomp); 'off' is an unsafe opt-out "
+        "that runs them behind the Python-level checks only.",
+    )
+    sandbox_test_only_unchecked: bool = Field(
+        False,
+        description="TEST ONLY: skip the Python-level sandbox checks to prove the OS jail alone; "
+        "refused unless the jail is active.",
+    )
     max_images: int = Field(32, ge=1, description="Most images in one /v1/solve request.")
     max_image_bytes: int = Field(25 * 2**20, ge=1024, description="Largest encoded image file.")
     max_request_bytes: int = Field(300 * 2**20, ge=1024, description="Largest request body.")

@@ -13,6 +13,7 @@ from starlette.datastructures import UploadFile
 
 from services.agent.llm import LLMError
 from services.agent.pipeline import SolveError, SolvePipeline
+from services.agent.sandbox.jail import announce, remove_stale_workdirs
 from services.agent.solve_stream import event_stream, wants_event_stream
 from services.agent.web_routes import install_web_routes
 from shared.client import ServiceError, ServiceUnreachable
@@ -65,6 +66,10 @@ def create_app(settings: AgentSettings | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(app: FastAPI):
+        stale = remove_stale_workdirs()
+        if stale:
+            log.warning("sandbox: removed %d directories left by a previous run", stale)
+        announce(await anyio.to_thread.run_sync(lambda: pipeline.jail))
         log.warning(
             "agent service: recon=%s, code model=%s, answer model=%s",
             settings.recon_url,
@@ -111,13 +116,15 @@ def create_app(settings: AgentSettings | None = None) -> FastAPI:
             recon_ok, recon_detail = recon.ready, recon.model_dump()
         except (ServiceUnreachable, ValueError) as error:
             recon_ok, recon_detail = False, str(error)
+        sandbox = pipeline.jail
         body = {
-            "ready": recon_ok,
+            "ready": recon_ok and sandbox.runs_programs,
             "recon": recon_detail,
+            "sandbox": sandbox.summary(),
             "code_model": pipeline.code_model_name,
             "answer_model": pipeline.answer_model_name,
         }
-        return JSONResponse(body, status_code=200 if recon_ok else 503)
+        return JSONResponse(body, status_code=200 if body["ready"] else 503)
 
     @app.post("/v1/solve", tags=["solve"], response_model=SolveResponse, openapi_extra=_SOLVE_DOC)
     async def solve(request: Request) -> SolveResponse:
