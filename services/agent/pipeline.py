@@ -13,6 +13,7 @@ from PIL import Image
 
 from services.agent.answering import AnswerResult, answer_offline, answer_with_model
 from services.agent.codegen import ExecutionOutcome, generate_program
+from services.agent.infrastructure import FailureRecordingClient, InfrastructureFailure, gateway_status
 from services.agent.llm import ChatClient, ChatModelConfig
 from services.agent.planner import PlanningError, plan_program
 from services.agent.recon_tools import ReconToolProvider
@@ -86,7 +87,8 @@ def _model_config(
 class SolvePipeline:
     def __init__(self, settings: AgentSettings) -> None:
         self.settings = settings
-        self.recon = ReconClient(settings.recon_url, timeout=settings.recon_timeout_s)
+        recon_key = settings.recon_api_key.get_secret_value() if settings.recon_api_key else None
+        self.recon = ReconClient(settings.recon_url, timeout=settings.recon_timeout_s, api_key=recon_key)
         code = _model_config(
             settings.code_model_base_url, settings.code_model, settings.code_model_api_key, settings
         )
@@ -136,8 +138,10 @@ class SolvePipeline:
         reconstruct_started = time.perf_counter()
         summary = self.recon.reconstruct(scene_id, backbone)
         reconstruction_ms = (time.perf_counter() - reconstruct_started) * 1e3
-        tools = ReconToolProvider(self.recon, scene_id, backbone, input_pngs)
+        recon_of_this_solve = FailureRecordingClient(self.recon)
+        tools = ReconToolProvider(recon_of_this_solve, scene_id, backbone, input_pngs)
         stage = _Stage()
+        attempts_so_far: list[AttemptRecord] = []
 
         def execute(source: str) -> ExecutionOutcome:
             run_started = time.perf_counter()
@@ -145,6 +149,15 @@ class SolvePipeline:
             stage.execution_s += time.perf_counter() - run_started
             stage.last = result
             stage.runs.append(result)
+            latency_ms = round((time.perf_counter() - run_started) * 1e3, 2)
+            attempts_so_far.append(AttemptRecord(program=source, error=result.error, latency_ms=latency_ms))
+            failure = recon_of_this_solve.failure
+            if failure is not None:  # the service failed, not the program: no repair can help
+                raise InfrastructureFailure(
+                    gateway_status(failure),
+                    f"the reconstruction service failed while the program ran: {failure}",
+                    attempts_so_far,
+                )
             return ExecutionOutcome(ok=result.ok, error=result.error, payload=result)
 
         codegen_started = time.perf_counter()
