@@ -1,0 +1,282 @@
+"""The OpenAPI of both services documents exactly the status codes they answer, in the real body shape.
+
+Every documented code of every endpoint is provoked over HTTP against real uvicorn processes (real
+Redis behind recon); the codes observed per endpoint must equal the documented ones, and every
+error body must be the documented `ErrorBody` ({"detail": str}).
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+import json
+import os
+import signal
+import uuid
+from collections import defaultdict
+
+import httpx
+import numpy as np
+import pytest
+
+from shared.local_services import running_service
+from shared.schemas import ErrorBody
+from tests.support.scenes import orbit_views
+from tests.test_agent_service import motion_question
+
+RECON_APP = "services.recon.app:create_app"
+AGENT_APP = "services.agent.app:create_app"
+RECON_KEY = "recon-test-key"
+AGENT_KEY = "agent-test-key"
+UNKNOWN_SCENE = "0" * 24
+NOT_AN_IMAGE = b"this is not an image"
+
+
+class Observer:
+    """Sends requests and remembers the status codes seen per (service, method, route)."""
+
+    def __init__(self) -> None:
+        self.seen: dict[tuple[str, str, str], set[int]] = defaultdict(set)
+
+    def call(
+        self, service: str, method: str, route: str, url: str, expected: int, **kwargs
+    ) -> httpx.Response:
+        response = httpx.request(method, url, timeout=60, **kwargs)
+        assert response.status_code == expected, (method, url, response.status_code, response.text[:300])
+        if expected >= 400 and route != "/readyz":
+            ErrorBody.model_validate(response.json())  # the documented error shape, nothing else
+        self.seen[(service, method.lower(), route)].add(expected)
+        return response
+
+
+@pytest.fixture(scope="module")
+def views():
+    return orbit_views(seed=7, num_views=3)
+
+
+def recon_env(tmp_path_factory, redis_url, **extra) -> dict[str, str]:
+    return {
+        "PYSPATIAL_DATA_DIR": str(tmp_path_factory.mktemp("recon")),
+        "REDIS_URL": redis_url,
+        "PYSPATIAL_CACHE_NAMESPACE": f"contract-{uuid.uuid4().hex[:8]}",
+        **extra,
+    }
+
+
+@pytest.fixture(scope="module")
+def stack(tmp_path_factory, redis_url):
+    """Three recons (keyed and ready; rate-limited; not ready) and three agents in front of them."""
+    keyed = recon_env(
+        tmp_path_factory,
+        redis_url,
+        PYSPATIAL_BACKBONE="posed-rgbd",
+        PYSPATIAL_API_KEYS=RECON_KEY,
+        PYSPATIAL_MAX_REQUEST_BYTES="3000000",
+    )
+    limited = recon_env(
+        tmp_path_factory,
+        redis_url,
+        PYSPATIAL_API_KEYS=RECON_KEY,
+        PYSPATIAL_RATE_LIMIT_PER_MINUTE="1",
+        PYSPATIAL_RATE_LIMIT_BURST="1",
+    )
+    unready = recon_env(tmp_path_factory, redis_url, PYSPATIAL_BACKBONE="vggt")  # no checkpoint: 503
+    with (
+        running_service(RECON_APP, keyed) as recon,
+        running_service(RECON_APP, limited) as recon_limited,
+        running_service(RECON_APP, unready) as recon_unready,
+        running_service(
+            AGENT_APP,
+            {
+                "PYSPATIAL_RECON_URL": recon.url,
+                "PYSPATIAL_RECON_API_KEY": RECON_KEY,
+                "PYSPATIAL_API_KEYS": AGENT_KEY,
+                "PYSPATIAL_MAX_REQUEST_BYTES": "3000000",
+            },
+        ) as agent,
+        running_service(  # no key for recon (its 401 is our fault: 502), and a tight rate limit
+            AGENT_APP,
+            {
+                "PYSPATIAL_RECON_URL": recon.url,
+                "PYSPATIAL_RATE_LIMIT_PER_MINUTE": "1",
+                "PYSPATIAL_RATE_LIMIT_BURST": "1",
+            },
+        ) as agent_without_recon_key,
+        running_service(
+            AGENT_APP,
+            {
+                "PYSPATIAL_RECON_URL": recon_unready.url,
+                "PYSPATIAL_RECON_TIMEOUT_S": "2",
+                "PYSPATIAL_READINESS_TIMEOUT_S": "1",
+            },
+        ) as agent_of_unready,
+    ):
+        yield {
+            "recon": recon,
+            "recon_limited": recon_limited,
+            "recon_unready": recon_unready,
+            "agent": agent,
+            "agent_without_recon_key": agent_without_recon_key,
+            "agent_of_unready": agent_of_unready,
+        }
+
+
+def documented_codes(openapi: dict) -> dict[tuple[str, str], set[int]]:
+    return {
+        (method, path): {int(code) for code in operation["responses"]}
+        for path, operations in openapi["paths"].items()
+        for method, operation in operations.items()
+    }
+
+
+def upload_files(views) -> dict:
+    files = [("images", (f"{i}.png", png)) for i, png in enumerate(views.pngs())]
+    for i, depth in enumerate(views.depths):
+        buffer = io.BytesIO()
+        np.save(buffer, depth.astype(np.float32))
+        files.append(("depths", (f"{i}.npy", buffer.getvalue())))
+    data = {
+        "extrinsics": json.dumps(views.extrinsics.tolist()),
+        "intrinsics": json.dumps(views.intrinsics.tolist()),
+    }
+    return {"files": files, "data": data}
+
+
+def exercise_recon(observe: Observer, stack, views) -> None:
+    base, limited, unready = stack["recon"].url, stack["recon_limited"].url, stack["recon_unready"].url
+    key = {"Authorization": f"Bearer {RECON_KEY}"}
+
+    def recon(method, route, path, expected, url=base, **kwargs):
+        return observe.call("recon", method, route, url + path, expected, **kwargs)
+
+    recon("GET", "/healthz", "/healthz", 200)
+    recon("GET", "/readyz", "/readyz", 200)
+    recon("GET", "/readyz", "/readyz", 503, url=unready)
+    scene = recon("POST", "/v1/scenes", "/v1/scenes", 201, headers=key, **upload_files(views)).json()[
+        "scene_id"
+    ]
+    recon("POST", "/v1/scenes", "/v1/scenes", 200, headers=key, **upload_files(views))
+    recon("POST", "/v1/scenes", "/v1/scenes", 400, headers=key, files=[("images", ("x.png", NOT_AN_IMAGE))])
+    recon("POST", "/v1/scenes", "/v1/scenes", 422, headers=key, json={"images": []})
+    over = {**key, "content-type": "application/json"}
+    recon("POST", "/v1/scenes", "/v1/scenes", 413, headers=over, content=b" " * 3_100_000)
+    unready_scene = recon(
+        "POST", "/v1/scenes", "/v1/scenes", 201, url=unready, files=[("images", ("0.png", views.pngs()[0]))]
+    ).json()["scene_id"]
+
+    pose = views.extrinsics[0].tolist()
+    routes = [  # (method, route, path for a scene, body for a scene, how to make it a 422)
+        ("GET", "/v1/backbones", lambda s: "/v1/backbones", None, None),
+        ("GET", "/v1/scenes/{scene_id}", lambda s: f"/v1/scenes/{s}", None, None),
+        (
+            "GET",
+            "/v1/scenes/{scene_id}/images/{index}",
+            lambda s: f"/v1/scenes/{s}/images/0",
+            None,
+            lambda s: ("GET", f"/v1/scenes/{s}/images/first", None),
+        ),
+        (
+            "POST",
+            "/v1/scenes/{scene_id}/reconstruct",
+            lambda s: f"/v1/scenes/{s}/reconstruct",
+            {},
+            lambda s: ("POST", f"/v1/scenes/{s}/reconstruct", {"backbone": "nerf"}),
+        ),
+        (
+            "GET",
+            "/v1/scenes/{scene_id}/reconstruction",
+            lambda s: f"/v1/scenes/{s}/reconstruction",
+            None,
+            lambda s: ("GET", f"/v1/scenes/{s}/reconstruction?format=obj", None),
+        ),
+        (
+            "POST",
+            "/v1/render",
+            lambda s: "/v1/render",
+            lambda s: {"scene_id": s, "extrinsic": pose, "width": 32, "height": 32},
+            lambda s: ("POST", "/v1/render", {"scene_id": s, "extrinsic": [[1.0]]}),
+        ),
+        (
+            "POST",
+            "/v1/camera-motion",
+            lambda s: "/v1/camera-motion",
+            lambda s: {"scene_id": s},
+            lambda s: ("POST", "/v1/camera-motion", {"scene_id": s, "pairs": [[0, 9]]}),
+        ),
+    ]
+
+    def send(method, route, path, body, expected, url=base, headers=key):
+        kwargs = {"json": body} if body is not None else {}
+        return recon(method, route, path, expected, url=url, headers=headers, **kwargs)
+
+    recon("GET", "/v1/backbones", "/v1/backbones", 200, url=limited, headers=key)  # spends the burst
+    for method, route, path, body, bad in routes:
+        scene_body = body(scene) if callable(body) else body
+        send(method, route, path(scene), scene_body, 200)
+        send(method, route, path(scene), scene_body, 401, headers={})
+        send(method, route, path(scene), scene_body, 429, url=limited)
+        if "{scene_id}" in route or route in ("/v1/render", "/v1/camera-motion"):
+            missing_body = body(UNKNOWN_SCENE) if callable(body) else body
+            send(method, route, path(UNKNOWN_SCENE), missing_body, 404)
+        if bad is not None:
+            bad_method, bad_path, bad_body = bad(scene)
+            send(bad_method, route, bad_path, bad_body, 422)
+        if route not in ("/v1/backbones", "/v1/scenes/{scene_id}", "/v1/scenes/{scene_id}/images/{index}"):
+            unready_body = body(unready_scene) if callable(body) else body
+            send(method, route, path(unready_scene), unready_body, 503, url=unready, headers={})
+    recon("POST", "/v1/scenes", "/v1/scenes", 401, **upload_files(views))
+    recon("POST", "/v1/scenes", "/v1/scenes", 429, url=limited, headers=key, **upload_files(views))
+
+
+def exercise_agent(observe: Observer, stack, views, scene_id: str) -> None:
+    key = {"Authorization": f"Bearer {AGENT_KEY}"}
+    question, _ = motion_question(views)
+
+    def solve(expected, agent="agent", headers=key, **kwargs):
+        url = stack[agent].url + "/v1/solve"
+        return observe.call("agent", "POST", "/v1/solve", url, expected, headers=headers, **kwargs)
+
+    observe.call("agent", "GET", "/healthz", stack["agent"].url + "/healthz", 200)
+    observe.call("agent", "GET", "/readyz", stack["agent"].url + "/readyz", 200)
+    observe.call("agent", "GET", "/readyz", stack["agent_of_unready"].url + "/readyz", 503)
+    solve(200, json={"question": question, "scene_id": scene_id, "backbone": "posed-rgbd"})
+    solve(400, json={"question": question, "images": ["bm90IGFuIGltYWdl"]})
+    solve(401, headers={}, json={"question": question, "scene_id": scene_id})
+    solve(404, json={"question": question, "scene_id": UNKNOWN_SCENE})
+    solve(413, headers={**key, "content-type": "application/json"}, content=b" " * 3_100_000)
+    solve(422, json={"question": question, "scene_id": "../../healthz"})
+    solve(502, agent="agent_without_recon_key", headers={}, json={"question": question, "scene_id": scene_id})
+    solve(429, agent="agent_without_recon_key", headers={}, json={"question": question, "scene_id": scene_id})
+    png = base64.b64encode(views.pngs()[0]).decode()
+    solve(503, agent="agent_of_unready", headers={}, json={"question": question, "images": [png]})
+    process = stack["recon_unready"].process
+    os.kill(process.pid, signal.SIGSTOP)  # a hung recon: connections are accepted, nothing answers
+    try:
+        solve(504, agent="agent_of_unready", headers={}, json={"question": question, "scene_id": scene_id})
+    finally:
+        os.kill(process.pid, signal.SIGCONT)
+
+
+def test_documented_status_codes_are_exactly_the_observed_ones(stack, views):
+    observe = Observer()
+    exercise_recon(observe, stack, views)
+    headers = {"Authorization": f"Bearer {RECON_KEY}"}
+    scene_id = httpx.post(stack["recon"].url + "/v1/scenes", headers=headers, **upload_files(views)).json()[
+        "scene_id"
+    ]
+    exercise_agent(observe, stack, views, scene_id)
+    for service, url in (("recon", stack["recon_unready"].url), ("agent", stack["agent"].url)):
+        openapi = httpx.get(url + "/openapi.json").json()
+        documented = documented_codes(openapi)
+        observed = {(m, route): codes for (s, m, route), codes in observe.seen.items() if s == service}
+        assert observed.keys() == documented.keys(), f"{service}: endpoints differ"
+        for endpoint, codes in documented.items():
+            assert observed[endpoint] == codes, f"{service} {endpoint}: documented {codes}"
+        schemas = openapi["components"]["schemas"]
+        assert "HTTPValidationError" not in schemas and set(schemas["ErrorBody"]["required"]) == {"detail"}
+        for endpoint, codes in documented.items():
+            method, path = endpoint
+            for code in codes - {200, 201}:
+                if path != "/readyz":
+                    content = openapi["paths"][path][method]["responses"][str(code)]["content"]
+                    assert content["application/json"]["schema"]["$ref"].endswith("/ErrorBody")
