@@ -85,6 +85,8 @@ def create_app(settings: AgentSettings | None = None) -> FastAPI:
     async def recon_error(_: Request, error: ServiceError) -> JSONResponse:
         if error.status_code in (401, 403):  # our key for recon is wrong: the stack, not the client
             status = 502
+        elif error.status_code == 429:  # recon limits the agent's key: the stack is busy
+            status = 503
         else:
             status = error.status_code if error.status_code < 500 else gateway_status(error)
         return JSONResponse({"detail": f"reconstruction service: {error.message}"}, status_code=status)
