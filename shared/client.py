@@ -87,7 +87,7 @@ class _ServiceClient:
                 f"cannot reach the {self.service_name} at {self.base_url}: {error}. "
                 f"Is it running? (pyspatial serve)"
             ) from error
-        if response.status_code >= 400:
+        if response.status_code >= 300:  # redirects are not followed: a path we did not mean
             try:
                 detail = response.json().get("detail", response.text)
             except (ValueError, AttributeError):

@@ -70,6 +70,7 @@ def create_app(settings: AgentSettings | None = None) -> FastAPI:
         version="0.1.0",
         description="Answers spatial questions about images by writing and running pySpatial programs.",
         lifespan=lifespan,
+        redirect_slashes=False,  # "/v1/scenes/<id>%2F" must be a 404, not a redirect elsewhere
         **docs_urls(settings),
     )
     install_error_shape(app)

@@ -90,6 +90,7 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
         version="0.1.0",
         description="Reconstructs scenes from images and renders, measures and describes them.",
         lifespan=lifespan,
+        redirect_slashes=False,  # "/v1/scenes/<id>%2F" must be a 404, not a redirect elsewhere
         **docs_urls(settings),
     )
     app.state.service = service

@@ -19,8 +19,8 @@ def create_app() -> FastAPI:
     async def boom() -> dict:
         raise RuntimeError("secret internal state that must not reach the client")
 
-    @app.get("/ok")
-    async def ok() -> dict:
+    @app.get("/healthz")
+    async def healthz() -> dict:
         return {"status": "ok"}
 
     return app
