@@ -18,6 +18,7 @@ fi
 # libusb-1.0-0, libgomp1: Open3D; redis-server: the tests' real Redis;
 # mesa-vulkan-drivers, libvulkan1, libegl1: Open3D's offscreen renderer (render benchmark).
 REQUIRED_PACKAGES=(libusb-1.0-0 libgomp1 redis-server mesa-vulkan-drivers libvulkan1 libegl1)
+REQUIRED_PACKAGES+=(nginx)  # tests: `nginx -t` checks deploy/nginx/nginx.conf, the compose load balancer
 if command -v dpkg-query >/dev/null 2>&1; then
     missing=()
     for package in "${REQUIRED_PACKAGES[@]}"; do
