@@ -107,6 +107,7 @@ def test_each_dockerfile_runs_its_app_factory(name, module):
     assert module_name == module
     assert callable(getattr(importlib.import_module(module_name), factory_name))
     assert command[command.index("--port") + 1] == str(APP_SERVICES[name])
+    assert command[command.index("--forwarded-allow-ips") + 1] == "*"  # client address from nginx
 
 
 def test_readme_documents_every_setting():
