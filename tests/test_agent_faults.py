@@ -17,7 +17,7 @@ import httpx
 import pytest
 
 from shared.client import ReconClient, ServiceError
-from shared.local_services import free_port, running_service, start_service
+from shared.local_services import running_service, start_service
 from tests.support.scenes import orbit_views
 from tests.test_agent_service import MOTION_PROGRAM, motion_question
 
@@ -130,15 +130,7 @@ def test_unhandled_error_is_a_json_500_and_the_connection_survives():
         assert "Traceback" in app.log() and "secret internal state" in app.log()  # logged, not sent
 
 
-def test_readyz_says_why_when_recon_is_down():
-    with running_service(AGENT_APP, {"PYSPATIAL_RECON_URL": f"http://127.0.0.1:{free_port()}"}) as agent:
-        response = httpx.get(agent.url + "/readyz", timeout=30)
-    assert response.status_code == 503
-    body = response.json()
-    assert body["ready"] is False and "cannot reach the reconstruction service" in body["reason"]
-
-
-def test_hung_recon_is_a_bounded_503_on_readyz_and_a_504_on_solve(tmp_path_factory, redis_url, views):
+def test_readyz_and_solve_when_recon_hangs_then_dies(tmp_path_factory, redis_url, views):
     with running_service(RECON_APP, recon_env(tmp_path_factory, redis_url)) as recon:
         scene_id = upload(recon.url, views)
         env = {
@@ -158,6 +150,14 @@ def test_hung_recon_is_a_bounded_503_on_readyz_and_a_504_on_solve(tmp_path_facto
             assert ready.status_code == 503 and "did not answer /readyz in 1" in ready.json()["reason"]
             assert solve.status_code == 504 and "timed out" in solve.json()["detail"]
             assert httpx.get(agent.url + "/readyz", timeout=20).status_code == 200  # recovers
+            recon.stop()
+            down = httpx.get(agent.url + "/readyz", timeout=20)
+            assert down.status_code == 503 and down.json()["ready"] is False
+            assert "cannot reach the reconstruction service" in down.json()["reason"]
+            solve = httpx.post(
+                agent.url + "/v1/solve", json={"question": "q?", "scene_id": scene_id}, timeout=30
+            )
+            assert solve.status_code == 503 and "cannot reach" in solve.json()["detail"]
 
 
 def test_recon_killed_while_the_program_runs_is_a_503_with_the_attempts(
