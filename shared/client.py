@@ -133,9 +133,10 @@ class ReconClient(_ServiceClient):
                 "GET /readyz",
             ) from error
 
-    def backbones(self) -> dict:
+    def backbones(self, timeout: float | None = None) -> dict:
         """{"default": name, "available": [names]}"""
-        return self._request("GET", "/v1/backbones").json()
+        kwargs = {"timeout": timeout} if timeout is not None else {}
+        return self._request("GET", "/v1/backbones", **kwargs).json()
 
     def upload_scene(
         self,

@@ -124,6 +124,8 @@ def test_agent_reaches_a_keyed_recon_only_with_its_key(guarded_recon):
         assert refused.status_code == 502  # our own stack is misconfigured, not the client's fault
         assert "reconstruction service" in refused.json()["detail"]
         assert "API key" in refused.json()["detail"]
+        unready = httpx.get(keyless_agent.url + "/readyz", timeout=30)
+        assert unready.status_code == 503 and "refuses the agent's key" in unready.json()["reason"]
 
 
 def test_refused_request_leaves_the_pooled_connection_usable(guarded_recon):

@@ -16,11 +16,11 @@ from services.agent.infrastructure import InfrastructureFailure, gateway_status
 from services.agent.llm import LLMError
 from services.agent.pipeline import SolveError, SolvePipeline
 from shared.access import docs_urls, install_access_control
-from shared.client import ServiceError, ServiceUnreachable
+from shared.client import ReconClient, ServiceError, ServiceUnreachable
 from shared.http_bodies import install_input_error_handlers, read_body_limited
 from shared.http_errors import error_responses, first_validation_message, install_error_shape
 from shared.imaging import decode_base64
-from shared.schemas import AgentReadiness, SolveRequest, SolveResponse
+from shared.schemas import AgentReadiness, Readiness, SolveRequest, SolveResponse
 from shared.settings import AgentSettings
 
 log = logging.getLogger("pyspatial.agent")
@@ -121,13 +121,15 @@ def create_app(settings: AgentSettings | None = None) -> FastAPI:
         timeout = settings.readiness_timeout_s
         reason = None
         try:
-            with anyio.fail_after(timeout + 1.0):  # the client's own timeout should fire first
-                recon = await anyio.to_thread.run_sync(
-                    pipeline.recon.readyz, timeout, abandon_on_cancel=True
+            with anyio.fail_after(2 * timeout + 1.0):  # the client's own timeouts should fire first
+                recon, refused = await anyio.to_thread.run_sync(
+                    _check_recon, pipeline.recon, timeout, abandon_on_cancel=True
                 )
-            recon_ok, recon_detail = recon.ready, recon.model_dump()
-            if not recon_ok:
+            recon_ok, recon_detail = recon.ready and refused is None, recon.model_dump()
+            if not recon.ready:
                 reason = f"the reconstruction service is not ready: {recon.backbone_detail}"
+            elif refused is not None:
+                reason = f"the reconstruction service refuses the agent's key: {refused}"
         except TimeoutError:
             recon_ok, recon_detail = False, None
             reason = f"the reconstruction service did not answer /readyz within {timeout} s"
@@ -158,6 +160,18 @@ def create_app(settings: AgentSettings | None = None) -> FastAPI:
         )
 
     return app
+
+
+def _check_recon(recon: ReconClient, timeout: float) -> tuple[Readiness, str | None]:
+    """Recon's readiness, and why it refuses our key (its /readyz is open, its API may not be)."""
+    readiness = recon.readyz(timeout)
+    if readiness.ready:
+        try:
+            recon.backbones(timeout=timeout)
+        except ServiceError as error:
+            if error.status_code in (401, 403):
+                return readiness, error.message
+    return readiness, None
 
 
 async def _read_solve_request(request: Request, settings: AgentSettings) -> SolveRequest:
