@@ -20,7 +20,7 @@ from cli.local_stack import (
     stop_all,
     wait_ready,
 )
-from cli.progress import spinner
+from cli.progress import solve_stages, spinner
 from cli.results import save_clue_images, show_solution
 from shared.client import AgentClient, ReconClient
 from shared.poses import rotate_right
@@ -114,8 +114,8 @@ def demo(
             )
             agent = services[1]
             with service_errors(), AgentClient(agent.url, timeout=600.0) as client:
-                with spinner("reconstructing, writing and running a program, answering"):
-                    result = client.solve(spec["question"], images=images)
+                with solve_stages() as on_stage:
+                    result = client.solve_with_progress(spec["question"], images=images, on_stage=on_stage)
             saved = save_clue_images(result, out / result.scene_id)
             show_solution(result, saved)
             with service_errors(), ReconClient(services[0].url, timeout=600.0) as recon:
@@ -127,9 +127,12 @@ def demo(
             console.print(f"expected {expected}, got {result.answer}: {verdict}")
             if keep_running:
                 console.print(f"services still running: recon {services[0].url}, agent {agent.url}")
+                console.print(f"[bold]web page:[/] {agent.url}/ (open it in a browser)")
                 console.print("try: pyspatial solve examples/living_room -q '...' --agent-url " + agent.url)
                 console.print("Ctrl-C stops them.")
                 _wait_for_interrupt(services)
+            else:
+                console.print("web page: run `pyspatial demo --keep-running` and open the agent's URL")
             if not correct:
                 raise typer.Exit(1)
         finally:

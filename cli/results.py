@@ -5,12 +5,13 @@ from __future__ import annotations
 import base64
 from pathlib import Path
 
+import numpy as np
 from rich.panel import Panel
 from rich.syntax import Syntax
 from rich.table import Table
 
 from cli.console import console
-from shared.schemas import SolveResponse
+from shared.schemas import ClueView, SolveResponse
 
 
 def default_output_dir(scene_id: str) -> Path:
@@ -45,8 +46,8 @@ def show_solution(result: SolveResponse, saved_images: list[Path]) -> None:
             console.print(f"[dim]attempt {number} failed:[/] {attempt.error.strip().splitlines()[-1]}")
     clue = result.clue.text.strip() if result.clue.text else "(no text)"
     console.print(Panel(clue, title="clue", expand=False))
-    for path in saved_images:
-        console.print(f"clue image: {path}")
+    for path, view in zip(saved_images, result.clue.views or [None] * len(saved_images), strict=False):
+        console.print(f"clue image: {path}{_origin(view)}")
     for note in result.clue.notes:
         console.print(f"[yellow]note:[/] {note}")
     if result.answer:
@@ -56,6 +57,19 @@ def show_solution(result: SolveResponse, saved_images: list[Path]) -> None:
     if result.reasoning:
         console.print(f"[dim]reasoning:[/] {result.reasoning}")
     show_timings(result)
+
+
+def _origin(view: ClueView | None) -> str:
+    """Where a clue image came from, e.g. ' (rendered from a camera at (0.1, 1.4, -2.0))'."""
+    if view is None:
+        return ""
+    if view.source == "input":
+        return f" (input image {view.input_index + 1})" if view.input_index is not None else ""
+    if view.extrinsic is None:
+        return " (rendered)"
+    pose = np.asarray(view.extrinsic)
+    centre = -pose[:, :3].T @ pose[:, 3]
+    return f" (rendered from a camera at ({', '.join(f'{v:.2f}' for v in centre)}))"
 
 
 def show_timings(result: SolveResponse) -> None:

@@ -8,7 +8,7 @@ import typer
 
 from cli.console import fail, service_errors
 from cli.images import collect_images
-from cli.progress import spinner
+from cli.progress import solve_stages
 from cli.results import default_output_dir, save_clue_images, show_solution
 from shared.client import AgentClient
 from shared.settings import DEFAULT_AGENT_PORT
@@ -36,8 +36,10 @@ def solve(
     elif not scene_id:
         raise fail("give IMAGES or --scene-id")
     with service_errors(), AgentClient(agent_url, timeout=timeout) as client:
-        with spinner(f"solving with {len(paths) or 'the uploaded'} images at {agent_url}"):
-            result = client.solve(question, images=paths or None, scene_id=scene_id, backbone=backbone)
+        with solve_stages() as on_stage:
+            result = client.solve_with_progress(
+                question, images=paths or None, scene_id=scene_id, backbone=backbone, on_stage=on_stage
+            )
     if as_json:
         print(result.model_dump_json(indent=2))
         return

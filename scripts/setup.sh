@@ -17,7 +17,9 @@ fi
 # ---- system packages (Debian/Ubuntu) ----
 # libusb-1.0-0, libgomp1: Open3D; redis-server: the tests' real Redis;
 # mesa-vulkan-drivers, libvulkan1, libegl1: Open3D's offscreen renderer (render benchmark).
-REQUIRED_PACKAGES=(libusb-1.0-0 libgomp1 redis-server mesa-vulkan-drivers libvulkan1 libegl1)
+# chromium, chromium-driver: the web page's browser tests (selenium drives Debian's headless Chromium).
+REQUIRED_PACKAGES=(libusb-1.0-0 libgomp1 redis-server mesa-vulkan-drivers libvulkan1 libegl1
+    chromium chromium-driver)
 REQUIRED_PACKAGES+=(nginx)  # tests: `nginx -t` checks deploy/nginx/nginx.conf, the compose load balancer
 if command -v dpkg-query >/dev/null 2>&1; then
     missing=()

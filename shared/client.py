@@ -5,22 +5,28 @@ from __future__ import annotations
 import base64
 import io
 import json
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from urllib.parse import quote
 
 import httpx
 import numpy as np
+from httpx_sse import connect_sse
+from pydantic import TypeAdapter
 
 from shared.imaging import encode_image
 from shared.reconstruction import Reconstruction
 from shared.schemas import (
     CameraMotionResponse,
+    ErrorEvent,
+    PointCloudPreview,
     Readiness,
     ReconstructionSummary,
     SceneCreated,
     SceneInfo,
+    SolveEvent,
     SolveResponse,
+    StageEvent,
 )
 
 ImageLike = bytes | np.ndarray | str | Path
@@ -87,6 +93,11 @@ class _ServiceClient:
                 f"cannot reach the {self.service_name} at {self.base_url}: {error}. "
                 f"Is it running? (pyspatial serve)"
             ) from error
+        self._raise_for_status(response, method, path)
+        return response
+
+    @staticmethod
+    def _raise_for_status(response: httpx.Response, method: str, path: str) -> None:
         if response.status_code >= 300:  # redirects are not followed: a path we did not mean
             try:
                 detail = response.json().get("detail", response.text)
@@ -97,7 +108,6 @@ class _ServiceClient:
                 detail if isinstance(detail, str) else json.dumps(detail),
                 f"{method} {path}",
             )
-        return response
 
     def close(self) -> None:
         self._http.close()
@@ -196,6 +206,13 @@ class ReconClient(_ServiceClient):
         }
         return self._request("POST", "/v1/render", json=body).content
 
+    def points(
+        self, scene_id: str, backbone: str | None = None, max_points: int = 30_000
+    ) -> PointCloudPreview:
+        params = {"max_points": max_points, **({"backbone": backbone} if backbone else {})}
+        response = self._request("GET", f"/v1/scenes/{scene_id}/points", params=params)
+        return PointCloudPreview.model_validate_json(response.content)
+
     def camera_motion(
         self, scene_id: str, pairs: Sequence[tuple[int, int]] | None = None, backbone: str | None = None
     ) -> CameraMotionResponse:
@@ -220,11 +237,64 @@ class AgentClient(_ServiceClient):
         backbone: str | None = None,
         max_repairs: int | None = None,
     ) -> SolveResponse:
-        body = {
-            "question": question,
-            "images": [base64.b64encode(image_bytes(i)).decode("ascii") for i in images] if images else None,
-            "scene_id": scene_id,
-            "backbone": backbone,
-            "max_repairs": max_repairs,
-        }
+        body = _solve_body(question, images, scene_id, backbone, max_repairs)
         return SolveResponse.model_validate(self._request("POST", "/v1/solve", json=body).json())
+
+    def solve_with_progress(
+        self,
+        question: str,
+        images: Sequence[ImageLike] | None = None,
+        scene_id: str | None = None,
+        backbone: str | None = None,
+        max_repairs: int | None = None,
+        on_stage: Callable[[StageEvent], None] | None = None,
+    ) -> SolveResponse:
+        """Like `solve`, over the event stream: `on_stage` sees each stage start and end.
+
+        A failed solve raises ServiceError with the status and message /v1/solve would have given.
+        """
+        body = _solve_body(question, images, scene_id, backbone, max_repairs)
+        path = "/v1/solve"
+        try:
+            with connect_sse(
+                self._http, "POST", self.base_url + path, json=body, headers={"Accept": "text/event-stream"}
+            ) as source:
+                if source.response.status_code >= 400:  # refused before the solve started
+                    source.response.read()
+                    self._raise_for_status(source.response, "POST", path)
+                if source.response.headers.get("content-type", "").startswith("application/json"):
+                    # A service that does not stream answers with the plain result: no stages to show.
+                    return SolveResponse.model_validate_json(source.response.read())
+                for sse in source.iter_sse():
+                    event = _SOLVE_EVENT.validate_json(sse.data)
+                    if isinstance(event, StageEvent):
+                        if on_stage is not None:
+                            on_stage(event)
+                    elif isinstance(event, ErrorEvent):
+                        raise ServiceError(event.status_code, event.detail, f"POST {path}")
+                    else:
+                        return event.result
+        except httpx.TimeoutException as error:
+            raise ServiceUnreachable(
+                f"the {self.service_name} at {self.base_url} timed out ({error})"
+            ) from error
+        except httpx.TransportError as error:
+            raise ServiceUnreachable(
+                f"cannot reach the {self.service_name} at {self.base_url}: {error}"
+            ) from error
+        raise ServiceUnreachable(
+            f"the {self.service_name} at {self.base_url} closed the stream without a result"
+        )
+
+
+_SOLVE_EVENT: TypeAdapter = TypeAdapter(SolveEvent)
+
+
+def _solve_body(question, images, scene_id, backbone, max_repairs) -> dict:
+    return {
+        "question": question,
+        "images": [base64.b64encode(image_bytes(i)).decode("ascii") for i in images] if images else None,
+        "scene_id": scene_id,
+        "backbone": backbone,
+        "max_repairs": max_repairs,
+    }

@@ -109,6 +109,19 @@ class CameraMotionResponse(_Model):
     text: str = Field(..., description="The sentences, one per line.")
 
 
+class PointCloudPreview(_Model):
+    """A subsample of a reconstruction for viewers: points, colours and the cameras."""
+
+    scene_id: str
+    backbone: str
+    num_points_total: int
+    num_points: int
+    positions: str = Field(..., description="base64 of little-endian float32 (num_points, 3), world frame.")
+    colors: str = Field(..., description="base64 of uint8 RGB (num_points, 3).")
+    cameras: list[CameraInfo]
+    up: list[float]
+
+
 class Readiness(_Model):
     ready: bool
     backbone: str
@@ -150,9 +163,24 @@ class AttemptRecord(_Model):
     latency_ms: float
 
 
+class ClueView(_Model):
+    """Where one clue image came from: a view rendered from a pose, or an input photo."""
+
+    source: Literal["rendered", "input"]
+    input_index: int | None = Field(None, description="0-based input image, when source is input.")
+    extrinsic: Matrix | None = Field(
+        None, description="3x4 camera-from-world it was rendered from (or the input camera's pose)."
+    )
+    width: int
+    height: int
+
+
 class Clue(_Model):
     text: str | None = None
     images: list[str] = Field(default_factory=list, description="Rendered views as base64 PNG.")
+    views: list[ClueView] = Field(
+        default_factory=list, description="One per image, in the same order: where it came from."
+    )
     notes: list[str] = Field(
         default_factory=list, description="What the service noticed about the clue, e.g. an empty view."
     )
@@ -187,3 +215,37 @@ class SolveResponse(_Model):
     code_model: str = Field(..., description="Model name, or 'offline-planner'.")
     answer_model: str = Field(..., description="Model name, or 'offline-answerer'.")
     timings: SolveTimings
+
+
+# ---- progress of one solve (POST /v1/solve with Accept: text/event-stream) ---------------
+
+SolveStage = Literal["upload", "reconstruction", "program", "execution", "answer"]
+
+
+class StageEvent(_Model):
+    """A stage of the solve started, finished or failed (SSE event name: `stage`)."""
+
+    type: Literal["stage"] = "stage"
+    stage: SolveStage
+    state: Literal["started", "done", "failed"]
+    detail: str = ""
+    elapsed_ms: float = Field(..., description="Since the solve began.")
+
+
+class ResultEvent(_Model):
+    """The last event of a successful solve (SSE event name: `result`)."""
+
+    type: Literal["result"] = "result"
+    result: SolveResponse
+
+
+class ErrorEvent(_Model):
+    """The last event of a failed solve (SSE event name: `error`): the status /v1/solve would return."""
+
+    type: Literal["error"] = "error"
+    status_code: int
+    detail: str
+    stage: SolveStage | None = Field(None, description="The stage that was running, if any.")
+
+
+SolveEvent = Annotated[StageEvent | ResultEvent | ErrorEvent, Field(discriminator="type")]

@@ -126,6 +126,9 @@ def test_solve_json_answers_the_bundled_example(services, tmp_path):
     assert response.answer == SPEC["expected_answer"]
     assert "describe_camera_motion" in response.program
     assert "From view 1 to view 2 the camera moved right" in response.clue.text
+    # The stages as they happened, on stderr (plain lines: stderr is no terminal here).
+    stages = re.findall(r"^(\w+) done at [\d.]+ s", result.stderr, flags=re.MULTILINE)
+    assert stages == ["upload", "reconstruction", "program", "execution", "answer"], result.stderr
 
 
 def test_solve_saves_rendered_clue_images(services, tmp_path):
@@ -178,6 +181,7 @@ def test_demo_runs_the_whole_stack_and_answers_correctly(tmp_path):
     novel = re.search(r"rendered from the points\): (\S+)", result.stdout).group(1)
     assert Image.open(novel).size == tuple(SPEC["image_size"])
     assert (tmp_path / "demo" / "logs" / "recon.log").is_file()
+    assert "web page:" in result.stdout and "reconstruction done at" in result.stderr
 
 
 def test_images_come_from_files_or_one_sorted_folder(tmp_path):

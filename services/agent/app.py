@@ -15,6 +15,8 @@ from starlette.datastructures import UploadFile
 from services.agent.infrastructure import InfrastructureFailure, gateway_status
 from services.agent.llm import LLMError
 from services.agent.pipeline import SolveError, SolvePipeline
+from services.agent.solve_stream import event_stream, wants_event_stream
+from services.agent.web_routes import install_web_routes
 from shared.access import docs_urls, install_access_control
 from shared.client import ReconClient, ServiceError, ServiceUnreachable
 from shared.http_bodies import install_input_error_handlers, read_body_limited
@@ -46,7 +48,20 @@ _SOLVE_DOC = {
                 }
             },
         },
-    }
+    },
+    "responses": {
+        "200": {
+            "content": {
+                "text/event-stream": {
+                    "schema": {
+                        "type": "string",
+                        "description": "With Accept: text/event-stream: SSE events `stage` (StageEvent), "
+                        "then `result` (ResultEvent) or `error` (ErrorEvent).",
+                    }
+                }
+            }
+        }
+    },
 }
 
 
@@ -153,12 +168,20 @@ def create_app(settings: AgentSettings | None = None) -> FastAPI:
         responses=error_responses(400, 401, 404, 413, 422, 429, 502, 503, 504),
     )
     async def solve(request: Request) -> SolveResponse:
+        """Answer a question; with `Accept: text/event-stream`, stream the stages (SSE) then the result."""
         body = await _read_solve_request(request, settings)
-        files = [decode_base64(text, f"image {i}") for i, text in enumerate(body.images or [])]
+        files = [decode_base64(text, f"image {i + 1}") for i, text in enumerate(body.images or [])]
+        if wants_event_stream(request.headers.get("accept", "")):
+            return event_stream(
+                lambda progress: pipeline.solve(
+                    body.question, files or None, body.scene_id, body.backbone, body.max_repairs, progress
+                )
+            )
         return await anyio.to_thread.run_sync(
             pipeline.solve, body.question, files or None, body.scene_id, body.backbone, body.max_repairs
         )
 
+    install_web_routes(app, pipeline)
     return app
 
 

@@ -6,12 +6,14 @@ import base64
 import io
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 from PIL import Image
 
 from services.agent.answering import AnswerResult, answer_offline, answer_with_model
+from services.agent.clue_views import clue_views
 from services.agent.codegen import ExecutionOutcome, generate_program
 from services.agent.infrastructure import FailureRecordingClient, InfrastructureFailure, gateway_status
 from services.agent.llm import ChatClient, ChatModelConfig
@@ -27,6 +29,8 @@ log = logging.getLogger("pyspatial.agent")
 
 OFFLINE_PLANNER = "offline-planner"
 OFFLINE_ANSWERER = "offline-answerer"
+# progress(stage, state, detail): stage in shared.schemas.SolveStage, state started | done | failed.
+ProgressCallback = Callable[[str, str, str], None]
 ANSWER_IMAGE_SIDE = 1024  # images shown to the answer model are downscaled to this longest side
 
 
@@ -126,29 +130,45 @@ class SolvePipeline:
         scene_id: str | None,
         backbone: str | None,
         max_repairs: int | None,
+        progress: ProgressCallback | None = None,
     ) -> SolveResponse:
         started = time.perf_counter()
+        report = progress or (lambda stage, state, detail="": None)
         if backbone is not None:
             available = self.recon.backbones()["available"]
             if backbone not in available:
                 raise SolveError(422, f"unknown backbone {backbone!r}; available: {', '.join(available)}")
+        report("upload", "started", f"{len(image_files)} images" if image_files else f"scene {scene_id}")
         scene_id, input_pngs = self._scene(image_files, scene_id)
+        report("upload", "done", f"scene {scene_id}")
+        report("reconstruction", "started", backbone or "service default backbone")
         # Reconstruct first: input the backbone cannot use is a clear 4xx here rather than a failed
         # program, and the program's own reconstruct() is then a cache hit.
         reconstruct_started = time.perf_counter()
         summary = self.recon.reconstruct(scene_id, backbone)
         reconstruction_ms = (time.perf_counter() - reconstruct_started) * 1e3
+        registered = sum(camera.registered for camera in summary.cameras)
+        report(
+            "reconstruction",
+            "done",
+            f"{summary.backbone}: {registered} of {len(summary.cameras)} views placed, "
+            f"{summary.num_points} points{' (cached)' if summary.cached else ''}",
+        )
         recon_of_this_solve = FailureRecordingClient(self.recon)
         tools = ReconToolProvider(recon_of_this_solve, scene_id, backbone, input_pngs)
         stage = _Stage()
         attempts_so_far: list[AttemptRecord] = []
 
         def execute(source: str) -> ExecutionOutcome:
+            attempt = len(stage.runs) + 1
+            report("program", "done", f"attempt {attempt} written")
+            report("execution", "started", f"running attempt {attempt} in the sandbox")
             run_started = time.perf_counter()
             result = run_program(source, question, len(input_pngs), tools, self.limits)
             stage.execution_s += time.perf_counter() - run_started
             stage.last = result
             stage.runs.append(result)
+            report("execution", "done" if result.ok else "failed", result.error or f"attempt {attempt} ran")
             latency_ms = round((time.perf_counter() - run_started) * 1e3, 2)
             attempts_so_far.append(AttemptRecord(program=source, error=result.error, latency_ms=latency_ms))
             failure = recon_of_this_solve.failure
@@ -158,8 +178,12 @@ class SolvePipeline:
                     f"the reconstruction service failed while the program ran: {failure}",
                     attempts_so_far,
                 )
+            repairs = self.settings.max_repairs if max_repairs is None else max_repairs
+            if not result.ok and self.code_client is not None and attempt <= repairs:
+                report("program", "started", f"asking {self.code_model_name} to repair attempt {attempt}")
             return ExecutionOutcome(ok=result.ok, error=result.error, payload=result)
 
+        report("program", "started", f"writing a program with {self.code_model_name}")
         codegen_started = time.perf_counter()
         attempts, program, code_model = self._generate(question, input_pngs, execute, max_repairs)
         codegen_ms = (time.perf_counter() - codegen_started - stage.execution_s) * 1e3
@@ -167,6 +191,7 @@ class SolvePipeline:
         result = stage.last if program is not None else None
         notes = coverage_notes(result.clue_images) if result is not None and result.ok else []
         answer_started = time.perf_counter()
+        report("answer", "started", f"answering with {self.answer_model_name}")
         if result is None or not result.ok:
             failure = attempts[-1].error if attempts else "no program was produced"
             answer = AnswerResult(
@@ -184,12 +209,14 @@ class SolvePipeline:
         else:
             answer = answer_offline(question, result.clue_text, result.clue_images)
         answering_ms = (time.perf_counter() - answer_started) * 1e3
+        report("answer", "done" if answer.answer else "failed", answer.answer or answer.reason or "")
 
         clue = Clue()
         if result is not None and result.ok:
             clue = Clue(
                 text=result.clue_text,
                 images=[base64.b64encode(png).decode("ascii") for png in result.clue_images],
+                views=clue_views(result.clue_images, tools, summary),
                 notes=notes,
             )
         return SolveResponse(
@@ -219,7 +246,9 @@ class SolvePipeline:
         if image_files:
             if len(image_files) > self.settings.max_images:
                 raise SolveError(422, f"{len(image_files)} images; at most {self.settings.max_images}")
-            scene_id = self.recon.upload_scene(image_files).scene_id
+            # Decode first: an unreadable image is reported by its number (1-based, as on the page).
+            input_pngs = [self._model_png(blob, i) for i, blob in enumerate(image_files)]
+            return self.recon.upload_scene(image_files).scene_id, input_pngs
         elif scene_id:
             info = self.recon.scene_info(scene_id)
             image_files = [self.recon.scene_image(scene_id, i) for i in range(info.num_images)]
@@ -229,7 +258,7 @@ class SolvePipeline:
 
     def _model_png(self, blob: bytes, index: int) -> bytes:
         rgb = decode_image(
-            blob, max_bytes=self.settings.max_image_bytes, max_pixels=10**9, label=f"image {index}"
+            blob, max_bytes=self.settings.max_image_bytes, max_pixels=10**9, label=f"image {index + 1}"
         )
         height, width = rgb.shape[:2]
         scale = ANSWER_IMAGE_SIDE / max(height, width)

@@ -21,6 +21,8 @@ class ReconToolProvider:
         self.backbone = backbone
         self.input_pngs = input_pngs
         self.backbone_used: str | None = None
+        # What each rendered PNG was rendered from, so the clue can say so (keyed by its bytes).
+        self.rendered_poses: dict[bytes, tuple[list[list[float]], int, int]] = {}
 
     def reconstruct(self) -> dict:
         summary = self.client.reconstruct(self.scene_id, self.backbone)
@@ -39,9 +41,9 @@ class ReconToolProvider:
         return [m.sentence for m in self.client.camera_motion(self.scene_id, backbone=self.backbone).motions]
 
     def synthesize_novel_view(self, extrinsic: list[list[float]], width: int, height: int) -> bytes:
-        return self.client.render(
-            self.scene_id, extrinsic, width=width, height=height, backbone=self.backbone
-        )
+        png = self.client.render(self.scene_id, extrinsic, width=width, height=height, backbone=self.backbone)
+        self.rendered_poses[png] = (extrinsic, width, height)
+        return png
 
     def input_image(self, index: int) -> bytes:
         if not 0 <= index < len(self.input_pngs):

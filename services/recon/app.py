@@ -15,6 +15,7 @@ from starlette.datastructures import UploadFile
 
 from services.recon.backbones import available_backbones
 from services.recon.errors import InvalidInput, PayloadTooLarge, ReconServiceError
+from services.recon.preview import MAX_PREVIEW_POINTS, point_cloud_preview
 from services.recon.scene_store import SceneInput
 from services.recon.service import ReconService
 from shared.access import docs_urls, install_access_control
@@ -28,6 +29,7 @@ from shared.schemas import (
     CameraMotionItem,
     CameraMotionRequest,
     CameraMotionResponse,
+    PointCloudPreview,
     Readiness,
     ReconstructionSummary,
     ReconstructRequest,
@@ -213,6 +215,17 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
                 headers={"Content-Disposition": f'attachment; filename="{scene_id}.ply"'},
             )
         return Response(recon.to_bytes(), media_type="application/octet-stream")
+
+    @app.get("/v1/scenes/{scene_id}/points", tags=["scenes"], response_model=PointCloudPreview)
+    async def points(
+        scene_id: str,
+        backbone: str | None = None,
+        max_points: int = Query(30_000, ge=1, le=MAX_PREVIEW_POINTS, description="Subsample size."),
+    ) -> PointCloudPreview:
+        """A subsample of the points with their colours, and the cameras: for viewers."""
+        outcome = await service.reconstruct(scene_id, backbone)
+        summary = _summary(scene_id, outcome.reconstruction, outcome.cached, outcome.joined_in_flight, {})
+        return point_cloud_preview(scene_id, outcome.reconstruction, summary.cameras, summary.up, max_points)
 
     @app.post(
         "/v1/render",

@@ -1,0 +1,67 @@
+"""The web page (`/`), its static files, and the two reads it needs besides /v1/solve.
+
+- `/v1/scenes/{scene_id}/points`: a subsample of the reconstruction for the 3D view, read from
+  the recon service (the page talks to the agent only, so one origin serves everything);
+- `/v1/example`: the bundled example (question + images) when the checkout has it.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import anyio
+from fastapi import FastAPI, HTTPException, Query
+from fastapi.responses import FileResponse
+from fastapi.staticfiles import StaticFiles
+
+from services.agent.pipeline import SolvePipeline
+from shared.schemas import PointCloudPreview
+
+WEB_DIR = Path(__file__).resolve().parent / "web"
+EXAMPLE_DIR = Path(__file__).resolve().parents[2] / "examples" / "living_room"
+
+
+def install_web_routes(app: FastAPI, pipeline: SolvePipeline) -> None:
+    app.mount("/web", StaticFiles(directory=WEB_DIR), name="web")
+
+    @app.get("/", include_in_schema=False)
+    async def page() -> FileResponse:
+        return FileResponse(WEB_DIR / "index.html", headers={"Cache-Control": "no-cache"})
+
+    @app.get("/v1/scenes/{scene_id}/points", tags=["scenes"], response_model=PointCloudPreview)
+    async def points(
+        scene_id: str,
+        backbone: str | None = None,
+        max_points: int = Query(30_000, ge=1, le=200_000),
+    ) -> PointCloudPreview:
+        """A subsample of the scene's points and its cameras (from the recon service), for viewers."""
+        return await anyio.to_thread.run_sync(pipeline.recon.points, scene_id, backbone, max_points)
+
+    @app.get("/v1/backbones", tags=["web"])
+    async def backbones() -> dict:
+        """The recon service's backbones and its default (for the page's backbone menu)."""
+        return await anyio.to_thread.run_sync(pipeline.recon.backbones)
+
+    @app.get("/v1/example", tags=["web"])
+    async def example() -> dict:
+        """The bundled example: its question and the URLs of its images."""
+        spec = _example_spec()
+        return {
+            "question": spec["question"],
+            "expected_answer": spec.get("expected_answer"),
+            "images": [f"/v1/example/images/{name}" for name in spec["images"]],
+        }
+
+    @app.get("/v1/example/images/{name}", tags=["web"], response_class=FileResponse)
+    async def example_image(name: str) -> FileResponse:
+        if name not in _example_spec()["images"]:
+            raise HTTPException(404, f"the example has no image {name!r}")
+        return FileResponse(EXAMPLE_DIR / name)
+
+
+def _example_spec() -> dict:
+    path = EXAMPLE_DIR / "example.json"
+    if not path.is_file():
+        raise HTTPException(404, "this installation has no bundled example (examples/living_room)")
+    return json.loads(path.read_text())
