@@ -210,7 +210,7 @@ class ReconClient(_ServiceClient):
         self, scene_id: str, backbone: str | None = None, max_points: int = 30_000
     ) -> PointCloudPreview:
         params = {"max_points": max_points, **({"backbone": backbone} if backbone else {})}
-        response = self._request("GET", f"/v1/scenes/{scene_id}/points", params=params)
+        response = self._request("GET", f"/v1/scenes/{_segment(scene_id)}/points", params=params)
         return PointCloudPreview.model_validate_json(response.content)
 
     def camera_motion(

@@ -246,6 +246,9 @@ class ErrorEvent(_Model):
     status_code: int
     detail: str
     stage: SolveStage | None = Field(None, description="The stage that was running, if any.")
+    attempts: list[AttemptRecord] | None = Field(
+        None, description="When the infrastructure failed while a program ran: the attempts so far."
+    )
 
 
 SolveEvent = Annotated[StageEvent | ResultEvent | ErrorEvent, Field(discriminator="type")]

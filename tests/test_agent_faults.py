@@ -7,6 +7,7 @@ answer; after any error the client's next pooled request works.
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import threading
@@ -160,8 +161,9 @@ def test_readyz_and_solve_when_recon_hangs_then_dies(tmp_path_factory, redis_url
             assert solve.status_code == 503 and "cannot reach" in solve.json()["detail"]
 
 
+@pytest.mark.parametrize("accept", ["application/json", "text/event-stream"])
 def test_recon_killed_while_the_program_runs_is_a_503_with_the_attempts(
-    tmp_path_factory, redis_url, llm, views
+    tmp_path_factory, redis_url, llm, views, accept
 ):
     recon = start_service(RECON_APP, recon_env(tmp_path_factory, redis_url))
     try:
@@ -180,7 +182,10 @@ def test_recon_killed_while_the_program_runs_is_a_503_with_the_attempts(
 
             def solve() -> None:
                 result["response"] = httpx.post(
-                    agent.url + "/v1/solve", json={"question": question, "scene_id": scene_id}, timeout=120
+                    agent.url + "/v1/solve",
+                    json={"question": question, "scene_id": scene_id},
+                    headers={"Accept": accept},
+                    timeout=120,
                 )
 
             worker = threading.Thread(target=solve)
@@ -192,8 +197,15 @@ def test_recon_killed_while_the_program_runs_is_a_503_with_the_attempts(
             recon.process.kill()  # the recon service dies before the program's first tool call
             worker.join(timeout=120)
             response = result["response"]
-            assert response.status_code == 503, response.text
-            body = response.json()
+            if accept == "text/event-stream":  # the stream had started: the last event is the error
+                assert response.status_code == 200
+                last_event = response.text.strip().split("\n\n")[-1].splitlines()
+                assert last_event[0] == "event: error"
+                body = json.loads(last_event[1].removeprefix("data: "))
+                assert body["status_code"] == 503
+            else:
+                assert response.status_code == 503, response.text
+                body = response.json()
             assert "reconstruction service failed while the program ran" in body["detail"]
             assert len(body["attempts"]) == 1 and body["attempts"][0]["program"].startswith("def program")
             assert "cannot reach" in body["attempts"][0]["error"]

@@ -12,7 +12,7 @@ from fastapi.responses import JSONResponse
 from pydantic import ValidationError
 from starlette.datastructures import UploadFile
 
-from services.agent.infrastructure import InfrastructureFailure, gateway_status
+from services.agent.infrastructure import InfrastructureFailure, recon_error_status
 from services.agent.llm import LLMError
 from services.agent.pipeline import SolveError, SolvePipeline
 from services.agent.solve_stream import event_stream, wants_event_stream
@@ -98,18 +98,10 @@ def create_app(settings: AgentSettings | None = None) -> FastAPI:
     install_input_error_handlers(app)
 
     @app.exception_handler(ServiceError)
-    async def recon_error(_: Request, error: ServiceError) -> JSONResponse:
-        if error.status_code in (401, 403):  # our key for recon is wrong: the stack, not the client
-            status = 502
-        elif error.status_code == 429:  # recon limits the agent's key: the stack is busy
-            status = 503
-        else:
-            status = error.status_code if error.status_code < 500 else gateway_status(error)
-        return JSONResponse({"detail": f"reconstruction service: {error.message}"}, status_code=status)
-
     @app.exception_handler(ServiceUnreachable)
-    async def recon_unreachable(_: Request, error: ServiceUnreachable) -> JSONResponse:
-        return JSONResponse({"detail": str(error)}, status_code=gateway_status(error))
+    async def recon_error(_: Request, error: ServiceError | ServiceUnreachable) -> JSONResponse:
+        status, detail = recon_error_status(error)
+        return JSONResponse({"detail": detail}, status_code=status)
 
     @app.exception_handler(InfrastructureFailure)
     async def infrastructure_failure(_: Request, error: InfrastructureFailure) -> JSONResponse:

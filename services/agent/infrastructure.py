@@ -38,6 +38,23 @@ def gateway_status(error: Exception) -> int:
     return 502
 
 
+def recon_error_status(error: ServiceError | ServiceUnreachable) -> tuple[int, str]:
+    """The status and message the agent answers when a recon call failed.
+
+    Recon's 4xx about the client's input pass through; recon refusing the agent's own key
+    (401/403) is a 502 and recon limiting it (429) a 503: the stack, not the client, is at fault.
+    """
+    if isinstance(error, ServiceUnreachable):
+        return gateway_status(error), str(error)
+    if error.status_code in (401, 403):
+        status = 502
+    elif error.status_code == 429:
+        status = 503
+    else:
+        status = error.status_code if error.status_code < 500 else gateway_status(error)
+    return status, f"reconstruction service: {error.message}"
+
+
 class FailureRecordingClient:
     """Wraps the recon client of one solve and remembers the first infrastructure failure.
 

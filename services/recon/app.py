@@ -216,7 +216,12 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
             )
         return Response(recon.to_bytes(), media_type="application/octet-stream")
 
-    @app.get("/v1/scenes/{scene_id}/points", tags=["scenes"], response_model=PointCloudPreview)
+    @app.get(
+        "/v1/scenes/{scene_id}/points",
+        tags=["scenes"],
+        response_model=PointCloudPreview,
+        responses=error_responses(401, 404, 422, 429, 503),
+    )
     async def points(
         scene_id: str,
         backbone: str | None = None,
