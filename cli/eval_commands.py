@@ -11,7 +11,7 @@ from typing import Annotated
 
 import typer
 
-from evaluation.dataset import DatasetError, read_mindcube
+from evaluation.dataset import DatasetError, default_image_root, read_mindcube
 from evaluation.metrics import summarize_mindcube
 from evaluation.mindcube import MINDCUBE_INSTRUCTION, evaluate_mindcube
 from evaluation.omni3d import OMNI3D_INSTRUCTION, evaluate_omni3d
@@ -29,6 +29,16 @@ JsonlOption = Annotated[
 ]
 ImageRootOption = Annotated[
     Path, typer.Option("--image-root", exists=True, file_okay=False, help="Image paths are relative to it.")
+]
+MindCubeRootOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--image-root",
+        exists=True,
+        file_okay=False,
+        help="Image paths are relative to it; default: MindCube's layout, the folder above data/raw/ "
+        "when the JSONL is in one, else the JSONL's folder.",
+    ),
 ]
 LimitOption = Annotated[int | None, typer.Option("--limit", min=1, help="Only the first N items.")]
 ConcurrencyOption = Annotated[int, typer.Option("--concurrency", min=1, help="Items in flight at once.")]
@@ -66,7 +76,7 @@ def _fail(message: str) -> typer.Exit:
 @eval_app.command("mindcube")
 def mindcube(
     jsonl: JsonlOption,
-    image_root: ImageRootOption,
+    image_root: MindCubeRootOption = None,
     limit: LimitOption = None,
     concurrency: ConcurrencyOption = 4,
     out: Annotated[Path, typer.Option("--out", help="Results, one JSON line per item.")] = Path(
@@ -78,7 +88,13 @@ def mindcube(
     recon_url: ReconUrlOption = DEFAULT_RECON_URL,
     progress: ProgressOption = True,
 ) -> None:
-    """Answer MindCube questions with pySpatial (POST /v1/solve) and print accuracy by setting."""
+    """Answer MindCube questions with pySpatial (POST /v1/solve) and print accuracy by setting.
+
+    Items with a missing image are skipped with a warning. The results file has MindCube's fields
+    (``answer``, ``gt_answer``), so MindCube's own evaluator reads it unchanged. Accuracy is printed
+    over all items (MindCube's denominator) and over answered items (the paper's code's).
+    """
+    image_root = image_root or default_image_root(jsonl)
     try:
         with pyspatial_solver(agent_url, image_root, backbone, recon_url) as solver:
             run = evaluate_mindcube(
@@ -87,6 +103,8 @@ def mindcube(
     except DatasetError as error:
         raise _fail(str(error)) from error
     console.print(mindcube_report([run.summary]))
+    if run.skipped:
+        console.print(f"{len(run.skipped)} item(s) skipped: their images are missing (warnings above)")
     console.print(f"results: {out}")
 
 

@@ -35,7 +35,7 @@ def show_summary(summary: ReconstructionSummary) -> None:
             str(camera.index + 1),
             "yes" if camera.registered else "[red]no[/]",
             f"{camera.width}x{camera.height}",
-            f"{camera.intrinsic[0][0]:.1f}",
+            "-" if camera.intrinsic is None else f"{camera.intrinsic[0][0]:.1f} ({camera.intrinsics_source})",
             centre,
         )
     console.print(table)

@@ -41,6 +41,9 @@ def show_solution(result: SolveResponse, saved_images: list[Path]) -> None:
         console.print(Panel(code, title=title, expand=False))
     else:
         console.print("[yellow]no program ran successfully[/]")
+    if result.fallback:
+        kind = result.fallback.replace("_", " ")
+        console.print(f"[bold yellow]fallback ({kind}):[/] {result.fallback_reason}")
     for number, attempt in enumerate(result.attempts, start=1):
         if attempt.error:
             console.print(f"[dim]attempt {number} failed:[/] {attempt.error.strip().splitlines()[-1]}")

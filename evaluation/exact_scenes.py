@@ -1,8 +1,9 @@
 """Exact cameras and depth for items that carry them, for the posed-rgbd backbone.
 
 The synthetic generator (shared/synthetic) writes, per scene, an npz with extrinsics (V,3,4),
-intrinsics (V,3,3) and depths (V,H,W), and each question's ``meta_info`` names that file
-(``scene_file``, relative to the image root) and the views it shows (``view_indices``). Uploading
+intrinsics (V,3,3) and depths (V,H,W), and each question's ``pyspatial_scene`` names that file
+(``scene_file``, relative to the image root) and the views it shows (``view_indices``); its
+``meta_info`` stays a list, as in MindCube. Uploading
 the question's images together with those arrays lets posed-rgbd back-project exact geometry
 instead of estimating it. Real MindCube items carry no such file and are sent as plain images.
 """
@@ -28,13 +29,12 @@ class ExactViews:
 
 def exact_views(item: BenchmarkItem, image_root: Path) -> ExactViews | None:
     """The item's exact cameras and depths, or None when its meta_info points to none."""
-    scene_file = item.meta_info.get("scene_file")
-    view_indices = item.meta_info.get("view_indices")
-    if not scene_file or view_indices is None:
+    if item.exact_scene is None:
         return None
+    scene_file, view_indices = item.exact_scene["scene_file"], item.exact_scene["view_indices"]
     path = Path(image_root) / scene_file
     if not path.is_file():
-        raise FileNotFoundError(f"{item.id}: meta_info.scene_file {path} does not exist")
+        raise FileNotFoundError(f"{item.id}: pyspatial_scene.scene_file {path} does not exist")
     if len(view_indices) != len(item.images):
         raise ValueError(f"{item.id}: {len(view_indices)} view indices for {len(item.images)} images")
     with np.load(path, allow_pickle=False) as scene:
@@ -56,10 +56,9 @@ class ExactSceneUploader:
 
     def scene_id(self, item: BenchmarkItem) -> str | None:
         """The uploaded scene for the item, or None when it has no exact data."""
-        scene_file = item.meta_info.get("scene_file")
-        view_indices = item.meta_info.get("view_indices")
-        if not scene_file or view_indices is None:
+        if item.exact_scene is None:
             return None
+        scene_file, view_indices = item.exact_scene["scene_file"], item.exact_scene["view_indices"]
         key = (str(scene_file), tuple(int(i) for i in view_indices))
         with self._lock:
             known = self._scene_ids.get(key)

@@ -9,6 +9,7 @@ Omni3D-Bench: exact-match accuracy for yes/no, multiple choice and counts; mean 
 from __future__ import annotations
 
 import math
+from collections import Counter
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
@@ -74,29 +75,50 @@ def _mean_stage_ms(records: list[dict[str, Any]]) -> dict[str, float | None]:
     return means
 
 
+OVERALL = "overall"
+EXCLUDED_FROM_OVERALL = ("translation",)  # MindCube leaves its translation items out of the overall
+
+
 @dataclass
 class MindCubeSummary:
     system: str
-    accuracy: dict[str, Score]  # "overall" and each setting present
+    accuracy: dict[str, Score]  # correct / all items (MindCube's denominator): "overall" and settings
     parse_success: Score  # a program was produced
     execution_success: Score  # a program ran to the end
     answer_success: Score  # an answer letter was given
     errors: int  # items whose request failed outright
     mean_ms: dict[str, float | None] = field(default_factory=dict)
+    # correct / answered items (the pySpatial paper's code divides by the items it answered)
+    accuracy_answered: dict[str, Score] = field(default_factory=dict)
+    code_models: Counter = field(default_factory=Counter)  # what wrote the programs, with counts
+    answer_models: Counter = field(default_factory=Counter)  # what answered, with counts
+    code_fallbacks: int = 0  # programs the offline planner wrote because the code model failed
+    images_only: int = 0  # answers from the photos alone because no program ran
 
     @property
     def count(self) -> int:
-        return self.accuracy["overall"].count
+        return self.accuracy[OVERALL].count
+
+
+def is_code_fallback(code_model: str | None) -> bool:
+    return bool(code_model) and "(fallback:" in code_model
 
 
 def summarize_mindcube(records: Iterable[dict[str, Any]], system: str | None = None) -> MindCubeSummary:
-    """Accuracy = correct / total, overall and per setting; failed requests count as wrong."""
+    """Accuracy overall and per setting, over all items (failed requests and unanswered items count
+    as wrong) and over answered items; translation items are scored but left out of the overall."""
     records = list(records)
-    accuracy = {"overall": Score(), **{s: Score() for s in MINDCUBE_SETTINGS}}
+    accuracy = {OVERALL: Score(), **{s: Score() for s in MINDCUBE_SETTINGS}}
+    answered = {OVERALL: Score(), **{s: Score() for s in MINDCUBE_SETTINGS}}
     for record in records:
         correct = float(bool(record.get("correct")))
-        accuracy["overall"].add(correct)
-        accuracy.setdefault(record.get("setting") or "other", Score()).add(correct)
+        setting = record.get("setting") or "other"
+        keys = [setting] if setting in EXCLUDED_FROM_OVERALL else [OVERALL, setting]
+        for key in keys:
+            accuracy.setdefault(key, Score()).add(correct)
+            if record.get("answered"):
+                answered.setdefault(key, Score()).add(correct)
+    code_models = Counter(r["code_model"] for r in records if r.get("code_model"))
     return MindCubeSummary(
         system=system or _system_of(records),
         accuracy=accuracy,
@@ -105,6 +127,11 @@ def summarize_mindcube(records: Iterable[dict[str, Any]], system: str | None = N
         answer_success=_rate(records, "answered"),
         errors=sum(1 for r in records if r.get("error")),
         mean_ms=_mean_stage_ms(records),
+        accuracy_answered=answered,
+        code_models=code_models,
+        answer_models=Counter(r["answer_model"] for r in records if r.get("answer_model")),
+        code_fallbacks=sum(count for name, count in code_models.items() if is_code_fallback(name)),
+        images_only=sum(1 for r in records if r.get("fallback") == "images_only"),
     )
 
 

@@ -8,7 +8,7 @@ overall and per setting (rotation / among / around) the way the pySpatial paper 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -30,7 +30,11 @@ def gt_letter(item: BenchmarkItem) -> str:
 
 
 def score_mindcube(item: BenchmarkItem, prediction: Prediction) -> dict[str, Any]:
-    """The result record of one item: correct when the normalized letters match."""
+    """The result record of one item: correct when the normalized letters match.
+
+    ``answer`` (the letter, or null) and ``gt_answer`` are the fields MindCube's own evaluator reads,
+    so a results file can be scored by it unchanged; ``raw_answer`` keeps what the solver said.
+    """
     predicted = None if prediction.error else answer_letter(prediction.answer, item.question)
     truth = gt_letter(item)
     return {
@@ -39,6 +43,7 @@ def score_mindcube(item: BenchmarkItem, prediction: Prediction) -> dict[str, Any
         "type": item.type,
         "question": item.question,
         "gt_answer": truth,
+        "answer": predicted,
         "prediction": predicted,
         "correct": predicted is not None and predicted == truth,
         "answered": predicted is not None,
@@ -50,11 +55,12 @@ def score_mindcube(item: BenchmarkItem, prediction: Prediction) -> dict[str, Any
 class EvaluationRun:
     records: list[dict[str, Any]]
     summary: MindCubeSummary
+    skipped: list[str] = field(default_factory=list)  # warnings about items left out (missing images)
 
 
 def evaluate_mindcube(
     jsonl: Path,
-    image_root: Path,
+    image_root: Path | None,
     solve: Callable[[BenchmarkItem], Prediction],
     results_path: Path,
     limit: int | None = None,
@@ -64,8 +70,13 @@ def evaluate_mindcube(
     show_progress: bool = True,
     items: list[BenchmarkItem] | None = None,
 ) -> EvaluationRun:
-    """Run every item (or the first ``limit``) through ``solve`` and summarize."""
-    items = items if items is not None else read_mindcube(jsonl, image_root, limit)
+    """Run every item (or the first ``limit``) through ``solve`` and summarize. Items whose images
+    are missing are skipped with a warning (printed, and kept in ``EvaluationRun.skipped``)."""
+    skipped: list[str] = []
+    items = items if items is not None else read_mindcube(jsonl, image_root, limit, skipped)
+    if console is not None:
+        for warning in skipped:
+            console.print(f"[yellow]warning:[/yellow] {warning}", highlight=False)
     records = run_items(
         items,
         lambda item: score_mindcube(item, solve_safely(solve, item)),
@@ -75,4 +86,4 @@ def evaluate_mindcube(
         console=console,
         show_progress=show_progress,
     )
-    return EvaluationRun(records=records, summary=summarize_mindcube(records))
+    return EvaluationRun(records=records, summary=summarize_mindcube(records), skipped=skipped)

@@ -1,7 +1,8 @@
 """Tables of results, laid out as the pySpatial paper reports them (rich tables for the terminal).
 
-Two tables per benchmark keep each within a terminal's width: the paper's accuracy table, and the
-pipeline table (how often each stage succeeded, mean milliseconds per stage).
+Separate tables keep each within a terminal's width: the paper's accuracy table (over all items and
+over answered items), the models table (what wrote the programs and what answered, fallbacks
+counted) and the pipeline table (how often each stage succeeded, mean milliseconds per stage).
 """
 
 from __future__ import annotations
@@ -12,7 +13,15 @@ from rich.console import Console, Group
 from rich.table import Table
 
 from evaluation.dataset import MINDCUBE_SETTINGS
-from evaluation.metrics import OMNI3D_KINDS, STAGES, MindCubeSummary, Omni3DSummary, Score
+from evaluation.metrics import (
+    EXCLUDED_FROM_OVERALL,
+    OMNI3D_KINDS,
+    OVERALL,
+    STAGES,
+    MindCubeSummary,
+    Omni3DSummary,
+    Score,
+)
 
 NOT_APPLICABLE = "-"
 STAGE_HEADINGS = {"reconstruction": "Recon", "codegen": "Codegen", "execution": "Exec", "answering": "Answer"}
@@ -34,20 +43,61 @@ def milliseconds(value: float | None) -> str:
     return NOT_APPLICABLE if value is None else f"{value:.0f}"
 
 
+DENOMINATORS = (
+    ("all items (MindCube)", "accuracy"),
+    ("answered (paper's code)", "accuracy_answered"),
+)
+
+
 def mindcube_accuracy_table(
     summaries: Sequence[MindCubeSummary], title: str = "MindCube accuracy (%)"
 ) -> Table:
-    """The paper's table: one row per system, accuracy overall and per setting."""
+    """The paper's table: accuracy overall and per setting, one row per system and denominator.
+
+    MindCube divides by all items (unanswered ones count as wrong); the pySpatial paper's code divides
+    by the items it answered. Both rows are shown, labelled, so either published table can be
+    compared. N is the overall denominator. Translation items are left out of Overall (as MindCube
+    does) and get their own column when present.
+    """
+    translation = any(EXCLUDED_FROM_OVERALL[0] in summary.accuracy for summary in summaries)
+    keys = (OVERALL, *MINDCUBE_SETTINGS, *(EXCLUDED_FROM_OVERALL if translation else ()))
     table = Table(title=title)
     table.add_column("System")
+    table.add_column("Accuracy over")
     table.add_column("N", justify="right")
-    for name in ("Overall", *(s.capitalize() for s in MINDCUBE_SETTINGS)):
-        table.add_column(name, justify="right")
+    for key in keys:
+        heading = key.capitalize() + (" (not in overall)" if key in EXCLUDED_FROM_OVERALL else "")
+        table.add_column(heading, justify="right")
+    for summary in summaries:
+        for label, attribute in DENOMINATORS:
+            scores = getattr(summary, attribute)
+            table.add_row(
+                summary.system,
+                label,
+                str(scores.get(OVERALL, Score()).count),
+                *(percent(scores.get(key, Score())) for key in keys),
+            )
+    return table
+
+
+def _counted(counter) -> str:
+    return ", ".join(f"{name} ({count})" for name, count in counter.most_common()) or NOT_APPLICABLE
+
+
+def models_table(summaries: Sequence[MindCubeSummary], title: str = "Models (items)") -> Table:
+    """Which model wrote the programs and which answered, with counts; fallbacks are counted, not
+    hidden: programs the offline planner wrote because the code model failed, and answers from the
+    photos alone because no program ran."""
+    table = Table(title=title)
+    for name in ("System", "Code model", "Answer model", "Planner fallbacks", "Images-only answers"):
+        table.add_column(name, justify="right" if name.endswith(("fallbacks", "answers")) else "left")
     for summary in summaries:
         table.add_row(
             summary.system,
-            str(summary.count),
-            *(percent(summary.accuracy.get(key, Score())) for key in ("overall", *MINDCUBE_SETTINGS)),
+            _counted(summary.code_models),
+            _counted(summary.answer_models),
+            str(summary.code_fallbacks),
+            str(summary.images_only),
         )
     return table
 
@@ -80,7 +130,9 @@ def pipeline_table(
 
 
 def mindcube_report(summaries: Sequence[MindCubeSummary], title: str = "MindCube accuracy (%)") -> Group:
-    return Group(mindcube_accuracy_table(summaries, title), pipeline_table(summaries))
+    return Group(
+        mindcube_accuracy_table(summaries, title), models_table(summaries), pipeline_table(summaries)
+    )
 
 
 def omni3d_table(summaries: Sequence[Omni3DSummary], title: str = "Omni3D-Bench (%)") -> Table:

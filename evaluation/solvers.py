@@ -36,6 +36,11 @@ class Prediction:
     timings: dict[str, float | None] | None = None
     scene_id: str | None = None
     backbone: str | None = None
+    code_model: str | None = None  # what wrote the program ("offline-planner (fallback: ...)" included)
+    answer_model: str | None = None  # what answered
+    fallback: str | None = None  # "images_only": no program ran, the photos alone were used
+    fallback_reason: str | None = None
+    family: str | None = None  # the question's family as the agent parsed it
 
     def as_record(self) -> dict[str, Any]:
         return {
@@ -50,6 +55,11 @@ class Prediction:
             "timings": self.timings,
             "scene_id": self.scene_id,
             "backbone": self.backbone,
+            "code_model": self.code_model,
+            "answer_model": self.answer_model,
+            "fallback": self.fallback,
+            "fallback_reason": self.fallback_reason,
+            "family": self.family,
         }
 
 
@@ -85,6 +95,11 @@ class PySpatialSolver:
             timings=response.timings.model_dump(),
             scene_id=response.scene_id,
             backbone=response.backbone,
+            code_model=response.code_model,
+            answer_model=response.answer_model,
+            fallback=response.fallback,
+            fallback_reason=response.fallback_reason,
+            family=response.intent.family if response.intent else None,
         )
 
 
@@ -123,6 +138,7 @@ class BaselineSolver:
             system=self.model,
             answer=reply.text,
             text=reply.text,
+            answer_model=self.model,
             timings={
                 "codegen_ms": None,
                 "execution_ms": None,

@@ -70,7 +70,11 @@ class Reconstruction:
         self.extrinsics = np.array(
             [camera.extrinsic if camera.registered else nan_pose for camera in summary.cameras], dtype=float
         )
-        self.intrinsics = np.array([camera.intrinsic for camera in summary.cameras], dtype=float)
+        nan_intrinsic = np.full((3, 3), np.nan)  # a view without a camera (e.g. VGGT's zero field of view)
+        self.intrinsics = np.array(
+            [nan_intrinsic if c.intrinsic is None else c.intrinsic for c in summary.cameras], dtype=float
+        )
+        self.intrinsics_source = [camera.intrinsics_source for camera in summary.cameras]
         self.image_sizes = [(camera.width, camera.height) for camera in summary.cameras]
         self.up = np.asarray(summary.up, dtype=float)
         self.num_points = summary.num_points
@@ -130,7 +134,7 @@ class SpatialToolkit:
         return Reconstruction(self.client, self.client.reconstruct(created.scene_id, backbone))
 
     def describe_camera_motion(self, recon: Reconstruction) -> str:
-        """One sentence per consecutive pair of views ("From view 1 to view 2 the camera moved ...")."""
+        """One sentence per pair of views ("From view 1 to view 2 the camera moved ..."), or why unknown."""
         return self.client.camera_motion(recon.scene_id, backbone=recon.backbone).text
 
     def synthesize_novel_view(

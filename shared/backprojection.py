@@ -123,6 +123,7 @@ def reconstruction_from_rgbd(
         backbone_version=version,
         depths=depth_maps,
         warnings=warnings,
+        intrinsics_source=["given"] * views,
     )
 
 

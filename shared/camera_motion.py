@@ -12,6 +12,14 @@ or 1.0 when the centres coincide within 1e-9. Callers that have points should pa
 `scene_scale=robust_extent(points)`: with only two cameras the centres alone cannot tell a small
 jitter from a real step.
 
+Vertical: the step along up is said ("and up", "and down") when it is significant, i.e. at least
+`threshold * scene_scale` and at least 22.5 degrees above or below the horizontal (the half-sector
+rule of the compass). A step steeper than 67.5 degrees is only vertical ("moved up").
+
+Unknown motion: `describe_pairs` takes a reason per view that has no trustworthy pose (not
+registered, uncertain) and returns, per pair, either a `CameraMotion` or an `UnknownMotion` that
+says why; the motion of the other pairs is still described.
+
 Turn: the signed angle about up from camera i's flat viewing direction to camera j's, positive =
 left. It is rounded to 5 degrees below 30 degrees and to 15 degrees from there on (so 43 -> 45,
 88 -> 90); below `rotation_threshold_deg` (10) it is "no significant rotation".
@@ -19,7 +27,8 @@ left. It is rounded to 5 degrees below 30 degrees and to 15 degrees from there o
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -38,13 +47,15 @@ DIRECTIONS = (
 NO_MOVEMENT = "no significant movement"
 NO_ROTATION = "no significant rotation"
 _COINCIDENT = 1e-9
+_LEVEL_DEG = 22.5  # steeper than this, the vertical step is named
+_STEEP_DEG = 67.5  # steeper than this, only the vertical step is named
 
 
 @dataclass(frozen=True)
 class CameraMotion:
     from_view: int  # 0-based index
     to_view: int
-    direction: str  # one of DIRECTIONS or NO_MOVEMENT
+    direction: str  # horizontal: one of DIRECTIONS or NO_MOVEMENT
     angle_deg: float  # horizontal heading of the move in the first camera, 0 forward, +90 right
     distance: float  # horizontal distance, scene units
     vertical: float  # displacement along up, positive = up
@@ -52,12 +63,28 @@ class CameraMotion:
     yaw_deg: float  # turn about up, positive = left
     turn: str  # e.g. "turned left by about 45 degrees" or NO_ROTATION
     sentence: str
+    vertical_direction: str | None = None  # "up", "down", or None when not significant
+    described: bool = True
 
     def to_dict(self) -> dict[str, object]:
         """JSON-able dictionary (plain floats, ints, strings and lists)."""
         result = asdict(self)
         result["displacement_in_first_camera"] = list(self.displacement_in_first_camera)
         return result
+
+
+@dataclass(frozen=True)
+class UnknownMotion:
+    """A pair whose motion cannot be described, and why."""
+
+    from_view: int
+    to_view: int
+    reason: str
+    sentence: str
+    described: bool = False
+
+    def to_dict(self) -> dict[str, object]:
+        return asdict(self)
 
 
 def robust_extent(points: np.ndarray) -> float:
@@ -97,10 +124,15 @@ def _signed_angle(first: np.ndarray, second: np.ndarray, axis: np.ndarray) -> fl
     return float(np.degrees(np.arctan2(np.dot(axis, np.cross(first, second)), np.dot(first, second))))
 
 
-def _sentence(from_view: int, to_view: int, direction: str, turn: str) -> str:
-    moved = direction != NO_MOVEMENT
+def _sentence(from_view: int, to_view: int, direction: str, turn: str, vertical: str | None = None) -> str:
     turned = turn != NO_ROTATION
     head = f"From view {from_view + 1} to view {to_view + 1} the camera"
+    if vertical is not None:
+        way = vertical if direction == NO_MOVEMENT else f"{direction} and {vertical}"
+        if turned:
+            return f"{head} moved {way}, and {turn}."
+        return f"{head} moved {way} without turning significantly."
+    moved = direction != NO_MOVEMENT
     if moved and turned:
         return f"{head} moved {direction} and {turn}."
     if moved:
@@ -128,7 +160,11 @@ def _motion(
     right = np.cross(forward, up)  # for a level camera this is its +x axis
     angle = float(np.degrees(np.arctan2(flat @ right, flat @ forward)))
     distance = float(np.linalg.norm(flat))
-    direction = direction_name(angle) if distance >= min_distance else NO_MOVEMENT
+    elevation = float(np.degrees(np.arctan2(abs(vertical), distance)))
+    direction = direction_name(angle) if distance >= min_distance and elevation < _STEEP_DEG else NO_MOVEMENT
+    vertical_direction = None
+    if abs(vertical) >= min_distance and elevation >= _LEVEL_DEG:
+        vertical_direction = "up" if vertical > 0 else "down"
     yaw_deg = _signed_angle(forward, horizontal_forward(second[:3, :3], up), up)
     turn = describe_turn(yaw_deg, rotation_threshold_deg)
     displacement = rotation @ step_world
@@ -142,7 +178,8 @@ def _motion(
         displacement_in_first_camera=(float(displacement[0]), float(displacement[1]), float(displacement[2])),
         yaw_deg=yaw_deg,
         turn=turn,
-        sentence=_sentence(indices[0], indices[1], direction, turn),
+        sentence=_sentence(indices[0], indices[1], direction, turn, vertical_direction),
+        vertical_direction=vertical_direction,
     )
 
 
@@ -185,14 +222,87 @@ def describe_camera_motion(
     ]
 
 
+def unknown_motion(from_view: int, to_view: int, reason: str) -> UnknownMotion:
+    sentence = f"From view {from_view + 1} to view {to_view + 1} the camera motion is unknown: {reason}."
+    return UnknownMotion(from_view=from_view, to_view=to_view, reason=reason, sentence=sentence)
+
+
+def default_pairs(views: int, usable: Sequence[bool]) -> list[tuple[int, int]]:
+    """Consecutive pairs, plus a pair bridging each run of unusable views (view 1 -> 3 when 2 is not)."""
+    pairs = [(index, index + 1) for index in range(views - 1)]
+    placed = [index for index in range(views) if usable[index]]
+    for first, second in zip(placed, placed[1:], strict=False):
+        if second - first > 1:
+            pairs.append((first, second))
+    return sorted(pairs)
+
+
+def describe_pairs(
+    extrinsics: np.ndarray,
+    view_problems: Sequence[str | None],
+    pairs: list[tuple[int, int]] | None = None,
+    up: np.ndarray | None = None,
+    scene_scale: float | None = None,
+    threshold: float = 0.05,
+    rotation_threshold_deg: float = 10.0,
+) -> list[CameraMotion | UnknownMotion]:
+    """Per pair a description, or why there is none (`view_problems[i]`: why view i has no usable pose).
+
+    Pairs default to `default_pairs`. Up and the scale come from the usable views only.
+    """
+    stack = np.asarray(extrinsics, dtype=np.float64)
+    views = len(stack)
+    if len(view_problems) != views:
+        raise ValueError(f"{len(view_problems)} view problems for {views} views")
+    usable = [problem is None for problem in view_problems]
+    if pairs is None:
+        pairs = default_pairs(views, usable)
+    for pair in pairs:
+        if len(pair) != 2 or not all(0 <= int(v) < views for v in pair):
+            raise ValueError(f"pair {tuple(pair)} is out of range for {views} views")
+    placed = [index for index in range(views) if usable[index]]
+    results: list[CameraMotion | UnknownMotion] = []
+    described: dict[tuple[int, int], CameraMotion] = {}
+    good_pairs = [(int(i), int(j)) for i, j in pairs if usable[i] and usable[j]]
+    if good_pairs:
+        position = {view: k for k, view in enumerate(placed)}
+        motions = describe_camera_motion(
+            stack[placed],
+            pairs=[(position[i], position[j]) for i, j in good_pairs],
+            up=up,
+            scene_scale=scene_scale,
+            threshold=threshold,
+            rotation_threshold_deg=rotation_threshold_deg,
+        )
+        for (i, j), motion in zip(good_pairs, motions, strict=True):
+            described[(i, j)] = replace(
+                motion,
+                from_view=i,
+                to_view=j,
+                sentence=_sentence(i, j, motion.direction, motion.turn, motion.vertical_direction),
+            )
+    for i, j in pairs:
+        i, j = int(i), int(j)
+        if (i, j) in described:
+            results.append(described[(i, j)])
+        else:
+            reasons = [view_problems[v] for v in dict.fromkeys((i, j)) if view_problems[v] is not None]
+            results.append(unknown_motion(i, j, "; ".join(str(r) for r in reasons)))
+    return results
+
+
 __all__ = [
     "DIRECTIONS",
     "NO_MOVEMENT",
     "NO_ROTATION",
     "CameraMotion",
+    "UnknownMotion",
+    "default_pairs",
     "describe_camera_motion",
+    "describe_pairs",
     "describe_turn",
     "direction_name",
     "robust_extent",
     "round_turn",
+    "unknown_motion",
 ]

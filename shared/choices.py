@@ -9,6 +9,7 @@ maps them onto the eight canonical names that shared/camera_motion.py prints, an
 
 from __future__ import annotations
 
+import json
 import re
 import string
 from collections.abc import Iterable
@@ -49,43 +50,109 @@ def parse_options(question: str) -> dict[str, str]:
     return options
 
 
+def split_options(question: str) -> tuple[str, dict[str, str]]:
+    """(the stem before the options, the options); the whole text and {} when there are none."""
+    options = parse_options(question)
+    if not options:
+        return question.strip(), {}
+    markers = [m for m in _OPTION_MARKER.finditer(question) if (m.group(1) or m.group(2)) == "A"]
+    # The options' run starts at the "A" marker whose text is option A's.
+    for marker in reversed(markers):
+        rest = question[marker.end() :].split("\n", 1)[0].strip()
+        if rest.startswith(options["A"]):
+            return question[: marker.start()].strip(), options
+    return question.strip(), options
+
+
 _MARKDOWN = re.compile(r"[*_`#]")
-_ALONE = re.compile(r"^\s*[\(\[]?([A-Z])[\)\]]?\s*[.:)]?\s*$")
-_KEYWORD = re.compile(
-    r"(?i:answer|option|choice)(?i:\s+is)?\s*[:=\-]?\s*(?i:option\s+)?[\(\[]?((?-i:[A-Z]))(?![A-Za-z0-9'])"
+_TAGGED = re.compile(r"<(answer|ans)>(.*?)(?:</\1\s*>|$)", re.IGNORECASE | re.DOTALL)
+_THINKING = re.compile(r"<(think|thinking|reasoning)>.*?(?:</\1\s*>|$)", re.IGNORECASE | re.DOTALL)
+_ALONE = re.compile(r"^\s*[\(\[]?([A-Za-z])[\)\]]?\s*[.:)]?\s*$")
+_KEYWORDS = (
+    r"(?:final\s+answer|correct\s+(?:answer|option|choice)|answer|option|choice|final|selected|selection"
+    r"|i\s+(?:choose|chose|pick|picked|select|selected|go\s+with))"
+)
+_KEYED_UPPER = re.compile(
+    rf"(?i:{_KEYWORDS})(?i:\s+(?:is|would\s+be|should\s+be|will\s+be))?\s*[:=\-]?\s*(?i:option\s+)?"
+    r"[\(\[]?((?-i:[A-Z]))(?![A-Za-z0-9'])"
+)
+# A lower-case letter after a keyword only when punctuation marks it as a letter ("Answer: b)", "(c)"),
+# so that "the answer is a door" is not option A.
+_KEYED_LOWER = re.compile(
+    rf"(?i:{_KEYWORDS})(?i:\s+(?:is|would\s+be|should\s+be|will\s+be))?\s*[:=\-]?\s*(?i:option\s+)?"
+    r"(?:\(([a-z])\)|\[([a-z])\]|([a-z])(?:[).:,;](?=\s|$)|\s*$))"
 )
 _LEADING = re.compile(r"^\s*[\(\[]?([A-Z])(?:[\)\]]|[.:)](?=\s|$))")
+_LEADING_LOWER = re.compile(r"^\s*(?:\(([a-z])\)|([a-z])[.)](?=\s|$))")
 _STANDALONE = re.compile(r"(?<![A-Za-z0-9'])([A-Z])(?![A-Za-z0-9'])")
+
+
+def _json_answer(text: str) -> str | None:
+    """The "answer" value of the first JSON object in the text that has one."""
+    decoder = json.JSONDecoder()
+    for match in re.finditer(r"\{", text):
+        try:
+            value, _ = decoder.raw_decode(text, match.start())
+        except json.JSONDecodeError:
+            continue
+        if isinstance(value, dict):
+            for key, stated in value.items():
+                if str(key).lower() in ("answer", "final_answer", "choice", "option") and stated is not None:
+                    return str(stated)
+    return None
+
+
+def _letter_in(text: str, allowed: set[str]) -> str | None:
+    plain = _MARKDOWN.sub("", text).strip()
+    if not plain:
+        return None
+    alone = _ALONE.match(plain)
+    if alone and alone.group(1).upper() in allowed:
+        return alone.group(1).upper()
+    keyed = [(m.start(), m.group(1)) for m in _KEYED_UPPER.finditer(plain)]
+    keyed += [(m.start(), next(g for g in m.groups() if g).upper()) for m in _KEYED_LOWER.finditer(plain)]
+    keyed = [(position, letter) for position, letter in keyed if letter in allowed]
+    if keyed:
+        return max(keyed)[1]  # "The answer is not A ... the answer is C": the conclusion comes last
+    for pattern in (_LEADING, _LEADING_LOWER):
+        leading = pattern.match(plain)
+        if leading:
+            letter = next(g for g in leading.groups() if g).upper()
+            if letter in allowed:
+                return letter
+    found = set()
+    for match in _STANDALONE.finditer(plain):
+        letter = match.group(1)
+        # "A chair", "I think": the article and the pronoun are words, not options.
+        if letter in "AI" and re.match(r"\s+(?!(?:or|and|nor|vs)\b)[a-z]", plain[match.end() :]):
+            continue
+        if letter in allowed:
+            found.add(letter)
+    return found.pop() if len(found) == 1 else None
 
 
 def extract_letter(text: str, valid_letters: Iterable[str] | None = None) -> str | None:
     """The option letter an answer names, or None when it names none (or several, ambiguously).
 
-    Accepts "C", "C.", "(C) the sofa", "Answer: C", "The answer is **C**". When `valid_letters` is
-    given, only those letters count.
+    In order: the last ``<answer>...</answer>`` (or ``<ans>``) tag, MindCube's own format; a JSON
+    object's "answer"; then the text with any ``<think>...</think>`` removed: a letter alone ("C",
+    "b)"), the last keyed letter ("Answer: C", "The answer is (B).", "final: b"), a leading letter
+    ("C. the sofa"), or the only standalone capital. When `valid_letters` is given, only those count.
     """
     allowed = set(valid_letters) if valid_letters is not None else set(string.ascii_uppercase)
-    plain = _MARKDOWN.sub("", text or "").strip()
-    if not plain:
-        return None
-    alone = _ALONE.match(plain)
-    if alone and alone.group(1) in allowed:
-        return alone.group(1)
-    keyed = [match.group(1) for match in _KEYWORD.finditer(plain) if match.group(1) in allowed]
-    if keyed:
-        return keyed[-1]  # "The answer is not A ... the answer is C": the conclusion comes last
-    leading = _LEADING.match(plain)
-    if leading and leading.group(1) in allowed:
-        return leading.group(1)
-    found = set()
-    for match in _STANDALONE.finditer(plain):
-        letter = match.group(1)
-        # "A chair", "I think": the article and the pronoun are words, not options.
-        if letter in "AI" and re.match(r"\s+[a-z]", plain[match.end() :]):
-            continue
-        if letter in allowed:
-            found.add(letter)
-    return found.pop() if len(found) == 1 else None
+    text = text or ""
+    tagged = _TAGGED.findall(text)
+    if tagged:
+        letter = _letter_in(tagged[-1][1], allowed)
+        if letter:
+            return letter
+    text = _THINKING.sub(" ", text)
+    stated = _json_answer(text)
+    if stated is not None:
+        letter = _letter_in(stated, allowed)
+        if letter:
+            return letter
+    return _letter_in(text, allowed)
 
 
 def _words(text: str) -> str:
@@ -191,6 +258,7 @@ __all__ = [
     "DIRECTIONS",
     "TURNS",
     "extract_letter",
+    "split_options",
     "normalize_direction",
     "normalize_turn",
     "parse_options",

@@ -153,15 +153,18 @@ class ReconClient(_ServiceClient):
         images: Sequence[ImageLike],
         depths: Sequence[np.ndarray] | None = None,
         extrinsics: np.ndarray | None = None,
-        intrinsics: np.ndarray | None = None,
+        intrinsics: np.ndarray | Sequence[np.ndarray | None] | None = None,
     ) -> SceneCreated:
+        """Upload a scene. `intrinsics`: per view a 3x3 in upright-image pixels, or None if unknown."""
         files = [("images", (f"image_{i:03d}", image_bytes(img))) for i, img in enumerate(images)]
         files += [("depths", (f"depth_{i:03d}.npy", _npy(d))) for i, d in enumerate(depths or [])]
         data = {}
         if extrinsics is not None:
             data["extrinsics"] = json.dumps(np.asarray(extrinsics, dtype=float).tolist())
         if intrinsics is not None:
-            data["intrinsics"] = json.dumps(np.asarray(intrinsics, dtype=float).tolist())
+            data["intrinsics"] = json.dumps(
+                [None if k is None else np.asarray(k, dtype=float).tolist() for k in intrinsics]
+            )
         return SceneCreated.model_validate(self._request("POST", "/v1/scenes", files=files, data=data).json())
 
     def scene_info(self, scene_id: str) -> SceneInfo:

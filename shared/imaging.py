@@ -8,7 +8,7 @@ import io
 import warnings
 
 import numpy as np
-from PIL import Image, UnidentifiedImageError
+from PIL import Image, ImageOps, UnidentifiedImageError
 
 
 class ImageError(ValueError):
@@ -20,7 +20,12 @@ class ImageError(ValueError):
 
 
 def decode_image(data: bytes, *, max_bytes: int, max_pixels: int, label: str = "image") -> np.ndarray:
-    """Bytes of a PNG/JPEG/WebP/... file -> uint8 RGB (H, W, 3). Raises ImageError."""
+    """Bytes of a PNG/JPEG/WebP/TIFF/... file -> upright uint8 RGB (H, W, 3). Raises ImageError.
+
+    - EXIF orientation is applied (phones store portrait photos sideways with a rotate tag).
+    - 16-bit greyscale is scaled to 8 bits; floating-point greyscale must lie in [0, 1].
+    - Transparency is composited on white, as VGGT's preprocessing does.
+    """
     if not data:
         raise ImageError(f"{label} is empty")
     if len(data) > max_bytes:
@@ -35,16 +40,56 @@ def decode_image(data: bytes, *, max_bytes: int, max_pixels: int, label: str = "
             with warnings.catch_warnings():
                 warnings.simplefilter("error", Image.DecompressionBombWarning)
                 probe.load()  # decodes fully: truncated files fail here
-            rgb = probe.convert("RGB")
+            rgb = _to_rgb(ImageOps.exif_transpose(probe), label)
     except ImageError:
         raise
     except UnidentifiedImageError as error:
+        if data[:4] in (b"II*\x00", b"MM\x00*"):
+            raise ImageError(
+                f"{label} is a TIFF this service cannot read (multi-channel floating-point TIFFs are "
+                "not supported): convert it to an 8- or 16-bit PNG or TIFF"
+            ) from error
         raise ImageError(f"{label} is not an image file this service can read") from error
     except (OSError, SyntaxError, ValueError, Image.DecompressionBombError, Warning) as error:
         raise ImageError(f"{label} could not be decoded: {error}") from error
     if width < 8 or height < 8:
         raise ImageError(f"{label} is {width}x{height}; images must be at least 8x8 pixels")
-    return np.asarray(rgb, dtype=np.uint8)
+    return rgb
+
+
+def _to_rgb(image: Image.Image, label: str) -> np.ndarray:
+    """Any Pillow mode -> uint8 RGB, keeping the brightness the file means."""
+    mode = image.mode
+    if mode.startswith("I;16") or mode == "I":
+        values = np.asarray(image, dtype=np.float64)
+        if mode == "I" and (values.min() < 0 or values.max() > 65535):
+            raise ImageError(
+                f"{label} has 32-bit integer pixels from {values.min():.0f} to {values.max():.0f}; only "
+                "8- and 16-bit images are understood"
+            )
+        return _grey_to_rgb(values / 65535.0)
+    if mode == "F":
+        values = np.asarray(image, dtype=np.float64)
+        if not np.all(np.isfinite(values)):
+            raise ImageError(f"{label} is a floating-point image with NaN or infinite pixels")
+        low, high = float(values.min()), float(values.max())
+        if low < 0.0 or high > 1.0:
+            raise ImageError(
+                f"{label} is a floating-point image with values from {low:g} to {high:g}; only values "
+                "in [0, 1] have a known brightness: convert it to 8 or 16 bits"
+            )
+        return _grey_to_rgb(values)
+    if mode in ("RGBA", "LA", "PA", "La", "RGBa") or (mode == "P" and "transparency" in image.info):
+        rgba = image.convert("RGBA")
+        white = Image.new("RGBA", rgba.size, (255, 255, 255, 255))
+        return np.asarray(Image.alpha_composite(white, rgba).convert("RGB"), dtype=np.uint8)
+    return np.asarray(image.convert("RGB"), dtype=np.uint8)
+
+
+def _grey_to_rgb(unit: np.ndarray) -> np.ndarray:
+    """Brightness in [0, 1] (H, W) -> uint8 (H, W, 3)."""
+    grey = np.clip(np.rint(unit * 255.0), 0, 255).astype(np.uint8)
+    return np.repeat(grey[:, :, None], 3, axis=2)
 
 
 def decode_base64(text: str, label: str = "image") -> bytes:

@@ -30,6 +30,8 @@ class Reconstruction:
     depths: list[np.ndarray] | None = None  # per view (h, w) float32 z-depth, None if not given
     depth_confidence: list[np.ndarray] | None = None  # per view (h, w) float32
     warnings: list[str] = field(default_factory=list)
+    # Per view, where the intrinsics came from: "uploaded", "exif", "predicted", "prior", ...
+    intrinsics_source: list[str] | None = None
 
     def __post_init__(self) -> None:
         self.points = np.ascontiguousarray(self.points, dtype=np.float32).reshape(-1, 3)
@@ -48,6 +50,11 @@ class Reconstruction:
             maps = getattr(self, name)
             if maps is not None and len(maps) != views:
                 raise ValueError(f"{name} has {len(maps)} maps for {views} views")
+        if self.intrinsics_source is not None:
+            self.intrinsics_source = [str(source) for source in self.intrinsics_source]
+            if len(self.intrinsics_source) != views:
+                count = len(self.intrinsics_source)
+                raise ValueError(f"intrinsics_source has {count} entries for {views} views")
 
     @property
     def num_views(self) -> int:
@@ -86,6 +93,8 @@ class Reconstruction:
             "backbone_version": np.array(self.backbone_version),
             "warnings": np.array(self.warnings, dtype=np.str_),
         }
+        if self.intrinsics_source is not None:
+            arrays["intrinsics_source"] = np.array(self.intrinsics_source, dtype=np.str_)
         for name in ("depths", "depth_confidence"):
             maps = getattr(self, name)
             if maps is not None:
@@ -128,6 +137,11 @@ class Reconstruction:
                 depths=maps("depths"),
                 depth_confidence=maps("depth_confidence"),
                 warnings=[str(w) for w in archive["warnings"]],
+                intrinsics_source=(
+                    [str(s) for s in archive["intrinsics_source"]]
+                    if "intrinsics_source" in archive
+                    else None
+                ),
             )
 
     def to_ply(self) -> bytes:

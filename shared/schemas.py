@@ -6,6 +6,8 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from shared.question_intent import QuestionIntent
+
 Matrix = list[list[float]]
 ImageFormat = Literal["png", "jpeg"]
 SCENE_ID_PATTERN = r"^[0-9a-f]{24}$"  # content hash prefix, see services/recon/scene_store.py
@@ -26,7 +28,11 @@ class SceneUpload(_Model):
         None, description="Optional per-view z-depth, base64 of a float32 .npy (H, W), for posed-rgbd."
     )
     extrinsics: list[Matrix] | None = Field(None, description="Optional 3x4 camera-from-world, OpenCV axes.")
-    intrinsics: list[Matrix] | None = Field(None, description="Optional 3x3 intrinsics in pixels.")
+    intrinsics: list[Matrix | None] | None = Field(
+        None,
+        description="Optional 3x3 intrinsics in pixels of the upright image (EXIF orientation applied), "
+        "one per view; null for a view whose camera is unknown (its EXIF focal length is used if any).",
+    )
 
 
 class SceneInfo(_Model):
@@ -50,7 +56,12 @@ class ReconstructRequest(_Model):
 class CameraInfo(_Model):
     index: int
     extrinsic: Matrix | None = Field(..., description="3x4 camera-from-world; null when not registered.")
-    intrinsic: Matrix
+    intrinsic: Matrix | None = Field(..., description="3x3 in pixels; null when the backbone has none.")
+    intrinsics_source: str | None = Field(
+        None,
+        description="Where the intrinsics came from: uploaded, exif, predicted (vggt), prior (a guessed "
+        "field of view), or what the backbone says (e.g. self-calibrated); null when not reported.",
+    )
     width: int
     height: int
     registered: bool
@@ -90,23 +101,30 @@ class CameraMotionRequest(_Model):
 
 
 class CameraMotionItem(_Model):
+    """One pair of views: a description, or (described = false) the reason there is none."""
+
     from_view: int
     to_view: int
-    direction: str
-    angle_deg: float
-    distance: float
-    displacement_in_first_camera: list[float]
-    vertical: float = Field(..., description="Displacement along the up axis (positive = up).")
-    yaw_deg: float = Field(..., description="Turn between the views about the up axis; positive = left.")
-    turn: str = Field(..., description="The turn in words, e.g. 'turned left by about 90 degrees'.")
-    sentence: str
+    described: bool = Field(True, description="False when the motion is unknown; `reason` says why.")
+    reason: str | None = Field(None, description="Why there is no description (unregistered view, ...).")
+    direction: str | None = Field(None, description="Horizontal direction, or 'no significant movement'.")
+    vertical_direction: str | None = Field(None, description="'up', 'down', or null when not significant.")
+    angle_deg: float | None = None
+    distance: float | None = None
+    displacement_in_first_camera: list[float] | None = None
+    vertical: float | None = Field(None, description="Displacement along the up axis (positive = up).")
+    yaw_deg: float | None = Field(None, description="Turn about the up axis between the views; + = left.")
+    turn: str | None = Field(None, description="The turn in words, e.g. 'turned left by about 90 degrees'.")
+    sentence: str = Field(..., description="The motion in one sentence, or that it is unknown and why.")
 
 
 class CameraMotionResponse(_Model):
     scene_id: str
     backbone: str
     motions: list[CameraMotionItem]
-    text: str = Field(..., description="The sentences, one per line.")
+    text: str = Field(..., description="The sentences, one per line (unknown pairs included).")
+    scene_scale: float = Field(..., description="Size of the scene (units of the reconstruction).")
+    warnings: list[str] = Field(default_factory=list)
 
 
 class PointCloudPreview(_Model):
@@ -212,8 +230,21 @@ class SolveResponse(_Model):
     attempts: list[AttemptRecord]
     scene_id: str
     backbone: str
-    code_model: str = Field(..., description="Model name, or 'offline-planner'.")
+    code_model: str = Field(
+        ...,
+        description="What wrote the program: the model's name, 'offline-planner', or "
+        "'offline-planner (fallback: <model> failed)'.",
+    )
     answer_model: str = Field(..., description="Model name, or 'offline-answerer'.")
+    fallback: Literal["images_only"] | None = Field(
+        None,
+        description="'images_only': no program ran (the backbone could not reconstruct, or no program "
+        "could be written or run), so the answer model answered from the photos alone.",
+    )
+    fallback_reason: str | None = Field(None, description="Why the fallback was taken.")
+    intent: QuestionIntent | None = Field(
+        None, description="The question as parsed once: setting, family, asked view, view pair, steps."
+    )
     timings: SolveTimings
 
 

@@ -80,7 +80,9 @@ class AgentSettings(AccessSettings):
     answer_model_api_key: SecretStr | None = Field(None, description="API key of the answer model endpoint.")
     model_timeout_s: float = Field(120.0, gt=0, description="Timeout of one model call.")
     model_max_retries: int = Field(3, ge=0, description="Retries on 429, 5xx and timeouts.")
-    num_examples: int = Field(2, ge=0, le=4, description="In-context examples in the code prompt.")
+    num_examples: int = Field(
+        1, ge=0, le=6, description="In-context examples in the code prompt, most like the question first."
+    )
     max_repairs: int = Field(2, ge=0, le=5, description="Self-repair rounds after a failed program.")
     sandbox_cpu_s: int = Field(20, ge=1, description="CPU seconds a program may use.")
     sandbox_wall_s: int = Field(120, ge=1, description="Wall-clock seconds a program may take.")

@@ -150,8 +150,13 @@ def test_solve_with_uploaded_images_multipart(offline_agent, views):
         data={"question": question, "backbone": "posed-rgbd"},
         timeout=120,
     )
-    # posed-rgbd needs depth and cameras, which a plain image upload does not carry: a clear 422.
-    assert response.status_code == 422 and "depth" in response.json()["detail"]
+    # posed-rgbd needs depth and cameras, which a plain image upload does not carry. Without an answer
+    # model to answer from the photos alone, the answer is null and the reason says why.
+    assert response.status_code == 200, response.text
+    body = response.json()
+    assert body["answer"] is None and body["fallback"] is None and body["program"] is None
+    assert "could not reconstruct" in body["answer_reason"] and "depth" in body["answer_reason"]
+    assert "PYSPATIAL_ANSWER_MODEL" in body["answer_reason"]
 
 
 @pytest.mark.parametrize(

@@ -11,7 +11,9 @@ from shared.camera_motion import (
     DIRECTIONS,
     NO_MOVEMENT,
     NO_ROTATION,
+    default_pairs,
     describe_camera_motion,
+    describe_pairs,
     direction_name,
     robust_extent,
     round_turn,
@@ -150,3 +152,104 @@ def test_custom_pairs_and_validation() -> None:
 
 def test_round_turn_steps() -> None:
     assert [round_turn(a) for a in (12, 17, 28, 31, 52, 98, -134)] == [10, 15, 30, 30, 45, 105, 135]
+
+
+def lifted(cameras: np.ndarray, rise: float) -> np.ndarray:
+    """The same cameras with the second one `rise` higher (z-up world)."""
+    second = cameras[1].copy()
+    second[:, 3] = second[:, 3] - second[:, :3] @ np.array([0.0, 0.0, rise])
+    return np.stack([cameras[0], second])
+
+
+@pytest.mark.parametrize(
+    ("move_distance", "rise", "direction", "vertical", "words"),
+    [
+        (1.0, 0.2, "forward", None, "moved forward without turning"),  # 11 degrees up: level enough
+        (1.0, 0.6, "forward", "up", "moved forward and up without turning"),  # 31 degrees
+        (1.0, -0.6, "forward", "down", "moved forward and down without turning"),
+        (0.0, 0.8, NO_MOVEMENT, "up", "moved up without turning"),
+        (0.2, 1.0, NO_MOVEMENT, "up", "moved up without turning"),  # 79 degrees: only vertical
+        (0.0, 0.03, NO_MOVEMENT, None, "neither moved nor turned"),  # below the threshold
+    ],
+)
+def test_vertical_motion_is_said_when_significant(move_distance, rise, direction, vertical, words) -> None:
+    cameras = lifted(step(30.0, 0.0, distance=move_distance), rise)
+    [motion] = describe_camera_motion(cameras, up=WORLD_UP, scene_scale=1.0)
+    assert motion.direction == direction and motion.vertical_direction == vertical
+    assert motion.vertical == pytest.approx(rise)
+    assert words in motion.sentence
+
+
+def test_vertical_motion_with_a_turn() -> None:
+    first, second = lifted(step(0.0, -90.0), 0.7)
+    [motion] = describe_camera_motion(np.stack([first, rotate_left(second, 60.0, up=WORLD_UP)]), up=WORLD_UP)
+    assert motion.sentence == (
+        "From view 1 to view 2 the camera moved left and up, and turned left by about 60 degrees."
+    )
+
+
+def test_scene_scale_from_points_keeps_a_pure_turn_a_turn() -> None:
+    """Two views: a 90-degree turn with 1 cm of drift. The centres alone make the drift the scene."""
+    first = level_pose(np.array([0.0, 0.0, 1.5]), 0.0)
+    drifted = first.copy()
+    drifted[:, 3] -= drifted[:, :3] @ np.array([0.01, -0.004, 0.0])
+    second = rotate_left(drifted, 90.0, up=WORLD_UP)
+    cameras = np.stack([first, second])
+    [by_centres] = describe_camera_motion(cameras, up=WORLD_UP)
+    assert by_centres.direction != NO_MOVEMENT  # the old behaviour: "moved right and turned left"
+    room = np.random.default_rng(0).uniform([-3, -3, 0], [3, 3, 2.5], size=(2000, 3))
+    [by_points] = describe_camera_motion(cameras, up=WORLD_UP, scene_scale=robust_extent(room))
+    assert by_points.sentence == (
+        "From view 1 to view 2 the camera stayed in place and turned left by about 90 degrees."
+    )
+
+
+def test_pairs_with_an_unusable_view_say_why_and_the_rest_are_described() -> None:
+    cameras = np.concatenate([step(0.0, 90.0), step(0.0, 180.0)[1:], step(0.0, 0.0)[1:]])
+    cameras[2] = np.nan  # view 3 (index 2) has no pose
+    problems = [None, None, "view 3 could not be registered by the classical backbone", None]
+    assert default_pairs(4, [p is None for p in problems]) == [(0, 1), (1, 2), (1, 3), (2, 3)]
+    motions = describe_pairs(cameras, problems, up=WORLD_UP)
+    assert [m.described for m in motions] == [True, False, True, False]
+    assert motions[0].sentence.startswith("From view 1 to view 2 the camera moved right")
+    assert motions[1].reason == problems[2]
+    assert motions[1].sentence == (
+        "From view 2 to view 3 the camera motion is unknown: view 3 could not be registered by the "
+        "classical backbone."
+    )
+    assert motions[2].from_view == 1 and motions[2].to_view == 3  # the bridge over the gap
+    assert motions[2].sentence.startswith("From view 2 to view 4 the camera moved")
+    [only] = describe_pairs(cameras, problems, pairs=[(2, 2)])
+    assert not only.described and only.reason == problems[2]
+    everything_unknown = describe_pairs(cameras, ["a", "b", "c", "d"])
+    assert [m.reason for m in everything_unknown] == ["a; b", "b; c", "c; d"]
+    assert json.loads(json.dumps(motions[1].to_dict()))["described"] is False
+
+
+def test_view_problems_and_scale_of_a_reconstruction() -> None:
+    from services.recon.motion_inputs import motion_scene_scale, view_pose_problems
+    from shared.reconstruction import Reconstruction
+
+    cameras = np.concatenate([step(0.0, 90.0), step(0.0, 180.0)[1:], step(0.0, 0.0)[1:]])
+    cameras[2, :, :3] *= 1.5  # "registered", but not a rotation
+    cameras[3] = np.nan
+    room = np.random.default_rng(1).uniform(-2.0, 2.0, size=(500, 3))
+    recon = Reconstruction(
+        points=room,
+        colors=np.zeros((500, 3)),
+        extrinsics=cameras,
+        intrinsics=np.tile(np.eye(3), (4, 1, 1)),
+        image_sizes=np.full((4, 2), 64),
+        registered=[True, True, True, False],
+        backbone="classical",
+        backbone_version="2",
+    )
+    problems = view_pose_problems(recon)
+    assert problems[:2] == [None, None]
+    assert problems[2].startswith("view 3 has no valid pose (rotation block is not orthonormal")
+    assert problems[3] == "view 4 could not be registered by the classical backbone"
+    assert motion_scene_scale(recon, [0, 1]) == pytest.approx(robust_extent(room))
+    recon.points = np.zeros((0, 3), np.float32)
+    recon.colors = np.zeros((0, 3), np.uint8)
+    assert motion_scene_scale(recon, [0, 1]) == pytest.approx(1.0)  # two centres 1 apart: their extent
+    assert motion_scene_scale(recon, [0]) == 1.0  # one centre: no extent at all

@@ -75,11 +75,11 @@ def test_prompt_has_the_api_specification_and_conventions() -> None:
     assert "There are 2 photo(s)" in text
 
 
-@pytest.mark.parametrize("count", [0, 1, 2, 3, 4])
+@pytest.mark.parametrize("count", [0, 1, 2, 3, 4, 5, 6])
 def test_prompt_has_the_requested_number_of_examples(count: int) -> None:
     text = prompt_text(build_codegen_messages(QUESTION, [PNG], num_examples=count))
     assert text.count("### Example ") == count
-    examples = load_examples("codegen_examples_v1")
+    examples = load_examples("codegen_examples")  # without an intent: file order
     for shown in examples[:count]:
         assert shown.code in text
     for hidden in examples[count:]:
@@ -87,16 +87,16 @@ def test_prompt_has_the_requested_number_of_examples(count: int) -> None:
 
 
 def test_examples_are_valid_programs_without_answers() -> None:
-    examples = load_examples("codegen_examples_v1")
-    assert len(examples) == 4
+    examples = load_examples("codegen_examples")
+    assert len(examples) == 6
     for example in examples:
         validate_program(example.code)
         assert "answer" not in example.code.lower()
 
 
 def test_num_examples_out_of_range() -> None:
-    with pytest.raises(ValueError, match="between 0 and 4"):
-        build_codegen_messages(QUESTION, [PNG], num_examples=5)
+    with pytest.raises(ValueError, match="between 0 and 6"):
+        build_codegen_messages(QUESTION, [PNG], num_examples=7)
 
 
 def test_images_follow_the_text_in_order_or_not_at_all() -> None:

@@ -275,14 +275,21 @@ def _write_tiny_mindcube(root: Path) -> Path:
     return jsonl
 
 
-def _table_row(output: str, system: str) -> list[str]:
-    """The cells of a printed table row whose first cell is `system`."""
+def _table_rows(output: str, system: str) -> list[list[str]]:
+    """The cells of the printed table rows whose first cell is `system`."""
+    rows = []
     for line in output.splitlines():
         cells = [c.strip() for c in re.split(r"[│┃|]", line)]
         cells = [c for c in cells if c]
         if cells and cells[0] == system:
-            return cells
-    raise AssertionError(f"no row {system!r} in:\n{output}")
+            rows.append(cells)
+    assert rows, f"no row {system!r} in:\n{output}"
+    return rows
+
+
+def _table_row(output: str, system: str) -> list[str]:
+    """The cells of the first printed table row whose first cell is `system`."""
+    return _table_rows(output, system)[0]
 
 
 def _capture_console(monkeypatch) -> io.StringIO:
@@ -342,9 +349,12 @@ def test_baseline_asks_the_model_alone_and_compares_with_pyspatial(tmp_path, mon
     assert parts[0]["text"].startswith("How did I turn?")
     assert [p["type"] for p in parts[1:]] == ["image_url", "image_url"]
 
-    output = buffer.getvalue()
-    assert _table_row(output, "vision-model")[1:6] == ["3", "33.3", "100.0", "0.0", "0.0"]
-    assert _table_row(output, "vision-model + pySpatial")[1:6] == ["3", "66.7", "100.0", "100.0", "0.0"]
+    output = buffer.getvalue().split("Models")[0]
+    # Two rows per system: over all items (MindCube's denominator), over answered items (the paper's).
+    alone_all, alone_answered = _table_rows(output, "vision-model")
+    assert alone_all[1:7] == ["all items (MindCube)", "3", "33.3", "100.0", "0.0", "0.0"]
+    assert alone_answered[1:7] == ["answered (paper's code)", "2", "50.0", "100.0", "0.0", "-"]
+    assert _table_row(output, "vision-model + pySpatial")[2:7] == ["3", "66.7", "100.0", "100.0", "0.0"]
 
 
 # ---- end to end through the real services ----------------------------------------------------
@@ -352,7 +362,8 @@ def test_baseline_asks_the_model_alone_and_compares_with_pyspatial(tmp_path, mon
 
 def test_mindcube_harness_through_the_real_services_with_exact_depth(tmp_path, redis_url, monkeypatch):
     data = tmp_path / "bench"
-    jsonl = make_dataset(data, num_scenes=2, seed=3, width=128, height=96)
+    # Three scenes: one per setting (rotation, around, among), questions worded as MindCube's.
+    jsonl = make_dataset(data, num_scenes=3, seed=3, width=128, height=96)
     env = {
         "PYSPATIAL_DATA_DIR": str(tmp_path / "scenes"),
         "REDIS_URL": redis_url,
@@ -378,9 +389,25 @@ def test_mindcube_harness_through_the_real_services_with_exact_depth(tmp_path, r
         assert record["backbone"] == "posed-rgbd"
         assert record["gt_answer"] == items[record["id"]].gt_answer
         assert record["correct"] == (record["prediction"] == record["gt_answer"])
-    # Exact cameras make the camera-motion questions answerable, and they were answered right.
+    # Exact cameras make every self-movement question answerable offline: all answered, all right,
+    # each from the pair of views it asks about (every image is shown, so a wrong pair would show).
+    truth = {json.loads(line)["id"]: json.loads(line) for line in jsonl.read_text().splitlines()}
     motion = [r for r in records if items[r["id"]].type in ("motion", "turn")]
-    assert motion and all(r["correct"] for r in motion)
+    assert motion and all(r["answered"] and r["correct"] for r in motion)
+    for record in motion:
+        first, second = (v + 1 for v in truth[record["id"]]["pyspatial_scene"]["facts"]["pair"])
+        assert record["family"] == "self_movement"
+        if second == first + 1:
+            assert "describe_camera_motion" in record["program"]
+        else:
+            assert f"From view {first} to view {second}" in record["program"]
+    # The other families need a vision model: no answer, never a guess.
+    others = [r for r in records if r not in motion]
+    assert others and not any(r["answered"] for r in others)
+    # Records name what wrote the program and what answered; "answer" is MindCube's field.
+    for record in records:
+        assert record["code_model"] == "offline-planner" and record["answer_model"] == "offline-answerer"
+        assert record["answer"] == record["prediction"] and record["fallback"] is None
 
     # The printed table agrees with correct / total computed by hand from the results file.
     def accuracy(rows: list[dict]) -> str:
@@ -389,7 +416,7 @@ def test_mindcube_harness_through_the_real_services_with_exact_depth(tmp_path, r
     by_setting = {s: [r for r in records if r["setting"] == s] for s in ("rotation", "among", "around")}
     row = _table_row(output.split("Pipeline")[0], records[0]["system"])
     expected = [str(len(records)), accuracy(records), *(accuracy(by_setting[s]) for s in by_setting)]
-    assert row[1:6] == expected
+    assert row[2:7] == expected
     pipeline = _table_row(output.split("Pipeline")[1], records[0]["system"])
     assert pipeline[1:5] == [
         accuracy([{"correct": r["program_produced"]} for r in records]),
@@ -397,4 +424,6 @@ def test_mindcube_harness_through_the_real_services_with_exact_depth(tmp_path, r
         accuracy([{"correct": r["answered"]} for r in records]),
         "0",
     ]
-    assert {r["setting"] for r in records} == {"rotation", "around"}  # scenes 0 and 1 of make_dataset
+    assert {r["setting"] for r in records} == {"rotation", "around", "among"}
+    models = _table_row(output.split("Models")[1], records[0]["system"])
+    assert models[1:] == [f"offline-planner ({len(records)})", f"offline-answerer ({len(records)})", "0", "0"]

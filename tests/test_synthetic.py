@@ -233,23 +233,27 @@ def test_dataset_records_have_the_mindcube_fields(dataset):
         assert record["gt_answer"] in letters
         for image in record["images"]:
             assert (dataset.parent / image).is_file()
-        scene = np.load(dataset.parent / record["meta_info"]["scene_file"])
+        assert isinstance(record["meta_info"], list)  # as in MindCube
+        scene = np.load(dataset.parent / record["pyspatial_scene"]["scene_file"])
         views = len(scene["extrinsics"])
         assert scene["intrinsics"].shape == (views, 3, 3)
         assert scene["depths"].shape == (views, HEIGHT, WIDTH)
-        assert record["meta_info"]["setting"] == record["id"].split("_")[0]
+        assert record["pyspatial_scene"]["setting"] == record["id"].split("_")[0]
+        # MindCube's opening names every image, and every image is shown.
+        assert record["question"].startswith("Based on these ") and "(image 1" in record["question"]
+        assert len(record["images"]) == views
 
 
 def test_dataset_answers_agree_with_the_saved_geometry(dataset):
     checked = set()
     for record in _records(dataset):
-        meta = record["meta_info"]
+        meta = record["pyspatial_scene"]
         scene = np.load(dataset.parent / meta["scene_file"])
         extrinsics, up = scene["extrinsics"], scene["up"]
         centres = dict(zip(scene["object_names"].tolist(), scene["object_centres"], strict=True))
         answer = meta["options"]["ABCD".index(record["gt_answer"])]
         assert f"{record['gt_answer']}. {answer}" in record["question"]
-        views = meta["view_indices"]
+        views = [meta["view_indices"][v] for v in meta["facts"].get("pair", [0, 1])]
         kind = record["type"]
         checked.add(kind)
         if kind == "motion":
@@ -266,10 +270,8 @@ def test_dataset_answers_agree_with_the_saved_geometry(dataset):
                 side, degrees = re.match(r"turned (left|right) by about (\d+) degrees", answer).groups()
                 assert (angle > 0) == (side == "right") and abs(abs(angle) - int(degrees)) < 10
         elif kind == "relative_position":
-            relation = re.search(
-                r"which object is (behind|to the left of|to the right of) you", record["question"]
-            )
-            target = {"behind": 180.0, "to the left of": -90.0, "to the right of": 90.0}[relation.group(1)]
+            relation = re.search(r"what is (behind you|to your left|to your right)\?", record["question"])
+            target = {"behind you": 180.0, "to your left": -90.0, "to your right": 90.0}[relation.group(1)]
             camera = extrinsics[meta["facts"]["view"]]
             assert _angle_gap(_bearing(camera, centres[answer], up), target) <= 30
             for option in meta["options"]:
@@ -277,7 +279,7 @@ def test_dataset_answers_agree_with_the_saved_geometry(dataset):
                     assert _angle_gap(_bearing(camera, centres[option], up), target) >= 60
         elif kind == "approach":
             side, name = re.search(
-                r"you turn (left|right) by 90 degrees.*farther from the (.+)\?", record["question"]
+                r"turn (left|right) 90 degrees.*farther from the (.+)\?", record["question"]
             ).groups()
             camera = extrinsics[meta["facts"]["view"]]
             _, right = _heading(camera, up)

@@ -20,12 +20,13 @@ from typing import Any, Literal
 from pydantic import BaseModel
 
 from services.agent.llm import ChatClient, LLMError, ModelError, image_part, text_part
-from services.agent.planner import view_references
 from services.agent.prompts import load_template
 from shared.choices import extract_letter, normalize_direction, normalize_turn, parse_options, turn_degrees
+from shared.question_intent import QuestionIntent, parse_question
 
 AnswerMethod = Literal["model_json", "model_text", "model_option_text", "offline_text", "none"]
 DEFAULT_TEMPLATE = "answer_v1"
+IMAGES_ONLY_TEMPLATE = "answer_images_only_v1"
 VISION_MODEL_HINT = (
     "set PYSPATIAL_ANSWER_MODEL (and PYSPATIAL_ANSWER_MODEL_BASE_URL, PYSPATIAL_ANSWER_MODEL_API_KEY) "
     "to a vision-capable chat model"
@@ -169,12 +170,35 @@ def answer_with_model(
     return read_model_answer(reply.text, options)
 
 
+def answer_from_images(
+    client: ChatClient, question: str, images_png: list[bytes], template_version: str = IMAGES_ONLY_TEMPLATE
+) -> AnswerResult:
+    """The answer model alone, from the question and the photos: the fallback when no program ran
+    (the backbone could not reconstruct, or no program could be written or run), as the paper's code
+    does. A model failure gives answer=None with the reason."""
+    options = parse_options(question)
+    letters = sorted(options)
+    content = load_template(template_version).render_parts(
+        slots={"original_images": _labelled_images("Image", images_png)},
+        question=question.strip(),
+        num_images=len(images_png),
+        letters=", ".join(letters) if letters else "the options",
+    )
+    messages = [{"role": "user", "content": content}]
+    try:
+        try:
+            reply = client.complete(messages, response_format=answer_schema(letters))
+        except ModelError:
+            reply = client.complete(messages)
+    except LLMError as error:
+        return AnswerResult(answer=None, method="none", reason=f"the answer model failed: {error}")
+    return read_model_answer(reply.text, options)
+
+
 # ---- offline -----------------------------------------------------------------------------------
 
 _PAIR = re.compile(r"\b(?:view|image)\s+(\d+)\b.*?\b(?:view|image)\s+(\d+)\b", re.IGNORECASE)
 _SENTENCE_END = re.compile(r"(?<=[.!?])\s+(?=[A-Z])")
-_ASKS_TURN = re.compile(r"\b(?:turn|turned|turning|rotate|rotated|rotating|rotation|face|facing)\b")
-_ASKS_MOVE = re.compile(r"\b(?:move|moved|moving|movement|walk|walked|travel\w*|went|step\w*|go)\b")
 
 
 class _Motion(BaseModel):
@@ -207,21 +231,17 @@ def _motion_statements(clue_text: str) -> list[_Motion]:
     return statements
 
 
-def _pick_statement(question: str, statements: list[_Motion]) -> tuple[_Motion | None, str]:
-    """The statement about the pair the question asks for, or None and why not."""
-    views_in_clue = max((max(s.pair) for s in statements if s.pair), default=2)
-    asked = list(dict.fromkeys(view_references(question, views_in_clue)))
-    if len(asked) >= 2:
-        pair = (asked[0], asked[1])
+def _pick_statement(intent: QuestionIntent, statements: list[_Motion]) -> tuple[_Motion | None, str]:
+    """The statement about the pair the question asks for (from its parsed intent), or None and why."""
+    named = len(intent.mentioned_views) >= 2
+    if intent.motion_pair is not None and (named or len(statements) > 1):
         for statement in statements:
-            if statement.pair == pair:
+            if statement.pair == intent.motion_pair:
                 return statement, ""
-        return None, f"the program's output has no sentence about view {pair[0]} to view {pair[1]}"
+        first, second = intent.motion_pair
+        return None, f"the program's output has no sentence about view {first} to view {second}"
     if len(statements) == 1:
         return statements[0], ""
-    first_pair = [statement for statement in statements if statement.pair == (1, 2)]
-    if len(statements) > 1 and not asked and first_pair:
-        return first_pair[0], ""
     return None, "the question does not say which pair of views it asks about"
 
 
@@ -236,9 +256,10 @@ def _option_motion(text: str, asks_turn_only: bool) -> tuple[str | None, str | N
     return direction, turn, degrees
 
 
-def _match_motion(question: str, statement: _Motion, options: dict[str, str]) -> tuple[str | None, str]:
-    stem = question.lower()
-    asks_turn_only = bool(_ASKS_TURN.search(stem)) and not _ASKS_MOVE.search(stem)
+def _match_motion(
+    intent: QuestionIntent, statement: _Motion, options: dict[str, str]
+) -> tuple[str | None, str]:
+    asks_turn_only = intent.asks_turn_only
     matches: list[tuple[str, float]] = []
     for letter, text in options.items():
         direction, turn, degrees = _option_motion(text, asks_turn_only)
@@ -261,9 +282,16 @@ def _match_motion(question: str, statement: _Motion, options: dict[str, str]) ->
     return closest[0], ""
 
 
-def answer_offline(question: str, clue_text: str | None, clue_images: list[bytes]) -> AnswerResult:
-    """Answer from a camera-motion text clue without any model; None with the reason otherwise."""
+def answer_offline(
+    question: str, clue_text: str | None, clue_images: list[bytes], intent: QuestionIntent | None = None
+) -> AnswerResult:
+    """Answer from a camera-motion text clue without any model; None with the reason otherwise.
+
+    The pair of views and whether a turn or a walk is asked come from the question's intent (parsed
+    here when not given): never from the first view the question's opening happens to mention.
+    """
     options = parse_options(question)
+    intent = intent or parse_question(question)
     if not options:
         return AnswerResult(
             answer=None,
@@ -272,11 +300,18 @@ def answer_offline(question: str, clue_text: str | None, clue_images: list[bytes
         )
     text = (clue_text or "").strip()
     statements = _motion_statements(text) if text else []
+    if statements and intent.family != "self_movement":
+        return AnswerResult(
+            answer=None,
+            method="none",
+            reason="the program's output describes camera motion, but this is a "
+            f"{intent.family.replace('_', ' ')} question, which a motion sentence does not answer",
+        )
     if statements:
-        statement, why = _pick_statement(question, statements)
+        statement, why = _pick_statement(intent, statements)
         if statement is None:
             return AnswerResult(answer=None, method="none", reason=why)
-        letter, why = _match_motion(question, statement, options)
+        letter, why = _match_motion(intent, statement, options)
         if letter is None:
             return AnswerResult(answer=None, method="none", reason=why)
         return AnswerResult(
@@ -315,6 +350,7 @@ def answer_offline(question: str, clue_text: str | None, clue_images: list[bytes
 __all__ = [
     "AnswerMethod",
     "AnswerResult",
+    "answer_from_images",
     "answer_offline",
     "answer_schema",
     "answer_with_model",

@@ -16,11 +16,13 @@ from typing import Any, Literal, NamedTuple
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from services.agent.example_choice import choose_examples
 from services.agent.llm import ChatClient, LLMError, image_part, text_part
-from services.agent.prompts import load_examples, load_template
+from services.agent.prompts import load_template
+from shared.question_intent import QuestionIntent
 
 DEFAULT_TEMPLATE = "codegen_v1"
-MAX_EXAMPLES = 4
+MAX_EXAMPLES = 6  # the examples in the latest codegen_examples_v<N>.md
 # An error longer than this is cut before going back to the model: the head says what went wrong.
 _MAX_ERROR_CHARS = 2000
 
@@ -76,11 +78,11 @@ def extract_program(reply_text: str) -> str | None:
     return textwrap.dedent(candidates[-1]).strip("\n") + "\n"
 
 
-def _render_examples(count: int, template_version: str) -> str:
+def _render_examples(count: int, intent: QuestionIntent | None = None) -> str:
     if not 0 <= count <= MAX_EXAMPLES:
         raise ValueError(f"num_examples must be between 0 and {MAX_EXAMPLES}, got {count}")
-    version = template_version.rsplit("_v", 1)[-1]
-    examples = load_examples(f"codegen_examples_v{version}")[:count]
+    # The examples most like the question come first (services/agent/example_choice.py).
+    examples = choose_examples(count, intent)
     if not examples:
         return ""
     blocks = ["## Examples", "Each example is a question and a program that produces a useful clue for it."]
@@ -95,6 +97,7 @@ def build_codegen_messages(
     num_examples: int = 2,
     template_version: str = DEFAULT_TEMPLATE,
     attach_images: bool = True,
+    intent: QuestionIntent | None = None,
 ) -> list[dict[str, Any]]:
     """The chat messages of the first code request: one user message, text then the photos.
 
@@ -102,7 +105,7 @@ def build_codegen_messages(
     """
     template = load_template(template_version)
     text = template.render(
-        examples=_render_examples(num_examples, template.id),
+        examples=_render_examples(num_examples, intent),
         num_images=len(images_png),
         question=question.strip(),
     )
@@ -135,6 +138,7 @@ def generate_program(
     num_examples: int = 2,
     template_version: str = DEFAULT_TEMPLATE,
     attach_images: bool = True,
+    intent: QuestionIntent | None = None,
 ) -> CodegenResult:
     """Generate, run and repair a program; see the module docstring.
 
@@ -143,7 +147,9 @@ def generate_program(
     """
     if max_repairs < 0:
         raise ValueError(f"max_repairs must be >= 0, got {max_repairs}")
-    messages = build_codegen_messages(question, images_png, num_examples, template_version, attach_images)
+    messages = build_codegen_messages(
+        question, images_png, num_examples, template_version, attach_images, intent=intent
+    )
     attempts: list[Attempt] = []
     last_error = "no attempt made"
     failure: Literal["no_program", "execution", "model"] = "no_program"

@@ -12,16 +12,17 @@ from dataclasses import dataclass, field
 import numpy as np
 from PIL import Image
 
-from services.agent.answering import AnswerResult, answer_offline, answer_with_model
+from services.agent.answering import AnswerResult, answer_from_images, answer_offline, answer_with_model
 from services.agent.clue_views import clue_views
 from services.agent.codegen import ExecutionOutcome, generate_program
 from services.agent.infrastructure import FailureRecordingClient, InfrastructureFailure, gateway_status
 from services.agent.llm import ChatClient, ChatModelConfig
-from services.agent.planner import PlanningError, plan_program
+from services.agent.planner import PlanningError, UnplannableQuestion, plan_intent
 from services.agent.recon_tools import ReconToolProvider
 from services.agent.sandbox import ExecutionResult, SandboxLimits, run_program
-from shared.client import ReconClient
+from shared.client import ReconClient, ServiceError
 from shared.imaging import decode_image, encode_image
+from shared.question_intent import QuestionIntent, parse_question
 from shared.schemas import AttemptRecord, Clue, SolveResponse, SolveTimings
 from shared.settings import AgentSettings
 
@@ -54,6 +55,9 @@ def coverage_notes(clue_images: list[bytes]) -> list[str]:
                 "was not seen in the input images, so the reconstruction has no points there."
             )
     return notes
+
+
+IMAGES_ONLY = "images_only"
 
 
 class SolveError(Exception):
@@ -141,11 +145,32 @@ class SolvePipeline:
         report("upload", "started", f"{len(image_files)} images" if image_files else f"scene {scene_id}")
         scene_id, input_pngs = self._scene(image_files, scene_id)
         report("upload", "done", f"scene {scene_id}")
+        # The question is parsed once; the planner, the prompts and the answerers take the result.
+        intent = parse_question(question, len(input_pngs))
+        self._check_views(intent, len(input_pngs))
         report("reconstruction", "started", backbone or "service default backbone")
-        # Reconstruct first: input the backbone cannot use is a clear 4xx here rather than a failed
-        # program, and the program's own reconstruct() is then a cache hit.
+        # Reconstruct first: the program's own reconstruct() is then a cache hit. Input the backbone
+        # cannot use (a 422) leaves the photos: answered from them alone when an answer model is set.
         reconstruct_started = time.perf_counter()
-        summary = self.recon.reconstruct(scene_id, backbone)
+        try:
+            summary = self.recon.reconstruct(scene_id, backbone)
+        except ServiceError as error:
+            if error.status_code != 422:
+                raise
+            used = backbone or self.recon.backbones().get("default", "default")
+            why = f"the {used} backbone could not reconstruct the scene: {error.message}"
+            report("reconstruction", "failed", why)
+            return self._images_only(
+                question,
+                input_pngs,
+                scene_id,
+                used,
+                intent,
+                why,
+                started,
+                reconstruction_ms=(time.perf_counter() - reconstruct_started) * 1e3,
+                report=report,
+            )
         reconstruction_ms = (time.perf_counter() - reconstruct_started) * 1e3
         registered = sum(camera.registered for camera in summary.cameras)
         report(
@@ -185,21 +210,43 @@ class SolvePipeline:
 
         report("program", "started", f"writing a program with {self.code_model_name}")
         codegen_started = time.perf_counter()
-        attempts, program, code_model = self._generate(question, input_pngs, execute, max_repairs)
+        attempts, program, code_model, unplannable = self._generate(
+            question, intent, input_pngs, execute, max_repairs
+        )
         codegen_ms = (time.perf_counter() - codegen_started - stage.execution_s) * 1e3
+        if unplannable:
+            report("program", "failed", unplannable)
 
         result = stage.last if program is not None else None
+        if result is None or not result.ok:
+            failure = unplannable or (attempts[-1].error if attempts else "no program was produced")
+            if self.answer_client is not None:
+                return self._images_only(
+                    question,
+                    input_pngs,
+                    scene_id,
+                    summary.backbone,
+                    intent,
+                    f"no program ran successfully: {failure}",
+                    started,
+                    reconstruction_ms=reconstruction_ms,
+                    codegen_ms=codegen_ms,
+                    execution_ms=stage.execution_s * 1e3,
+                    attempts=attempts,
+                    code_model=code_model,
+                    report=report,
+                )
         notes = coverage_notes(result.clue_images) if result is not None and result.ok else []
         answer_started = time.perf_counter()
         report("answer", "started", f"answering with {self.answer_model_name}")
         if result is None or not result.ok:
-            failure = attempts[-1].error if attempts else "no program was produced"
             answer = AnswerResult(
                 answer=None,
                 reasoning="",
                 raw=None,
                 method="none",
-                reason=f"no program ran successfully: {failure}",
+                reason=f"no program ran successfully: {failure}; answering from the photos alone needs an "
+                "answer model (PYSPATIAL_ANSWER_MODEL)",
             )
         elif self.answer_client is not None:
             clue_text = "\n".join(filter(None, [result.clue_text, *notes])) or None
@@ -207,7 +254,7 @@ class SolvePipeline:
                 self.answer_client, question, input_pngs, program, clue_text, result.clue_images
             )
         else:
-            answer = answer_offline(question, result.clue_text, result.clue_images)
+            answer = answer_offline(question, result.clue_text, result.clue_images, intent)
         answering_ms = (time.perf_counter() - answer_started) * 1e3
         report("answer", "done" if answer.answer else "failed", answer.answer or answer.reason or "")
 
@@ -230,6 +277,7 @@ class SolvePipeline:
             backbone=summary.backbone,
             code_model=code_model,
             answer_model=self.answer_model_name,
+            intent=intent,
             timings=SolveTimings(
                 reconstruction_ms=round(reconstruction_ms, 2),
                 codegen_ms=round(codegen_ms, 2),
@@ -267,14 +315,83 @@ class SolvePipeline:
             rgb = np.asarray(Image.fromarray(rgb).resize(size, Image.Resampling.LANCZOS))
         return encode_image(rgb, "png")
 
+    def _images_only(
+        self,
+        question: str,
+        input_pngs: list[bytes],
+        scene_id: str,
+        backbone: str,
+        intent: QuestionIntent,
+        why: str,
+        started: float,
+        reconstruction_ms: float = 0.0,
+        codegen_ms: float = 0.0,
+        execution_ms: float = 0.0,
+        attempts: list[AttemptRecord] | None = None,
+        code_model: str | None = None,
+        report: ProgressCallback | None = None,
+    ) -> SolveResponse:
+        """No program ran: the answer model answers from the photos alone (as the paper's code does),
+        and the response says so; without an answer model the answer is null with the reason."""
+        report = report or (lambda stage, state, detail="": None)
+        answer_started = time.perf_counter()
+        if self.answer_client is not None:
+            report("answer", "started", f"answering from the photos alone with {self.answer_model_name}")
+            answer = answer_from_images(self.answer_client, question, input_pngs)
+            fallback = IMAGES_ONLY
+        else:
+            answer = AnswerResult(
+                answer=None,
+                method="none",
+                reason=f"{why}; answering from the photos alone needs an answer model "
+                "(PYSPATIAL_ANSWER_MODEL)",
+            )
+            fallback = None
+        answering_ms = (time.perf_counter() - answer_started) * 1e3
+        report("answer", "done" if answer.answer else "failed", answer.answer or answer.reason or "")
+        return SolveResponse(
+            answer=answer.answer,
+            answer_reason=answer.reason if answer.answer is None else None,
+            reasoning=answer.reasoning,
+            program=None,
+            clue=Clue(),
+            attempts=attempts or [],
+            scene_id=scene_id,
+            backbone=backbone,
+            code_model=code_model or self.code_model_name,
+            answer_model=self.answer_model_name,
+            fallback=fallback,
+            fallback_reason=why,
+            intent=intent,
+            timings=SolveTimings(
+                reconstruction_ms=round(reconstruction_ms, 2),
+                codegen_ms=round(codegen_ms, 2),
+                execution_ms=round(execution_ms, 2),
+                answering_ms=round(answering_ms, 2),
+                total_ms=round((time.perf_counter() - started) * 1e3, 2),
+            ),
+        )
+
+    @staticmethod
+    def _check_views(intent: QuestionIntent, num_images: int) -> None:
+        """A question naming a view that does not exist is bad input (422), whoever writes the program."""
+        for view in [*intent.mentioned_views, *([intent.asked_view] if intent.asked_view else [])]:
+            if not 1 <= view <= num_images:
+                raise SolveError(
+                    422,
+                    f"cannot plan a program for this question: the question names view {view}, "
+                    f"but there are {num_images} image(s)",
+                )
+
     def _generate(
-        self, question: str, input_pngs: list[bytes], execute, max_repairs: int | None
-    ) -> tuple[list[AttemptRecord], str | None, str]:
-        """Returns the attempts, the program that ran (or None) and the name of what wrote it."""
+        self, question: str, intent: QuestionIntent, input_pngs: list[bytes], execute, max_repairs: int | None
+    ) -> tuple[list[AttemptRecord], str | None, str, str | None]:
+        """The attempts, the program that ran (or None), the name of what wrote it, and why the
+        offline planner wrote none (None when it did or was not asked)."""
         repairs = self.settings.max_repairs if max_repairs is None else max_repairs
         if self.code_client is None:
-            attempt, program = self._plan_offline(question, len(input_pngs), execute)
-            return [attempt], program, OFFLINE_PLANNER
+            attempts, program, unplannable = self._plan_offline(intent, len(input_pngs), execute)
+            return attempts, program, OFFLINE_PLANNER, unplannable
         generated = generate_program(
             self.code_client,
             question,
@@ -282,6 +399,7 @@ class SolvePipeline:
             execute,
             max_repairs=repairs,
             num_examples=self.settings.num_examples,
+            intent=intent,
         )
         attempts = [
             AttemptRecord(program=a.program, error=a.error, reply=a.reply, latency_ms=round(a.latency_ms, 2))
@@ -291,20 +409,25 @@ class SolvePipeline:
             # The model could not be reached even after retries: the planner still gives an honest
             # result, and the response says who wrote the program.
             log.warning("code model failed (%s); falling back to the offline planner", generated.error)
-            attempt, program = self._plan_offline(question, len(input_pngs), execute)
+            planned, program, unplannable = self._plan_offline(intent, len(input_pngs), execute)
             return (
-                [*attempts, attempt],
+                [*attempts, *planned],
                 program,
                 f"{OFFLINE_PLANNER} (fallback: {self.code_model_name} failed)",
+                unplannable,
             )
-        return attempts, generated.program if generated.ok else None, self.code_model_name
+        return attempts, generated.program if generated.ok else None, self.code_model_name, None
 
     @staticmethod
-    def _plan_offline(question: str, num_images: int, execute) -> tuple[AttemptRecord, str | None]:
+    def _plan_offline(
+        intent: QuestionIntent, num_images: int, execute
+    ) -> tuple[list[AttemptRecord], str | None, str | None]:
         try:
-            planned = plan_program(question, num_images)
+            planned = plan_intent(intent, num_images)
         except PlanningError as error:  # e.g. the question names image 5 of 3
             raise SolveError(422, f"cannot plan a program for this question: {error}") from error
+        except UnplannableQuestion as unplannable:
+            return [], None, f"the offline planner has no program for this question: {unplannable.reason}"
         run_started = time.perf_counter()
         outcome = execute(planned.source)
         attempt = AttemptRecord(
@@ -313,4 +436,4 @@ class SolvePipeline:
             reply=None,
             latency_ms=round((time.perf_counter() - run_started) * 1e3, 2),
         )
-        return attempt, planned.source if outcome.ok else None
+        return [attempt], planned.source if outcome.ok else None, None

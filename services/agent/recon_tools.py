@@ -28,9 +28,10 @@ class ReconToolProvider:
         summary = self.client.reconstruct(self.scene_id, self.backbone)
         self.backbone_used = summary.backbone
         nan_pose = np.full((3, 4), np.nan).tolist()  # unregistered views: no pose to invent
+        nan_intrinsic = np.full((3, 3), np.nan).tolist()
         return {
             "extrinsics": [c.extrinsic if c.registered else nan_pose for c in summary.cameras],
-            "intrinsics": [c.intrinsic for c in summary.cameras],
+            "intrinsics": [nan_intrinsic if c.intrinsic is None else c.intrinsic for c in summary.cameras],
             "image_sizes": [[c.width, c.height] for c in summary.cameras],
             "registered": [c.registered for c in summary.cameras],
             "up": summary.up,
@@ -38,7 +39,9 @@ class ReconToolProvider:
         }
 
     def describe_camera_motion(self) -> list[str]:
-        return [m.sentence for m in self.client.camera_motion(self.scene_id, backbone=self.backbone).motions]
+        """One sentence per pair: its motion, or that it is unknown and why (never fails for one view)."""
+        response = self.client.camera_motion(self.scene_id, backbone=self.backbone)
+        return [motion.sentence for motion in response.motions]
 
     def synthesize_novel_view(self, extrinsic: list[list[float]], width: int, height: int) -> bytes:
         png = self.client.render(self.scene_id, extrinsic, width=width, height=height, backbone=self.backbone)

@@ -16,7 +16,7 @@ from starlette.datastructures import UploadFile
 from services.recon.backbones import available_backbones
 from services.recon.errors import InvalidInput, PayloadTooLarge, ReconServiceError
 from services.recon.preview import MAX_PREVIEW_POINTS, point_cloud_preview
-from services.recon.scene_store import SceneInput
+from services.recon.scene_store import SceneInput, has_all_intrinsics
 from services.recon.service import ReconService
 from shared.access import docs_urls, install_access_control
 from shared.http_bodies import install_input_error_handlers, read_body_limited
@@ -57,7 +57,11 @@ _UPLOAD_DOC = {
                             "description": "optional float32 .npy z-depth per image",
                         },
                         "extrinsics": {"type": "string", "description": "optional JSON list of 3x4"},
-                        "intrinsics": {"type": "string", "description": "optional JSON list of 3x3"},
+                        "intrinsics": {
+                            "type": "string",
+                            "description": "optional JSON list of 3x3 (upright image pixels), null per "
+                            "view for unknown cameras",
+                        },
                     },
                     "required": ["images"],
                 }
@@ -158,7 +162,7 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
             num_images=len(scene.images),
             image_sizes=scene.image_sizes,
             has_depth=scene.depths is not None,
-            has_cameras=scene.extrinsics is not None and scene.intrinsics is not None,
+            has_cameras=scene.extrinsics is not None and has_all_intrinsics(scene),
             created=created,
         )
         return JSONResponse(body.model_dump(), status_code=201 if created else 200)
@@ -260,13 +264,16 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
         responses=error_responses(401, 404, 422, 429, 503),
     )
     async def camera_motion(request: CameraMotionRequest) -> CameraMotionResponse:
-        recon, motions = await service.camera_motion(request.scene_id, request.pairs, request.backbone)
+        """Per pair of views a description, or (described = false) why there is none."""
+        recon, motions, scale = await service.camera_motion(request.scene_id, request.pairs, request.backbone)
         items = [CameraMotionItem.model_validate(m.to_dict()) for m in motions]
         return CameraMotionResponse(
             scene_id=request.scene_id,
             backbone=recon.backbone,
             motions=items,
             text="\n".join(item.sentence for item in items),
+            scene_scale=scale,
+            warnings=recon.warnings,
         )
 
     return app
@@ -275,11 +282,13 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
 def _summary(
     scene_id: str, recon: Reconstruction, cached: bool, joined: bool, timings: dict[str, float]
 ) -> ReconstructionSummary:
+    sources = recon.intrinsics_source or [None] * recon.num_views
     cameras = [
         CameraInfo(
             index=i,
             extrinsic=recon.extrinsics[i].tolist() if recon.registered[i] else None,
-            intrinsic=recon.intrinsics[i].tolist(),
+            intrinsic=recon.intrinsics[i].tolist() if np.all(np.isfinite(recon.intrinsics[i])) else None,
+            intrinsics_source=sources[i],
             width=int(recon.image_sizes[i][0]),
             height=int(recon.image_sizes[i][1]),
             registered=bool(recon.registered[i]),
@@ -378,6 +387,8 @@ def _scene_from_parts(
         raise InvalidInput(f"{len(files)} images; a scene has at most {limit}")
     images = [service.decode(blob, f"image {i}") for i, blob in enumerate(files)]
     scene = SceneInput(image_files=files, images=images, depths=depths)
+    if isinstance(intrinsics, list):  # null for a view whose camera is unknown
+        intrinsics = [np.full((3, 3), np.nan) if matrix is None else matrix for matrix in intrinsics]
     for name, value in (("extrinsics", extrinsics), ("intrinsics", intrinsics)):
         if value is not None:
             try:

@@ -27,7 +27,7 @@ class SceneInput:
     images: list[np.ndarray]  # decoded uint8 RGB
     depths: list[np.ndarray] | None = None
     extrinsics: np.ndarray | None = None  # (V, 3, 4)
-    intrinsics: np.ndarray | None = None  # (V, 3, 3)
+    intrinsics: np.ndarray | None = None  # (V, 3, 3); an all-NaN matrix: not given for that view
 
     @property
     def image_sizes(self) -> list[tuple[int, int]]:
@@ -89,7 +89,7 @@ class SceneStore:
                 "num_images": len(scene.images),
                 "image_sizes": scene.image_sizes,
                 "has_depth": scene.depths is not None,
-                "has_cameras": scene.extrinsics is not None and scene.intrinsics is not None,
+                "has_cameras": scene.extrinsics is not None and has_all_intrinsics(scene),
             }
             (staging / "meta.json").write_text(json.dumps(meta))  # written last: marks the scene complete
             try:
@@ -133,6 +133,10 @@ class SceneStore:
         return scene
 
 
+def has_all_intrinsics(scene: SceneInput) -> bool:
+    return scene.intrinsics is not None and bool(np.all(np.isfinite(scene.intrinsics)))
+
+
 def validate_geometry(scene: SceneInput) -> None:
     """Depths and cameras, when given, must fit the images one to one."""
     views = len(scene.images)
@@ -150,5 +154,17 @@ def validate_geometry(scene: SceneInput) -> None:
             raise InvalidInput(
                 f"{name} must be {views} matrices of shape {shape}, got array of {value.shape}"
             )
-        if not np.all(np.isfinite(value)):
+        # Intrinsics may be left out per view (all NaN: null in the upload); anything else is finite.
+        given = ~np.all(np.isnan(value), axis=(1, 2)) if name == "intrinsics" else np.ones(views, bool)
+        if not np.all(np.isfinite(value[given])):
             raise InvalidInput(f"{name} contain values that are not finite")
+    if scene.intrinsics is not None:
+        for index, intrinsic in enumerate(scene.intrinsics):
+            if np.all(np.isnan(intrinsic)):
+                continue
+            fx, fy = intrinsic[0, 0], intrinsic[1, 1]
+            if fx <= 0 or fy <= 0 or not np.allclose(intrinsic[2], [0.0, 0.0, 1.0]):
+                raise InvalidInput(
+                    f"intrinsics {index} must be [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0 "
+                    "(pixels)"
+                )

@@ -14,9 +14,11 @@ import numpy as np
 
 from services.recon.backbones import Backbone, BackboneError, create_backbone
 from services.recon.cache import ReconstructionCache
+from services.recon.camera_inputs import INPUTS_VERSION, view_intrinsics
 from services.recon.errors import BackboneUnavailable, InvalidInput, SceneNotFound
+from services.recon.motion_inputs import motion_scene_scale, view_pose_problems
 from services.recon.scene_store import SceneInput, SceneStore, check_scene_id, validate_geometry
-from shared.camera_motion import describe_camera_motion
+from shared.camera_motion import CameraMotion, UnknownMotion, describe_pairs
 from shared.imaging import decode_image, encode_image
 from shared.poses import estimate_up_axis, validate_extrinsic
 from shared.reconstruction import Reconstruction
@@ -115,7 +117,7 @@ class ReconService:
         ready, detail = backbone.ready()
         if not ready:
             raise BackboneUnavailable(f"backbone {backbone.name} is not ready: {detail}")
-        key = f"{scene_id}:{backbone.name}:{backbone.version}"
+        key = f"{scene_id}:{backbone.name}:{backbone.version}:in{INPUTS_VERSION}"
         started = time.perf_counter()
 
         hot = self._decoded.get(key)
@@ -177,18 +179,28 @@ class ReconService:
             scene = self.store.load(scene_id, self.decode)
             loaded = time.perf_counter()
             options = {}
+            known = view_intrinsics(scene)
             if backbone.name == "posed-rgbd":
                 options = {
                     "depths": scene.depths,
                     "extrinsics": scene.extrinsics,
                     "intrinsics": scene.intrinsics,
                 }
+            elif backbone.accepts_intrinsics and known.known_views:
+                options = {"intrinsics": known.intrinsics, "intrinsics_sources": known.sources}
             try:
                 reconstruction = backbone.reconstruct(scene.images, **options)
             except BackboneError as error:
                 raise InvalidInput(
                     f"backbone {backbone.name} cannot reconstruct this scene: {error}"
                 ) from error
+            reconstruction.warnings.extend(known.warnings)
+            if known.known_views and backbone.name != "posed-rgbd" and not backbone.accepts_intrinsics:
+                views = ", ".join(str(view) for view in known.known_views)
+                reconstruction.warnings.append(
+                    f"{backbone.name} predicts its own intrinsics: the uploaded or EXIF intrinsics of "
+                    f"view(s) {views} were not used"
+                )
             return reconstruction, {"load_ms": (loaded - started) * 1e3, "reconstruct_ms": _ms(loaded)}
 
         return await anyio.to_thread.run_sync(work, limiter=self._limiter)
@@ -224,24 +236,25 @@ class ReconService:
 
         return await anyio.to_thread.run_sync(work)
 
-    async def camera_motion(self, scene_id: str, pairs: list[tuple[int, int]] | None, backbone: str | None):
+    async def camera_motion(
+        self, scene_id: str, pairs: list[tuple[int, int]] | None, backbone: str | None
+    ) -> tuple[Reconstruction, list[CameraMotion | UnknownMotion], float]:
+        """Per pair a description or why there is none; (reconstruction, motions, scene scale)."""
         outcome = await self.reconstruct(scene_id, backbone)
         recon = outcome.reconstruction
         views = recon.num_views
         if views < 2:
             raise InvalidInput("camera motion needs at least two views; this scene has one")
-        pairs = pairs if pairs is not None else [(i, i + 1) for i in range(views - 1)]
-        for first, second in pairs:
-            for view in (first, second):
+        for pair in pairs or []:
+            for view in pair:
                 if not 0 <= view < views:
                     raise InvalidInput(f"view {view} is out of range: the scene has views 0..{views - 1}")
-                if not recon.registered[view]:
-                    raise InvalidInput(
-                        f"view {view} could not be registered by {recon.backbone}; it has no pose"
-                    )
-        registered = recon.extrinsics[recon.registered]
-        up = estimate_up_axis(registered)
-        return recon, describe_camera_motion(recon.extrinsics, pairs=pairs, up=up)
+        problems = view_pose_problems(recon)
+        usable = [index for index, problem in enumerate(problems) if problem is None]
+        up = estimate_up_axis(recon.extrinsics[usable]) if usable else None
+        scale = motion_scene_scale(recon, usable)
+        motions = describe_pairs(recon.extrinsics, problems, pairs=pairs, up=up, scene_scale=scale)
+        return recon, motions, scale
 
 
 def _validated_pose(extrinsic: list[list[float]]) -> np.ndarray:

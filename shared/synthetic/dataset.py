@@ -2,7 +2,8 @@
 
 Layout under ``out_dir``::
 
-    questions.jsonl                  one MindCube-schema record per question
+    questions.jsonl                  one MindCube-schema record per question (meta_info a list;
+                                     ``pyspatial_scene``: scene file, views, options, facts)
     images/scene_0003/view0.png      RGB renders (paths in the JSONL are relative to out_dir)
     scenes/scene_0003.npz            extrinsics (V,3,4), intrinsics (V,3,3), depths (V,H,W),
                                      object_ids (V,H,W), image_sizes, objects, room, up, seed
@@ -51,7 +52,9 @@ def _record(
         "images": [image_paths[v] for v in question.views],
         "category": [rig.setting, question.family],
         "type": question.family,
-        "meta_info": {
+        # MindCube's meta_info is a list; the exact scene (for posed-rgbd) travels beside it.
+        "meta_info": [[rig.view_names[v] for v in question.views]],
+        "pyspatial_scene": {
             "scene_file": scene_file,
             "setting": rig.setting,
             "views": [rig.view_names[v] for v in question.views],

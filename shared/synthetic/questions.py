@@ -10,7 +10,13 @@ Four families, each asked only when the geometry leaves a clear margin:
 - ``approach``: after turning 90 degrees left or right at view k and walking forward, is the
   viewer closer to or farther from an object?
 
-Angles and distances are measured on the floor plane (see geometry.py).
+Angles and distances are measured on the floor plane (see geometry.py). Questions are worded as
+MindCube words them: an opening that names every image ("Based on these four images (image 1, 2,
+3, and 4) showing the same room from different viewpoints:"), a setup sentence in the rotation
+setting ("The image 2 was taken after turning the camera 90 degrees to the right (clockwise) from
+where image 1 was taken."), then the ask ("From the viewpoint presented in image 3, what is behind
+you?"). Every question shows all of the rig's views, so the view it asks about must be read from
+the ask, never from the first view mentioned.
 """
 
 from __future__ import annotations
@@ -63,6 +69,36 @@ class Question:
         return LETTERS[self.answer_index]
 
 
+_NUMBER_WORDS = {2: "two", 3: "three", 4: "four", 5: "five", 6: "six", 7: "seven", 8: "eight"}
+
+
+def opening(count: int, setting: str) -> str:
+    """MindCube's opening sentence, naming every image: "(image 1, 2, 3, and 4)"."""
+    numbers = [str(k) for k in range(1, count + 1)]
+    if count == 2:
+        listed = "image 1 and 2"
+    else:
+        listed = "image " + ", ".join(numbers[:-1]) + ", and " + numbers[-1]
+    where = "from the same position" if setting == "rotation" else "from different viewpoints"
+    number = _NUMBER_WORDS.get(count, str(count))
+    return f"Based on these {number} images ({listed}) showing the same room {where}:"
+
+
+def rotation_setup(rig: CameraRig, up: np.ndarray) -> str:
+    """The rotation setting's setup sentence for images 1 and 2, or "" when the turn is not clean."""
+    if rig.setting != "rotation" or len(rig.extrinsics) < 2:
+        return ""
+    angle = turn_deg(rig.extrinsics[0], rig.extrinsics[1], up)
+    nearest = 45.0 * round(angle / 45.0)
+    if abs(angle - nearest) > TURN_TOLERANCE_DEG or nearest == 0 or abs(nearest) >= 180:
+        return ""
+    side, clock = ("right", "clockwise") if nearest > 0 else ("left", "counterclockwise")
+    return (
+        f" The image 2 was taken after turning the camera {abs(nearest):g} degrees to the {side} ({clock}) "
+        "from where image 1 was taken."
+    )
+
+
 def _shuffled_options(rng: np.random.Generator, answer: str, distractors: list[str]) -> tuple[list[str], int]:
     options = [answer, *distractors]
     order = rng.permutation(len(options))
@@ -85,6 +121,7 @@ def motion_direction(first: np.ndarray, second: np.ndarray, up: np.ndarray) -> t
 def motion_questions(scene: SyntheticScene, rig: CameraRig, rng: np.random.Generator) -> list[Question]:
     questions = []
     count = len(rig.extrinsics)
+    all_views = list(range(count))
     for i in range(count):
         for j in range(count):
             if i == j:
@@ -96,12 +133,20 @@ def motion_questions(scene: SyntheticScene, rig: CameraRig, rng: np.random.Gener
                 continue
             others = [d for d in MOTION_DIRECTIONS if d != phrase]
             options, answer = _shuffled_options(rng, phrase, _pick(rng, others, 3))
-            stem = (
-                "Based on these two views showing the same scene: in which direction did I move "
-                "from the first view to the second view?"
+            asks = (
+                f"How did I move from image {i + 1} to image {j + 1}?",
+                f"In which direction did I move from the viewpoint presented in image {i + 1} to the "
+                f"viewpoint presented in image {j + 1}?",
+                f"From image {i + 1} to image {j + 1}, which way did the camera move?",
             )
-            facts = {"bearing_deg": angle, "sector_margin_deg": margin, "distance_m": distance}
-            questions.append(Question("motion", stem, options, answer, [i, j], facts))
+            stem = f"{opening(count, rig.setting)} {asks[(i + j) % len(asks)]}"
+            facts = {
+                "pair": [i, j],
+                "bearing_deg": angle,
+                "sector_margin_deg": margin,
+                "distance_m": distance,
+            }
+            questions.append(Question("motion", stem, options, answer, all_views, facts))
     return questions
 
 
@@ -135,11 +180,10 @@ def turn_questions(scene: SyntheticScene, rig: CameraRig, rng: np.random.Generat
         others = [p for p in TURN_PHRASES if p not in (phrase, opposite)]
         distractors = ([opposite] if opposite != phrase else []) + _pick(rng, others, 3)
         options, answer = _shuffled_options(rng, phrase, distractors[:3])
-        stem = (
-            "These two images were taken from the same spot. How did I turn from the first view "
-            "to the second view?"
-        )
-        questions.append(Question("turn", stem, options, answer, [0, j], {"turn_deg": angle}))
+        stem = f"{opening(len(rig.extrinsics), rig.setting)} How did I turn from image 1 to image {j + 1}?"
+        all_views = list(range(len(rig.extrinsics)))
+        facts = {"pair": [0, j], "turn_deg": angle}
+        questions.append(Question("turn", stem, options, answer, all_views, facts))
     return questions
 
 
@@ -167,9 +211,13 @@ def relative_position_questions(
             answer_object = inside[0]
             distractors = _pick(rng, [names[o] for o in outside], 3)
             options, answer = _shuffled_options(rng, names[answer_object], distractors)
+            ask = {"behind": "what is behind you?", "to the left of": "what is to your left?"}.get(
+                relation, "what is to your right?"
+            )
+            lead = ("From the viewpoint presented in", "If you are standing at the viewpoint presented in")
             stem = (
-                f"Based on these images of the same scene: if you stand where image {k + 1} was taken, "
-                f"facing the same way, which object is {relation} you?"
+                f"{opening(len(all_views), rig.setting)}{rotation_setup(rig, scene.up)} "
+                f"{lead[k % 2]} image {k + 1}, {ask}"
             )
             facts = {
                 "view": k,
@@ -199,9 +247,9 @@ def approach_questions(scene: SyntheticScene, rig: CameraRig, rng: np.random.Gen
                 other = f"farther from the {name}" if after < before else f"closer to the {name}"
                 options, answer = _shuffled_options(rng, truth, [other])
                 stem = (
-                    f"Standing where image {k + 1} was taken and facing the same way, you turn {turn} "
-                    f"by 90 degrees and walk forward {APPROACH_STEP_M:g} meter. Will you be closer to or "
-                    f"farther from the {name}?"
+                    f"{opening(len(all_views), rig.setting)} If you are standing at the viewpoint presented "
+                    f"in image {k + 1}, turn {turn} 90 degrees and walk forward {APPROACH_STEP_M:g} meter, "
+                    f"will you be closer to or farther from the {name}?"
                 )
                 facts = {"view": k, "turn": turn, "distance_before_m": before, "distance_after_m": after}
                 questions.append(Question("approach", stem, options, answer, all_views, facts))

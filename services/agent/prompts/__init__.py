@@ -120,8 +120,10 @@ _CODE_BLOCK = re.compile(r"```python\n(.*?)```", re.DOTALL)
 
 @lru_cache(maxsize=8)
 def load_examples(name: str) -> tuple[PromptExample, ...]:
-    """In-context examples from `<name>.md`, e.g. "codegen_examples_v1", in file order."""
-    path = PROMPT_DIR / f"{name}.md"
+    """In-context examples from `<name>.md`, e.g. "codegen_examples_v1" (a bare name means its
+    latest version), in file order."""
+    base, version = _resolve(name)
+    path = PROMPT_DIR / f"{base}_v{version}.md"
     if not path.is_file():
         raise PromptError(f"no example file {path.name} in {PROMPT_DIR}")
     text = path.read_text(encoding="utf-8")

@@ -25,6 +25,9 @@ class Backbone(ABC):
 
     name: str = ""
     version: str = ""
+    # True when `reconstruct` takes `intrinsics` (per view a 3x3 in the image's pixels, or None)
+    # and `intrinsics_sources` (per view "uploaded" / "exif", or None) and uses them.
+    accepts_intrinsics: bool = False
 
     @abstractmethod
     def reconstruct(self, images: Sequence[np.ndarray], **options: Any) -> Reconstruction: ...

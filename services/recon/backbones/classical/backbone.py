@@ -53,6 +53,7 @@ class _PreparedView:
 class ClassicalBackbone(Backbone):
     name = "classical"
     version = "2"
+    accepts_intrinsics = True
 
     def __init__(
         self,
@@ -77,11 +78,15 @@ class ClassicalBackbone(Backbone):
     def reconstruct(self, images: Sequence[np.ndarray], **options: Any) -> Reconstruction:
         fov_deg = float(options.pop("fov_deg", self.fov_deg))
         use_densify = bool(options.pop("densify", self.densify))
+        given = list(options.pop("intrinsics", None) or [None] * len(images))
+        given_sources = list(options.pop("intrinsics_sources", None) or [None] * len(images))
+        if len(given) != len(images) or len(given_sources) != len(images):
+            raise BackboneError(f"intrinsics and intrinsics_sources need one entry per image ({len(images)})")
         if options:
             raise BackboneError(f"unknown options for the classical backbone: {', '.join(sorted(options))}")
         if len(images) < 2:
             raise BackboneError(f"the classical backbone needs at least 2 images, got {len(images)}")
-        views = [self._prepare(index, image, fov_deg) for index, image in enumerate(images)]
+        views = [self._prepare(index, image, fov_deg, given[index]) for index, image in enumerate(images)]
         warnings: list[str] = []
         textured = [index for index, view in enumerate(views) if len(view.features) >= MIN_FEATURES]
         if len(textured) < 2:
@@ -108,11 +113,18 @@ class ClassicalBackbone(Backbone):
                     else "too few reliable matches to placed views"
                 )
                 warnings.append(f"view {index} could not be registered ({reason}); its extrinsic is NaN")
-        return self._assemble(views, model, use_densify, warnings)
+        reconstruction = self._assemble(views, model, use_densify, warnings)
+        reconstruction.intrinsics_source = [
+            (source or "given") if intrinsic is not None else "prior"
+            for intrinsic, source in zip(given, given_sources, strict=True)
+        ]
+        return reconstruction
 
     # ---- steps ----------------------------------------------------------------------------
 
-    def _prepare(self, index: int, image: np.ndarray, fov_deg: float) -> _PreparedView:
+    def _prepare(
+        self, index: int, image: np.ndarray, fov_deg: float, given: np.ndarray | None = None
+    ) -> _PreparedView:
         image = np.asarray(image)
         if image.dtype != np.uint8 or image.ndim != 3 or image.shape[2] != 3:
             raise BackboneError(f"image {index} must be uint8 RGB (H, W, 3), got {image.dtype} {image.shape}")
@@ -128,7 +140,8 @@ class ClassicalBackbone(Backbone):
         # cv2.resize rounds the size; use the exact ratio so pixel maps stay consistent.
         scale = working.shape[1] / width
         gray = cv2.cvtColor(working, cv2.COLOR_RGB2GRAY)
-        intrinsic = intrinsics_after_resize(guess_intrinsics(width, height, fov_deg), scale)
+        known = guess_intrinsics(width, height, fov_deg) if given is None else np.asarray(given, np.float64)
+        intrinsic = intrinsics_after_resize(known, scale)
         features = detect_features(gray, self.max_features, self.detector)
         return _PreparedView(working, (width, height), scale, intrinsic, features)
 

@@ -4,6 +4,10 @@ Results are in VGGT's normalized scale (the first camera is the world frame). In
 pixels of each original image. Depth and confidence maps cover each whole original image on the
 grid of the resized image the network saw (width = image_size in crop mode); rows that crop mode
 cut off have depth 0 (unknown) and confidence 0, and a warning says so.
+
+Intrinsics are always VGGT's own prediction (`intrinsics_source` = "predicted"). A predicted
+field of view outside [MIN_FOV_DEG, MAX_FOV_DEG] (0 gives an infinite focal length) is no camera:
+that view is not registered (NaN pose and intrinsics, no points, no depth) and a warning says so.
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ from shared.reconstruction import Reconstruction
 
 PointSource = Literal["depth", "points"]
 MIN_CONFIDENCE = 1e-5  # confidences are 1 + exp(x) >= 1; anything below is padding or garbage
+MIN_FOV_DEG, MAX_FOV_DEG = 1.0, 175.0  # a predicted field of view outside these is no camera
 
 
 class VGGTBackbone(Backbone):
@@ -108,37 +113,54 @@ class VGGTBackbone(Backbone):
         warnings = [f"vggt ignores option {name!r}" for name in sorted(options)]
 
         arrays, placements = self.predict(images)
+        frame_hw = arrays["depth"].shape[1:3]
+        problems = [_field_of_view_problem(intrinsic, frame_hw) for intrinsic in arrays["intrinsic"]]
+        usable = np.array([problem is None for problem in problems])
+        if not usable.any():
+            raise BackboneError(f"VGGT gave no usable camera: {problems[0]} (and likewise for every view)")
+        for index, problem in enumerate(problems):
+            if problem is not None:
+                warnings.append(f"view {index} could not be registered: VGGT predicted {problem}")
         if point_source == "depth":
-            world = unproject_depth_maps(arrays["depth"], arrays["extrinsic"], arrays["intrinsic"])
+            with np.errstate(invalid="ignore", divide="ignore", over="ignore"):  # bad views are dropped
+                world = unproject_depth_maps(arrays["depth"], arrays["extrinsic"], arrays["intrinsic"])
             confidence = arrays["depth_conf"]
         else:
             world, confidence = arrays["world_points"], arrays["world_points_conf"]
         points, colors = _confident_points(
-            world, confidence, arrays["depth"][..., 0], images, placements, percentile
+            world, confidence, arrays["depth"][..., 0], images, placements, percentile, usable
         )
 
         depths, depth_confidence, intrinsics = [], [], []
         for index, placement in enumerate(placements):
             depths.append(placement.to_resized_grid(arrays["depth"][index, ..., 0]))
             depth_confidence.append(placement.to_resized_grid(arrays["depth_conf"][index]))
-            intrinsics.append(placement.network_to_original_intrinsics(arrays["intrinsic"][index]))
+            if usable[index]:
+                intrinsics.append(placement.network_to_original_intrinsics(arrays["intrinsic"][index]))
+            else:  # no camera: its depth cannot be placed either
+                intrinsics.append(np.full((3, 3), np.nan))
+                depths[-1] = np.zeros_like(depths[-1])
+                depth_confidence[-1] = np.zeros_like(depth_confidence[-1])
             if placement.dropped_rows:
                 warnings.append(
                     f"view {index}: {placement.dropped_rows} of {placement.resized_size[1]} resized rows "
                     "fell outside VGGT's centre crop and have no depth"
                 )
+        extrinsics = arrays["extrinsic"].astype(np.float64)
+        extrinsics[~usable] = np.nan
         return Reconstruction(
             points=points,
             colors=colors,
-            extrinsics=arrays["extrinsic"].astype(np.float64),
+            extrinsics=extrinsics,
             intrinsics=np.stack(intrinsics),
             image_sizes=np.array([p.original_size for p in placements]),
-            registered=np.ones(len(placements), dtype=bool),
+            registered=usable,
             backbone=self.name,
             backbone_version=self.version,
             depths=depths,
             depth_confidence=depth_confidence,
             warnings=warnings,
+            intrinsics_source=["predicted"] * len(placements),
         )
 
 
@@ -157,6 +179,20 @@ def _check_images(images: Sequence[np.ndarray]) -> None:
             raise BackboneError(f"image {index} is too small: {image.shape[1]}x{image.shape[0]}")
 
 
+def _field_of_view_problem(intrinsic: np.ndarray, frame_hw: tuple[int, int]) -> str | None:
+    """Why a predicted network-frame intrinsic is no camera (e.g. a zero field of view), or None."""
+    height, width = frame_hw
+    fx, fy = float(intrinsic[0, 0]), float(intrinsic[1, 1])
+    fovs = []
+    for focal, size in ((fx, width), (fy, height)):
+        if not np.isfinite(focal) or focal <= 0:
+            return "a zero field of view (infinite focal length)"
+        fovs.append(float(np.degrees(2.0 * np.arctan(size / (2.0 * focal)))))
+    if not all(MIN_FOV_DEG <= fov <= MAX_FOV_DEG for fov in fovs):
+        return f"an implausible field of view ({fovs[0]:.2f} x {fovs[1]:.2f} degrees)"
+    return None
+
+
 def _confident_points(
     world: np.ndarray,
     confidence: np.ndarray,
@@ -164,13 +200,16 @@ def _confident_points(
     images: Sequence[np.ndarray],
     placements: list[ViewPlacement],
     percentile: float,
+    usable: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Points of every view's image window whose confidence reaches the given percentile.
+    """Points of every usable view's image window whose confidence reaches the given percentile.
 
     The percentile is taken over all views' valid pixels together, so confident views keep more.
     """
     points, colors, scores = [], [], []
     for index, placement in enumerate(placements):
+        if not usable[index]:
+            continue
         window = placement.network_window()
         view_points = world[index][window].reshape(-1, 3)
         view_scores = confidence[index][window].reshape(-1)

@@ -1,0 +1,44 @@
+"""What camera motion needs from a reconstruction: which views have a trustworthy pose, and the scale.
+
+Views are numbered from 1 in the reasons, as in the motion sentences they end up in.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from shared.camera_motion import robust_extent
+from shared.poses import validate_extrinsic
+from shared.reconstruction import Reconstruction
+
+_TINY = 1e-9
+
+
+def view_pose_problems(recon: Reconstruction) -> list[str | None]:
+    """Per view, why its pose cannot be used for motion (not registered, not a valid pose), or None."""
+    problems: list[str | None] = []
+    for index in range(recon.num_views):
+        if not recon.registered[index]:
+            problems.append(f"view {index + 1} could not be registered by the {recon.backbone} backbone")
+            continue
+        try:  # the same check the motion maths applies, so a usable view never fails there
+            validate_extrinsic(recon.extrinsics[index])
+        except ValueError as error:
+            problems.append(f"view {index + 1} has no valid pose ({error})")
+            continue
+        problems.append(None)
+    return problems
+
+
+def motion_scene_scale(recon: Reconstruction, usable: list[int]) -> float:
+    """The size against which a step counts as movement: the robust extent of the points.
+
+    With two cameras the centres alone cannot tell a small drift from a real step, so the points
+    decide; without points the usable camera centres do, and 1.0 when they coincide.
+    """
+    extent = robust_extent(recon.points) if recon.num_points else 0.0
+    if extent > _TINY and np.isfinite(extent):
+        return extent
+    centers = recon.camera_centers()[usable] if usable else np.zeros((0, 3))
+    extent = robust_extent(centers) if len(centers) else 0.0
+    return extent if extent > _TINY and np.isfinite(extent) else 1.0
