@@ -272,8 +272,8 @@ def exercise_agent(observe: Observer, stack, views, scene_id: str) -> None:
     solve(404, json={**solve_body, "scene_id": UNKNOWN_SCENE})
     solve(413, headers={**key, "content-type": "application/json"}, content=b" " * 3_100_000)
     solve(422, json={**solve_body, "scene_id": "../../healthz"})
-    png = base64.b64encode(views.pngs()[0]).decode()
-    solve(503, name="agent_of_unready", headers={}, json={"question": question, "images": [png]})
+    pngs = [base64.b64encode(png).decode() for png in views.pngs()]
+    solve(503, name="agent_of_unready", headers={}, json={"question": question, "images": pngs})
 
     points = "/v1/scenes/{scene_id}/points"
     agent("GET", points, f"/v1/scenes/{scene_id}/points?max_points=50", 200)
