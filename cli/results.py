@@ -44,9 +44,13 @@ def show_solution(result: SolveResponse, saved_images: list[Path]) -> None:
     if result.fallback:
         kind = result.fallback.replace("_", " ")
         console.print(f"[bold yellow]fallback ({kind}):[/] {result.fallback_reason}")
+    if result.code_model_fallback:
+        console.print(f"[yellow]fallback:[/] {result.code_model_fallback}")
     for number, attempt in enumerate(result.attempts, start=1):
         if attempt.error:
             console.print(f"[dim]attempt {number} failed:[/] {attempt.error.strip().splitlines()[-1]}")
+        if attempt.dropped:
+            console.print(f"[dim]attempt {number}: dropped {len(attempt.dropped)} line(s) of demo code[/]")
     clue = result.clue.text.strip() if result.clue.text else "(no text)"
     console.print(Panel(clue, title="clue", expand=False))
     for path, view in zip(saved_images, result.clue.views or [None] * len(saved_images), strict=False):

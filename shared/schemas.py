@@ -175,10 +175,20 @@ class SolveRequest(_Model):
 
 
 class AttemptRecord(_Model):
-    program: str | None
+    program: str | None = Field(..., description="The program as checked and run (demo code dropped).")
     error: str | None
     reply: str | None = Field(None, description="The code model's raw reply (None for the offline planner).")
     latency_ms: float
+    error_kind: str | None = Field(
+        None,
+        description="no_program, too_long, repeated (not run again), or the sandbox's kind (rejected, ...).",
+    )
+    dropped: list[str] = Field(
+        default_factory=list, description="Top-level demo code removed from the reply."
+    )
+    temperature: float | None = None
+    prompt_tokens: int | None = None
+    completion_tokens: int | None = None
 
 
 class ClueView(_Model):
@@ -221,6 +231,13 @@ class ErrorBody(_Model):
     )
 
 
+class TokenCounts(_Model):
+    code_prompt: int = 0
+    code_completion: int = 0
+    answer_prompt: int = 0
+    answer_completion: int = 0
+
+
 class SolveResponse(_Model):
     answer: str | None = Field(..., description="The option letter, or null when no honest answer exists.")
     answer_reason: str | None = Field(None, description="Why answer is null.")
@@ -235,7 +252,16 @@ class SolveResponse(_Model):
         description="What wrote the program: the model's name, 'offline-planner', or "
         "'offline-planner (fallback: <model> failed)'.",
     )
-    answer_model: str = Field(..., description="Model name, or 'offline-answerer'.")
+    code_model_fallback: str | None = Field(
+        None,
+        description="Why the configured code model did not write the program (it failed; the planner did).",
+    )
+    answer_model: str = Field(..., description="What answered: model name, or 'offline-answerer'.")
+    answer_method: str | None = Field(
+        None,
+        description="model_json, model_text, text_model (a text-only model read a text clue), offline_text.",
+    )
+    tokens: TokenCounts = Field(default_factory=TokenCounts, description="Model tokens spent, per stage.")
     fallback: Literal["images_only"] | None = Field(
         None,
         description="'images_only': no program ran (the backbone could not reconstruct, or no program "

@@ -73,8 +73,18 @@ class AgentSettings(AccessSettings):
     code_model: str | None = Field(None, description="Code model name; the offline planner when unset.")
     code_model_base_url: str | None = Field(None, description="OpenAI-compatible endpoint of the code model.")
     code_model_api_key: SecretStr | None = Field(None, description="API key of the code model endpoint.")
+    code_model_text_only: bool = Field(
+        False, description="The code model takes plain text only: string content, no images."
+    )
+    code_model_max_tokens: int = Field(2048, ge=64, description="Longest reply of the code model (tokens).")
     answer_model: str | None = Field(
         None, description="Answer model (vision); the offline answerer when unset."
+    )
+    answer_model_text_only: bool = Field(
+        False, description="The answer model takes text only: it answers text clues, never images."
+    )
+    answer_model_max_tokens: int = Field(
+        1024, ge=16, description="Longest reply of the answer model (tokens)."
     )
     answer_model_base_url: str | None = Field(None, description="Endpoint of the answer model.")
     answer_model_api_key: SecretStr | None = Field(None, description="API key of the answer model endpoint.")
@@ -84,6 +94,11 @@ class AgentSettings(AccessSettings):
         1, ge=0, le=6, description="In-context examples in the code prompt, most like the question first."
     )
     max_repairs: int = Field(2, ge=0, le=5, description="Self-repair rounds after a failed program.")
+    max_reply_chars: int = Field(
+        60_000,
+        ge=1000,
+        description="Longest code-model reply that is parsed; longer ones are refused unread.",
+    )
     sandbox_cpu_s: int = Field(20, ge=1, description="CPU seconds a program may use.")
     sandbox_wall_s: int = Field(120, ge=1, description="Wall-clock seconds a program may take.")
     sandbox_memory_mb: int = Field(2048, ge=256, description="Address-space limit of a program.")

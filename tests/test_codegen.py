@@ -7,7 +7,13 @@ from collections.abc import Iterator
 
 import pytest
 
-from services.agent.codegen import ExecutionOutcome, build_codegen_messages, extract_program, generate_program
+from services.agent.codegen import (
+    ExecutionOutcome,
+    build_codegen_messages,
+    extract_program,
+    generate_program,
+    repair_hints,
+)
 from services.agent.llm import ChatClient, ChatModelConfig
 from services.agent.prompts import PromptError, load_examples, load_template
 from services.agent.sandbox.validation import ProgramRejected, validate_program
@@ -49,7 +55,10 @@ def client(llm: ScriptedLLM) -> Iterator[ChatClient]:
 
 
 def prompt_text(messages: list[dict]) -> str:
-    return "\n".join(part["text"] for part in messages[0]["content"] if part["type"] == "text")
+    content = messages[0]["content"]
+    if isinstance(content, str):
+        return content
+    return "\n".join(part["text"] for part in content if part["type"] == "text")
 
 
 # ---- the prompt -----------------------------------------------------------------------------------
@@ -104,17 +113,19 @@ def test_images_follow_the_text_in_order_or_not_at_all() -> None:
     assert [part["type"] for part in content] == ["text", "text", "image_url", "text", "image_url"]
     assert content[1]["text"] == "Image 1:" and content[3]["text"] == "Image 2:"
     text_only = build_codegen_messages(QUESTION, [b"one", b"two"], attach_images=False)[0]["content"]
-    assert [part["type"] for part in text_only] == ["text"]
+    assert isinstance(text_only, str)  # plain string content: what text-only chat templates accept
+    assert "There are 2 photo(s). You do not see them" in text_only and "image_url" not in text_only
 
 
 def test_template_is_versioned_and_strict() -> None:
     template = load_template("codegen")
-    assert (template.name, template.version, template.id) == ("codegen", 1, "codegen_v1")
-    assert template.fields == {"examples", "num_images", "question"}
+    assert (template.name, template.version, template.id) == ("codegen", 2, "codegen_v2")
+    assert template.fields == {"examples", "photos", "question"}
+    assert load_template("codegen_v1").fields == {"examples", "num_images", "question"}  # still there
     with pytest.raises(PromptError, match="missing fields"):
-        template.render(question="q", num_images=1)
+        template.render(question="q", photos="")
     with pytest.raises(PromptError, match="unexpected fields"):
-        template.render(question="q", num_images=1, examples="", extra="x")
+        template.render(question="q", photos="", examples="", extra="x")
     with pytest.raises(PromptError):
         load_template("codegen_v99")
 
@@ -172,6 +183,7 @@ def test_rejected_program_is_repaired(llm: ScriptedLLM, client: ChatClient) -> N
     assert result.ok
     assert [attempt.error is None for attempt in result.attempts] == [False, True]
     assert "imports are not allowed" in result.attempts[0].error
+    assert "import os" in result.attempts[0].program  # used by program(): kept, and the validator refuses it
     first, second = llm.requests()
     repair = second["messages"]
     assert len(repair) == 3
@@ -192,11 +204,13 @@ def test_reply_without_code_asks_again(llm: ScriptedLLM, client: ChatClient) -> 
 
 
 def test_repairs_exhausted(llm: ScriptedLLM, client: ChatClient) -> None:
-    llm.script([IMPORTING_REPLY, "no code, sorry", IMPORTING_REPLY, GOOD_REPLY])
+    importing_sys = IMPORTING_REPLY.replace("os", "sys")
+    llm.script([IMPORTING_REPLY, "no code, sorry", importing_sys, GOOD_REPLY])
     result = generate_program(client, QUESTION, [PNG], validate_only, max_repairs=2)
     assert not result.ok and result.program is None and result.failure == "execution"
     assert len(result.attempts) == 3
     assert "3 attempt(s)" in result.error and "imports are not allowed" in result.error
+    assert [attempt.error_kind for attempt in result.attempts] == ["execution", "no_program", "execution"]
     assert len(llm.requests()) == 3  # the fourth (good) reply was never asked for
     assert len(llm.requests()[2]["messages"]) == 5
 
@@ -228,3 +242,108 @@ def test_model_failure_ends_the_loop_with_the_attempts_so_far(llm: ScriptedLLM, 
     assert not result.ok and result.failure == "model"
     assert len(result.attempts) == 1
     assert "context length exceeded" in result.error and "'coder'" in result.error
+
+
+# ---- parsing real replies: blocks, demo code, size --------------------------------------------------
+
+
+def test_the_block_that_parses_wins_and_helpers_from_other_blocks_are_kept() -> None:
+    reply = (
+        "Helper first:\n```python\ndef facing(pose):\n    return pose[2, :3]\n```\n"
+        "Program:\n```python\ndef program(input_scene):\n    recon = pySpatial.reconstruct(input_scene)\n"
+        "    return str(facing(recon.extrinsics[0]))\n```\n"
+        "A variant I did not finish:\n```python\ndef program(input_scene):\n    return (\n```\n"
+        "Example usage:\n```python\nprint(program(input_scene))\n```"
+    )
+    source = extract_program(reply)
+    assert source.startswith("def facing(pose):") and "str(facing(recon.extrinsics[0]))" in source
+    validate_program(source)
+
+
+def test_demo_code_around_a_good_program_is_dropped_and_recorded(
+    llm: ScriptedLLM, client: ChatClient
+) -> None:
+    reply = (
+        "```python\nimport numpy as np\nimport pySpatial\n\nclass Scene:\n    images: list\n\n"
+        "input_scene = Scene()\nSTEP = 0.5\n\ndef program(input_scene):\n"
+        "    recon = pySpatial.reconstruct(input_scene)\n"
+        "    ahead = pySpatial.move_forward(recon.extrinsics[0], STEP)\n"
+        "    return pySpatial.synthesize_novel_view(recon, ahead)\n"
+        "\n# Example usage\nif __name__ == '__main__':\n    print(program(input_scene))\n"
+        "print(program(input_scene))\n```"
+    )
+    llm.script([reply])
+    result = generate_program(client, QUESTION, [PNG], validate_only, max_repairs=0)
+    assert result.ok, result.error
+    (attempt,) = result.attempts
+    assert "STEP = 0.5" in result.program and "import numpy as np" in result.program
+    for gone in ("class Scene", "input_scene = Scene()", "print(", "__main__", "import pySpatial", "Example"):
+        assert gone not in result.program
+    reasons = " | ".join(attempt.dropped)
+    assert "line 2: import pySpatial" in reasons and "line 4: class Scene:" in reasons
+    assert "line 7: input_scene = Scene()" in reasons and "script entry point" in reasons
+    assert "demo output" in reasons and len(attempt.dropped) == 5
+
+
+def test_regex_bombs_parse_in_one_pass() -> None:
+    # 80 KB of this took the old fence regex 11 s; the scanner reads each line once.
+    assert extract_program("```python " * 40_000) is None
+    assert extract_program("```python \n" * 40_000) is None
+    assert extract_program("```\n" + "def program(input_scene):\n" * 20_000) is not None
+
+
+def test_an_oversized_reply_is_refused_unread(llm: ScriptedLLM, client: ChatClient) -> None:
+    huge = GOOD_REPLY + "\n" + "x" * 5000
+    llm.script([huge, GOOD_REPLY])
+    result = generate_program(client, QUESTION, [PNG], validate_only, max_reply_chars=4000)
+    assert result.ok and len(result.attempts) == 2
+    first = result.attempts[0]
+    assert first.error_kind == "too_long" and first.program is None and "not read" in first.error
+    assert len(first.reply) < 2100  # the record keeps the head only
+    repair = llm.requests()[1]["messages"][-1]["content"]
+    assert "far too long" in repair and "5" in repair
+
+
+# ---- repairs that change something ------------------------------------------------------------------
+
+
+def test_an_identical_program_is_never_run_again(llm: ScriptedLLM, client: ChatClient) -> None:
+    runs: list[str] = []
+
+    def execute(source: str) -> ExecutionOutcome:
+        runs.append(source)
+        return ExecutionOutcome(False, "program raised ValueError: shapes (4,4) and (3,) not aligned", None)
+
+    same_again = GOOD_REPLY.replace("The photographer", "Fixed! The photographer") + "\n# no change"
+    llm.script([GOOD_REPLY, same_again, GOOD_REPLY, GOOD_REPLY])
+    result = generate_program(client, QUESTION, [PNG], execute, max_repairs=3)
+    assert len(runs) == 1  # the same program (same syntax tree) is not run twice
+    assert not result.ok and result.failure == "repeated"
+    assert [a.error_kind for a in result.attempts] == ["execution", "repeated", "repeated"]
+    assert "same program as attempt 1" in result.attempts[1].error
+    assert len(llm.requests()) == 3  # stopped early: the fourth reply was never asked for
+    temperatures = [request["body"]["temperature"] for request in llm.requests()]
+    assert temperatures[0] == 0.0 and temperatures[1] > temperatures[0] and temperatures[2] > temperatures[1]
+    repair = llm.requests()[2]["messages"][-1]["content"]
+    assert "same program as before" in repair and "pySpatial.camera_center" in repair
+
+
+@pytest.mark.parametrize(
+    ("error", "expected"),
+    [
+        ("ValueError: matmul: Input operand 1 has a mismatch in its core dimension 0", "4x4"),
+        ("ValueError: shapes (4,4) and (3,) not aligned: 4 (dim 1) != 3 (dim 0)", "camera_center"),
+        ("ValueError: The truth value of an array with more than one element is ambiguous", "np.allclose"),
+        ("TypeError: 'Image' object is not iterable", "image handle"),
+        ("LinAlgError: Last 2 dimensions of the array must be square", "relative_pose"),
+    ],
+)
+def test_known_mistakes_get_a_hint_that_names_the_helper(error: str, expected: str) -> None:
+    assert any(expected in hint for hint in repair_hints(error))
+    assert repair_hints("NameError: name 'recon' is not defined") == []
+
+
+def test_the_same_prose_twice_more_ends_the_loop(llm: ScriptedLLM, client: ChatClient) -> None:
+    llm.script(["The answer is B.", "The answer is  B.", "The answer is B.", GOOD_REPLY])
+    result = generate_program(client, QUESTION, [PNG], validate_only, max_repairs=4)
+    assert not result.ok and len(result.attempts) == 3 and len(llm.requests()) == 3

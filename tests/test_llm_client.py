@@ -10,9 +10,13 @@ import pytest
 from services.agent.llm import (
     ChatClient,
     ChatModelConfig,
+    ContentPartsRefused,
+    ModelAuthError,
     ModelError,
+    ModelNotFound,
     ModelUnavailable,
     image_part,
+    scrub_secrets,
     text_part,
 )
 from tests.support.processes import free_port
@@ -150,3 +154,104 @@ def test_script_loaded_at_process_start() -> None:
             assert client.complete([{"role": "user", "content": "x"}]).text == "first"
     finally:
         server.stop()
+
+
+# ---- endpoints as they are ----------------------------------------------------------------------
+
+SECRET = "sk-test-SECRET0123456789abcdef"
+
+
+def test_text_only_model_gets_plain_string_content(llm: ScriptedLLM) -> None:
+    llm.text_only()
+    llm.script(["fine"])
+    parts = [text_part("Look:"), image_part(b"\x89PNG fake"), text_part("What is it?")]
+    with make_client(llm.base_url, text_only=True) as client:
+        assert client.complete([{"role": "user", "content": parts}]).text == "fine"
+    (request,) = llm.requests()
+    content = request["messages"][0]["content"]
+    assert isinstance(content, str) and content.startswith("Look:\n") and content.endswith("What is it?")
+    assert "base64" not in content and "image was left out" in content
+
+
+def test_a_server_that_refuses_content_parts_is_reported_at_once(llm: ScriptedLLM) -> None:
+    llm.text_only()
+    llm.script(["never sent"])
+    hint = "set PYSPATIAL_CODE_MODEL_TEXT_ONLY=true"
+    with make_client(llm.base_url, max_retries=3, text_only_hint=hint) as client:
+        with pytest.raises(ContentPartsRefused) as refused:
+            client.complete([{"role": "user", "content": [text_part("x")]}])
+    message = str(refused.value)
+    assert "can only concatenate str" in message and hint in message and "test-model" in message
+    assert len(llm.requests()) == 1  # deterministic: not retried as if transient
+
+
+def test_deterministic_server_errors_are_not_retried_and_transient_ones_are(llm: ScriptedLLM) -> None:
+    llm.script([{"status": 500, "error_message": "TypeError: 'NoneType' object is not subscriptable"}, "x"])
+    with make_client(llm.base_url, max_retries=3) as client, pytest.raises(ModelError) as failure:
+        client.complete([{"role": "user", "content": "x"}])
+    assert "not retried" in str(failure.value) and len(llm.requests()) == 1
+    llm.reset()
+    llm.script([{"status": 502}, {"status": 504}, {"status": 408}, "through"])
+    with make_client(llm.base_url, max_retries=3) as client:
+        assert client.complete([{"role": "user", "content": "x"}]).attempts == 4
+
+
+@pytest.mark.parametrize("status", [401, 403])
+def test_a_rejected_key_is_an_auth_error_without_the_key(llm: ScriptedLLM, status: int) -> None:
+    llm.script(
+        [{"status": status, "error_message": "Invalid credentials in header Authorization: {authorization}"}]
+    )
+    with make_client(llm.base_url, api_key=SECRET, max_retries=3) as client:
+        with pytest.raises(ModelAuthError) as failure:
+            client.complete([{"role": "user", "content": "x"}])
+    message = str(failure.value)
+    assert f"HTTP {status}" in message and "rejected the API key" in message
+    assert SECRET not in message and "SECRET0123" not in message and "[redacted]" in message
+    assert len(llm.requests()) == 1
+
+
+def test_transient_errors_that_echo_the_key_are_scrubbed(llm: ScriptedLLM) -> None:
+    echo = {"status": 503, "error_message": "upstream busy; request had Authorization: {authorization}"}
+    llm.script([echo, echo])
+    with make_client(llm.base_url, api_key=SECRET, max_retries=1) as client:
+        with pytest.raises(ModelUnavailable) as failure:
+            client.complete([{"role": "user", "content": "x"}])
+    assert SECRET not in str(failure.value) and "[redacted]" in str(failure.value)
+    assert failure.value.__cause__ is None  # the openai exception (with our headers) is not chained
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        f"Authorization: Bearer {SECRET}",
+        f'{{"headers": {{"authorization": "Bearer {SECRET}"}}}}',
+        f"GET /v1/models?api_key={SECRET}&x=1",
+        f"the key {SECRET} is not valid",
+        "x-api-key: abcdef123456",
+    ],
+)
+def test_scrub_secrets(text: str) -> None:
+    scrubbed = scrub_secrets(text)
+    assert "[redacted]" in scrubbed and "SECRET0123" not in scrubbed and "abcdef123456" not in scrubbed
+    assert scrub_secrets('HTTP 500: can only concatenate str (not "list") to str') == (
+        'HTTP 500: can only concatenate str (not "list") to str'
+    )
+
+
+def test_finish_reason_and_temperature_override(llm: ScriptedLLM) -> None:
+    llm.script(
+        [{"text": "cut", "finish_reason": "length", "usage": {"prompt_tokens": 7, "completion_tokens": 3}}]
+    )
+    with make_client(llm.base_url, max_tokens=3) as client:
+        reply = client.complete([{"role": "user", "content": "x"}], temperature=0.6)
+    assert reply.finish_reason == "length" and reply.usage.prompt_tokens == 7
+    body = llm.requests()[0]["body"]
+    assert body["temperature"] == 0.6 and body["max_tokens"] == 3
+
+
+def test_an_unknown_model_is_a_configuration_error(llm: ScriptedLLM) -> None:
+    llm.script([{"status": 404, "error_message": "The model `qwen-7b` does not exist"}])
+    with make_client(llm.base_url, max_retries=2) as client, pytest.raises(ModelNotFound) as failure:
+        client.complete([{"role": "user", "content": "x"}])
+    assert "HTTP 404" in str(failure.value) and "does not exist" in str(failure.value)
+    assert len(llm.requests()) == 1

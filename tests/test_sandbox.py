@@ -144,8 +144,10 @@ def test_pose_tools_in_the_sandbox_match_shared_poses_about_the_scene_up() -> No
         "back": poses.move_backward(pose, 0.3, up=up),
         "around": poses.turn_around(pose, up=up),
     }
-    for name, matrix in expected.items():
-        np.testing.assert_allclose(np.array(json.loads(lines[name])), matrix, atol=1e-9, err_msg=name)
+    for name, matrix in expected.items():  # programs get 4x4 extrinsics; tools keep the shape given
+        returned = np.array(json.loads(lines[name]))
+        assert returned.shape == (4, 4), name
+        np.testing.assert_allclose(returned[:3], matrix, atol=1e-9, err_msg=name)
     assert lines["views"] == "3"
 
 
@@ -230,7 +232,7 @@ def test_restricted_numpy_covers_pose_arithmetic() -> None:
         "def program(input_scene):\n"
         "    recon = pySpatial.reconstruct(input_scene)\n"
         "    e = recon.extrinsics[2]\n"
-        "    R, t = e[:, :3], e[:, 3]\n"
+        "    R, t = e[:3, :3], e[:3, 3]\n"  # extrinsics are 4x4 [[R, t], [0, 0, 0, 1]]
         "    center = -R.T @ t\n"
         "    forward = R[2]\n"
         "    yaw = np.degrees(np.arctan2(forward[0], forward[2]))\n"
@@ -358,7 +360,8 @@ def test_unregistered_view_fails_clearly_in_the_pose_tools() -> None:
     assert not result.ok
     assert (
         result.error
-        == "program raised ValueError: extrinsic contains non-finite values (nan or inf) (line 4)"
+        == "program raised ValueError: pySpatial.rotate_left: extrinsic contains NaN: that view was not "
+        "registered by the reconstruction (see recon.registered), so it has no pose (line 4)"
     )
 
 

@@ -19,12 +19,19 @@ from typing import Any, Literal
 
 from pydantic import BaseModel
 
-from services.agent.llm import ChatClient, LLMError, ModelError, image_part, text_part
+from services.agent.llm import (
+    ChatClient,
+    LLMError,
+    ModelConfigurationError,
+    ModelError,
+    image_part,
+    text_part,
+)
 from services.agent.prompts import load_template
 from shared.choices import extract_letter, normalize_direction, normalize_turn, parse_options, turn_degrees
 from shared.question_intent import QuestionIntent, parse_question
 
-AnswerMethod = Literal["model_json", "model_text", "model_option_text", "offline_text", "none"]
+AnswerMethod = Literal["model_json", "model_text", "model_option_text", "offline_text", "text_model", "none"]
 DEFAULT_TEMPLATE = "answer_v1"
 IMAGES_ONLY_TEMPLATE = "answer_images_only_v1"
 VISION_MODEL_HINT = (
@@ -39,6 +46,17 @@ class AnswerResult(BaseModel):
     raw: str | None = None  # the model's reply, when a model answered
     method: AnswerMethod
     reason: str | None = None  # why there is no answer
+    prompt_tokens: int = 0  # spent by the answer model, when one was asked
+    completion_tokens: int = 0
+
+
+def _with_usage(result: AnswerResult, reply: Any) -> AnswerResult:
+    usage = getattr(reply, "usage", None)
+    if usage is None:
+        return result
+    return result.model_copy(
+        update={"prompt_tokens": usage.prompt_tokens or 0, "completion_tokens": usage.completion_tokens or 0}
+    )
 
 
 # ---- with a model --------------------------------------------------------------------------------
@@ -162,12 +180,51 @@ def answer_with_model(
     try:
         try:
             reply = client.complete(messages, response_format=answer_schema(sorted(options)))
+        except ModelConfigurationError:
+            raise  # a rejected key or a text-only server: the client must see it (502), not a null
         except ModelError:
             # Many local servers refuse json_schema (a 4xx); the prompt asks for JSON anyway.
             reply = client.complete(messages)
+    except ModelConfigurationError:
+        raise
     except LLMError as error:
         return AnswerResult(answer=None, method="none", reason=f"the answer model failed: {error}")
-    return read_model_answer(reply.text, options)
+    return _with_usage(read_model_answer(reply.text, options), reply)
+
+
+# ---- a text-only model, for text clues ------------------------------------------------------------
+
+TEXT_MODEL_NOTE = "Answered by a text-only model from the program's text output; it did not see the photos."
+
+
+def answer_text_clue_with_model(
+    client: ChatClient, question: str, program: str, clue_text: str, template_version: str = "answer_text_v1"
+) -> AnswerResult:
+    """A text model reads a text clue (camera motion, turns) and picks an option, saying so.
+
+    The model sees no images, so this is only for clues that are text. A model failure or a reply
+    naming no option gives answer=None with the reason; a rejected key is raised.
+    """
+    options = parse_options(question)
+    letters = sorted(options)
+    text = load_template(template_version).render(
+        question=question.strip(),
+        program=program.strip(),
+        clue_text=clue_text.strip(),
+        letters=", ".join(letters) if letters else "the options",
+    )
+    try:
+        reply = client.complete([{"role": "user", "content": text}])
+    except ModelConfigurationError:
+        raise
+    except LLMError as error:
+        return AnswerResult(answer=None, method="none", reason=f"the text model failed: {error}")
+    read = _with_usage(read_model_answer(reply.text, options), reply)
+    if read.answer is None:
+        return read
+    return read.model_copy(
+        update={"method": "text_model", "reasoning": f"{TEXT_MODEL_NOTE} {read.reasoning}"}
+    )
 
 
 def answer_from_images(
@@ -353,6 +410,7 @@ __all__ = [
     "answer_from_images",
     "answer_offline",
     "answer_schema",
+    "answer_text_clue_with_model",
     "answer_with_model",
     "build_answer_messages",
     "read_model_answer",

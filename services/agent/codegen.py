@@ -1,13 +1,27 @@
 """Ask the code model for a pySpatial program, and repair it when it fails.
 
-`generate_program` sends the codegen prompt (task, API, in-context examples, the photos, the
-question), pulls the program out of the reply and hands it to `execute` (the pipeline's validator +
-sandbox). When the reply has no program, or the program is rejected or fails, the model sees its own
-reply and the error and tries again, up to `max_repairs` more times. Every attempt is recorded.
+`generate_program` sends the codegen prompt (task, API, in-context examples, the photos unless the
+model is text-only, the question), takes the program out of the reply and hands it to `execute`
+(the pipeline's validator + sandbox). When the reply has no program, or the program is rejected or
+fails, the model sees its own reply and the error, with a hint where the error is a known mistake,
+and tries again, up to `max_repairs` more times. Every attempt is recorded.
+
+Taking the program out of a reply (all linear in the reply's length, and replies longer than
+`max_reply_chars` are refused unread, so a hostile or runaway reply cannot stall the service):
+  1. reply_blocks finds the fenced blocks in one pass; the python block that defines `program` is
+     chosen (one that parses before one that does not, a closed one before a cut-off one, then the
+     last), and helpers it calls that only another block defines are added;
+  2. program_cleanup drops top-level demo code (prints, stub classes, stand-in scenes), recording
+     what it dropped.
+
+Repairs that change something: a program identical to one that already failed (same syntax tree)
+is never run again; the model is told so, plainly; each repair raises the temperature; when the
+model repeats itself a second time the loop stops early.
 """
 
 from __future__ import annotations
 
+import ast
 import re
 import textwrap
 import time
@@ -17,18 +31,24 @@ from typing import Any, Literal, NamedTuple
 from pydantic import BaseModel, ConfigDict, Field
 
 from services.agent.example_choice import choose_examples
-from services.agent.llm import ChatClient, LLMError, image_part, text_part
+from services.agent.llm import ChatClient, ChatReply, LLMError, image_part, text_part
+from services.agent.program_cleanup import clean_program, program_fingerprint
 from services.agent.prompts import load_template
+from services.agent.reply_blocks import CodeBlock, code_blocks, defines_function, unfenced_function
 from shared.question_intent import QuestionIntent
 
-DEFAULT_TEMPLATE = "codegen_v1"
+DEFAULT_TEMPLATE = "codegen_v2"
+REPAIR_TEMPLATE = "repair_v2"
 MAX_EXAMPLES = 6  # the examples in the latest codegen_examples_v<N>.md
+DEFAULT_MAX_REPLY_CHARS = 60_000
+REPAIR_TEMPERATURE_STEP = 0.3  # added per repair, so a repair is not the same draw again
+MAX_TEMPERATURE = 1.0
+REPEATS_BEFORE_STOPPING = 2
 # An error longer than this is cut before going back to the model: the head says what went wrong.
 _MAX_ERROR_CHARS = 2000
+PROGRAM_NAME = "program"
 
-_FENCE = re.compile(r"```[ \t]*([A-Za-z0-9_+.-]*)[^\n]*\n(.*?)(?:```|\Z)", re.DOTALL)
-_PROGRAM_DEF = re.compile(r"^\s*def\s+program\s*\(", re.MULTILINE)
-_PYTHON_TAGS = {"", "python", "py", "python3"}
+Failure = Literal["no_program", "execution", "model", "repeated"]
 
 
 class ExecutionOutcome(NamedTuple):
@@ -37,12 +57,23 @@ class ExecutionOutcome(NamedTuple):
     ok: bool
     error: str | None
     payload: Any
+    error_kind: str | None = None  # rejected | exception | timeout | ... (the sandbox's kinds)
 
 
 class Attempt(BaseModel):
     program: str | None
     reply: str
     error: str | None
+    error_kind: str | None = Field(
+        None, description="no_program | too_long | repeated | the sandbox's kind (rejected, exception, ...)"
+    )
+    dropped: list[str] = Field(
+        default_factory=list, description="Top-level demo code removed from the reply."
+    )
+    temperature: float | None = None
+    finish_reason: str | None = None
+    prompt_tokens: int | None = None
+    completion_tokens: int | None = None
     latency_ms: float = Field(description="The model call, retries included.")
     execution_ms: float | None = Field(None, description="Validating and running the program, if it ran.")
 
@@ -55,27 +86,72 @@ class CodegenResult(BaseModel):
     payload: Any = None
     attempts: list[Attempt] = Field(default_factory=list)
     error: str | None = None
-    failure: Literal["no_program", "execution", "model"] | None = None
+    failure: Failure | None = None
+    model_error: LLMError | None = Field(None, exclude=True, description="The exception of failure='model'.")
+
+
+class ProgramChoice(NamedTuple):
+    source: str  # the chosen block (dedented), with helpers from other blocks prepended
+    blocks: int  # python blocks in the reply
+    helpers_from_other_blocks: list[str]
+
+
+def _parses(code: str) -> ast.Module | None:
+    try:
+        return ast.parse(code)
+    except (SyntaxError, ValueError, RecursionError, MemoryError):
+        return None
+
+
+def _missing_helpers(chosen: ast.Module, others: list[CodeBlock]) -> tuple[list[str], list[str]]:
+    """Top-level functions `chosen` calls but defines nowhere, taken from the reply's other blocks."""
+    defined = {node.name for node in chosen.body if isinstance(node, ast.FunctionDef)}
+    wanted = {node.id for node in ast.walk(chosen) if isinstance(node, ast.Name)} - defined
+    sources, names = [], []
+    for block in others:
+        tree = _parses(textwrap.dedent(block.code))
+        if tree is None:
+            continue
+        for node in tree.body:
+            if isinstance(node, ast.FunctionDef) and node.name in wanted and node.name != PROGRAM_NAME:
+                segment = ast.get_source_segment(textwrap.dedent(block.code), node)
+                if segment:
+                    sources.append(segment)
+                    names.append(node.name)
+                    wanted.discard(node.name)
+    return sources, names
+
+
+def find_program(reply_text: str) -> ProgramChoice | None:
+    """The program in a reply (see the module docstring), or None when it has none."""
+    text = reply_text or ""
+    blocks = [block for block in code_blocks(text) if block.is_python]
+    candidates = [block for block in blocks if defines_function(block.code, PROGRAM_NAME)]
+    if not candidates:
+        if blocks or "```" in text:
+            return None
+        bare = unfenced_function(text, PROGRAM_NAME)
+        return ProgramChoice(bare, 0, []) if bare else None
+    ranked = [
+        (_parses(textwrap.dedent(block.code)) is not None, block.closed, index)
+        for index, block in enumerate(candidates)
+    ]
+    best = max(range(len(candidates)), key=lambda index: ranked[index])
+    chosen = textwrap.dedent(candidates[best].code).strip("\n") + "\n"
+    tree = _parses(chosen)
+    helpers: list[str] = []
+    if tree is not None:
+        others = [block for block in blocks if block is not candidates[best]]
+        sources, helpers = _missing_helpers(tree, others)
+        if sources:
+            chosen = "\n\n".join([*sources, chosen.rstrip("\n")]) + "\n"
+    return ProgramChoice(chosen, len(blocks), helpers)
 
 
 def extract_program(reply_text: str) -> str | None:
-    """The last fenced python block (```python, ```py or no tag) that defines `program`; else None.
-
-    A reply cut off inside its last block still counts. With no fences at all, code starting at a
-    line `def program(` is taken as the program.
-    """
-    candidates = [
-        body
-        for tag, body in _FENCE.findall(reply_text or "")
-        if tag.lower() in _PYTHON_TAGS and _PROGRAM_DEF.search(body)
-    ]
-    if not candidates and "```" not in (reply_text or ""):
-        start = _PROGRAM_DEF.search(reply_text or "")
-        if start:
-            candidates = [reply_text[start.start() :]]
-    if not candidates:
-        return None
-    return textwrap.dedent(candidates[-1]).strip("\n") + "\n"
+    """The program's source as the reply gives it (before demo code is dropped), or None."""
+    choice = find_program(reply_text)
+    return choice.source if choice else None
 
 
 def _render_examples(count: int, intent: QuestionIntent | None = None) -> str:
@@ -101,49 +177,116 @@ def build_codegen_messages(
 ) -> list[dict[str, Any]]:
     """The chat messages of the first code request: one user message, text then the photos.
 
-    `attach_images=False` is for text-only code models: the prompt still says how many photos exist.
+    `attach_images=False` is for text-only code models: the prompt says how many photos exist and
+    that the model does not see them, and the message is one plain string.
     """
     template = load_template(template_version)
-    text = template.render(
-        examples=_render_examples(num_examples, intent),
-        num_images=len(images_png),
-        question=question.strip(),
+    count = len(images_png)
+    photos = (
+        f"There are {count} photo(s), shown below in order (image 1 first)."
+        if attach_images
+        else f"There are {count} photo(s). You do not see them: write the program from the question."
     )
+    candidates: dict[str, object] = {
+        "examples": _render_examples(num_examples, intent),
+        "num_images": count,
+        "photos": photos,
+        "question": question.strip(),
+    }
+    fields = {name: value for name, value in candidates.items() if name in template.fields}
+    text = template.render(**fields)
+    if not attach_images:
+        return [{"role": "user", "content": text}]
     content: list[dict[str, Any]] = [text_part(text)]
-    if attach_images:
-        for index, png in enumerate(images_png, start=1):
-            content.append(text_part(f"Image {index}:"))
-            content.append(image_part(png))
+    for index, png in enumerate(images_png, start=1):
+        content.append(text_part(f"Image {index}:"))
+        content.append(image_part(png))
     return [{"role": "user", "content": content}]
 
 
-def _repair_message(error: str | None) -> dict[str, Any]:
-    template = load_template("repair")
-    if error is None:
-        problem = "Your reply did not contain a program."
-        detail = "I need the code in a ```python block that defines `def program(input_scene):`."
-    else:
-        problem = "Your program failed."
-        detail = error if len(error) <= _MAX_ERROR_CHARS else error[:_MAX_ERROR_CHARS] + " [...]"
-        detail = f"Error:\n{detail}"
-    return {"role": "user", "content": template.render(problem=problem, detail=detail)}
+# ---- repair messages --------------------------------------------------------------------------------
+
+_SHAPE_ERROR = re.compile(
+    r"shapes \(\d|not aligned|matmul: Input operand|mismatch in its core dimension|could not be broadcast"
+)
+_HINTS: list[tuple[re.Pattern[str], str]] = [
+    (
+        _SHAPE_ERROR,
+        "Extrinsics are 4x4 camera-from-world matrices [[R, t], [0, 0, 0, 1]] (x_cam = R @ x_world + t; "
+        "camera x right, y down, z forward) and intrinsics are 3x3. A 3D point is a 3-vector: use "
+        "R @ p + t, or E @ [x, y, z, 1] with a homogeneous point. Helpers: pySpatial.camera_center(E) "
+        "(where a camera is), pySpatial.relative_pose(E1, E2), pySpatial.heading_angle(E1, E2) "
+        "(degrees turned, positive = right), pySpatial.distance_to_point(E, p).",
+    ),
+    (
+        re.compile(r"Last 2 dimensions of the array must be square|LinAlgError"),
+        "np.linalg.inv needs a square matrix: recon.extrinsics[i] is 4x4; for the pose of one view "
+        "relative to another call pySpatial.relative_pose(E1, E2).",
+    ),
+    (
+        re.compile(r"truth value of an array with more than one element is ambiguous"),
+        "Comparing arrays gives an array: use np.allclose(a, b), or reduce with np.all(...) / np.any(...).",
+    ),
+    (
+        re.compile(r"'Image' object is not (?:iterable|subscriptable)|Image' object has no attribute"),
+        "pySpatial.synthesize_novel_view returns an image handle: the program cannot look inside it. "
+        "Return the image (or a list of images) as the clue; another model looks at it.",
+    ),
+    (
+        re.compile(r"typed (?:it|in) itself|not evidence"),
+        "Do not decide the answer in the program. Return what the tools produce: the sentence of "
+        "pySpatial.describe_camera_motion(recon), or views rendered with pySpatial.synthesize_novel_view.",
+    ),
+]
+
+
+def repair_hints(error: str) -> list[str]:
+    """Advice for mistakes code models are known to make, matched on the error text."""
+    return [hint for pattern, hint in _HINTS if pattern.search(error)]
+
+
+def _cut(error: str) -> str:
+    return error if len(error) <= _MAX_ERROR_CHARS else error[:_MAX_ERROR_CHARS] + " [...]"
+
+
+def _repair_message(problem: str, detail: str, advice: list[str]) -> dict[str, Any]:
+    template = load_template(REPAIR_TEMPLATE)
+    hints = "\n".join(f"- {line}" for line in advice) if advice else "- Fix the cause of the error."
+    return {"role": "user", "content": template.render(problem=problem, detail=detail, hints=hints)}
+
+
+def _no_program_message(reply: ChatReply) -> dict[str, Any]:
+    detail = "I need the code in a ```python block that defines `def program(input_scene):`."
+    advice = []
+    if reply.finish_reason == "length":
+        advice.append("Your reply was cut off at the length limit: skip the explanation, send only the code.")
+    return _repair_message("Your reply did not contain a program.", detail, advice)
+
+
+# ---- the loop -----------------------------------------------------------------------------------
+
+
+def _repair_temperature(base: float, repair: int, repeats: int) -> float:
+    return min(MAX_TEMPERATURE, base + REPAIR_TEMPERATURE_STEP * (repair + repeats))
 
 
 def generate_program(
     client: ChatClient,
     question: str,
     images_png: list[bytes],
-    execute: Callable[[str], ExecutionOutcome | tuple[bool, str | None, Any]],
+    execute: Callable[[str], ExecutionOutcome | tuple],
     max_repairs: int = 2,
     num_examples: int = 2,
     template_version: str = DEFAULT_TEMPLATE,
     attach_images: bool = True,
     intent: QuestionIntent | None = None,
+    max_reply_chars: int = DEFAULT_MAX_REPLY_CHARS,
 ) -> CodegenResult:
     """Generate, run and repair a program; see the module docstring.
 
-    Model failures (ModelUnavailable / ModelError) end the loop with `failure="model"` and the
-    attempts made so far, so the caller can fall back (e.g. to the offline planner).
+    Model failures (ModelUnavailable / ModelError) end the loop with `failure="model"`, the
+    exception in `model_error` and the attempts made so far, so the caller can decide (fall back to
+    the offline planner, or report a configuration error to the client).
     """
     if max_repairs < 0:
         raise ValueError(f"max_repairs must be >= 0, got {max_repairs}")
@@ -151,29 +294,99 @@ def generate_program(
         question, images_png, num_examples, template_version, attach_images, intent=intent
     )
     attempts: list[Attempt] = []
+    failed: dict[str, tuple[int, str]] = {}  # program fingerprint -> (attempt number, its error)
+    replies_without_program: set[str] = set()
+    repeats = 0
     last_error = "no attempt made"
-    failure: Literal["no_program", "execution", "model"] = "no_program"
-    for _ in range(max_repairs + 1):
+    failure: Failure = "no_program"
+    base_temperature = client.config.temperature
+    for number in range(1, max_repairs + 2):
+        temperature = None if number == 1 else _repair_temperature(base_temperature, number - 1, repeats)
         try:
-            reply = client.complete(messages)
+            reply = client.complete(messages, temperature=temperature)
         except LLMError as model_error:
-            return CodegenResult(ok=False, attempts=attempts, error=str(model_error), failure="model")
-        program = extract_program(reply.text)
-        attempt = Attempt(program=program, reply=reply.text, error=None, latency_ms=reply.latency_ms)
+            return CodegenResult(
+                ok=False, attempts=attempts, error=str(model_error), failure="model", model_error=model_error
+            )
+        attempt = Attempt(
+            program=None,
+            reply=reply.text,
+            error=None,
+            temperature=base_temperature if temperature is None else temperature,
+            finish_reason=reply.finish_reason,
+            prompt_tokens=reply.usage.prompt_tokens if reply.usage else None,
+            completion_tokens=reply.usage.completion_tokens if reply.usage else None,
+            latency_ms=reply.latency_ms,
+        )
         attempts.append(attempt)
-        if program is None:
-            attempt.error = last_error = "the reply contained no ```python block defining program()"
-            failure = "no_program"
-            feedback = None
+        follow_up: dict[str, Any]
+        if len(reply.text) > max_reply_chars:
+            attempt.reply = reply.text[:2000] + f"\n[... {len(reply.text) - 2000} more characters not kept]"
+            attempt.error = last_error = (
+                f"the reply is {len(reply.text)} characters long; replies over {max_reply_chars} are not read"
+            )
+            attempt.error_kind, failure = "too_long", "no_program"
+            follow_up = _repair_message(
+                "Your reply was far too long and was not read.",
+                f"It had {len(reply.text)} characters; the limit is {max_reply_chars}.",
+                [
+                    "Send only the program: one short ```python block defining `def program(input_scene):`."
+                ],
+            )
+            reply_for_history = attempt.reply
         else:
-            started = time.perf_counter()
-            ok, error, payload = execute(program)
-            attempt.execution_ms = (time.perf_counter() - started) * 1000.0
-            if ok:
-                return CodegenResult(ok=True, program=program, payload=payload, attempts=attempts)
-            attempt.error = last_error = feedback = error or "the program failed without an error message"
-            failure = "execution"
-        messages = [*messages, {"role": "assistant", "content": reply.text}, _repair_message(feedback)]
+            reply_for_history = reply.text
+            choice = find_program(reply.text)
+            if choice is None:
+                attempt.error = last_error = "the reply contained no ```python block defining program()"
+                attempt.error_kind, failure = "no_program", "no_program"
+                said = " ".join(reply.text.split())
+                if said in replies_without_program:
+                    repeats += 1  # the same prose again: the model is going in circles
+                    if repeats >= REPEATS_BEFORE_STOPPING:
+                        break
+                replies_without_program.add(said)
+                follow_up = _no_program_message(reply)
+            else:
+                cleaned = clean_program(choice.source)
+                attempt.program, attempt.dropped = cleaned.source, cleaned.dropped
+                fingerprint = program_fingerprint(cleaned.source)
+                if fingerprint in failed:
+                    earlier, earlier_error = failed[fingerprint]
+                    repeats += 1
+                    attempt.error = last_error = (
+                        f"the same program as attempt {earlier}, which failed: {_cut(earlier_error)} "
+                        "(not run again)"
+                    )
+                    attempt.error_kind, failure = "repeated", "repeated"
+                    if repeats >= REPEATS_BEFORE_STOPPING:
+                        break  # the model keeps sending it: more rounds would only cost time
+                    follow_up = _repair_message(
+                        f"You sent the same program as before (attempt {earlier}); it was not run again.",
+                        f"It fails with:\n{_cut(earlier_error)}",
+                        [
+                            "Change the code that raises the error; do not send the same program.",
+                            *repair_hints(earlier_error),
+                        ],
+                    )
+                else:
+                    started = time.perf_counter()
+                    outcome = execute(cleaned.source)
+                    attempt.execution_ms = (time.perf_counter() - started) * 1000.0
+                    ok, error, payload = outcome[0], outcome[1], outcome[2]
+                    if ok:
+                        return CodegenResult(
+                            ok=True, program=cleaned.source, payload=payload, attempts=attempts
+                        )
+                    error = error or "the program failed without an error message"
+                    attempt.error = last_error = error
+                    attempt.error_kind = outcome[3] if len(outcome) > 3 and outcome[3] else "execution"
+                    failure = "execution"
+                    failed[fingerprint] = (number, error)
+                    follow_up = _repair_message(
+                        "Your program failed.", f"Error:\n{_cut(error)}", repair_hints(error)
+                    )
+        messages = [*messages, {"role": "assistant", "content": reply_for_history}, follow_up]
     return CodegenResult(
         ok=False,
         attempts=attempts,
@@ -186,7 +399,10 @@ __all__ = [
     "Attempt",
     "CodegenResult",
     "ExecutionOutcome",
+    "ProgramChoice",
     "build_codegen_messages",
     "extract_program",
+    "find_program",
     "generate_program",
+    "repair_hints",
 ]

@@ -2,8 +2,16 @@
 
 The `openai` package does the HTTP; retries are ours (the package's own are switched off) so that
 every attempt is counted, Retry-After is honoured, and the final error names the endpoint, the
-model and the reason. Retried: 429, 5xx, timeouts and connection failures. Not retried: other 4xx,
-which mean the request itself is wrong and would fail again.
+model and the reason. Retried: 408, 429, 5xx that look transient, timeouts and connection failures.
+Not retried: other 4xx, and 5xx whose message says the request itself cannot work (a server that
+cannot take content parts, a Python exception text, an exceeded context) — they fail again.
+
+Endpoints as they are: a text-only model (`text_only=True`) gets every message as one plain string
+and no images; a server that answers list content with an error saying so (llama.cpp's GGUF chat
+templates: `can only concatenate str (not "list") to str`) is reported as `ContentPartsRefused`,
+which names the setting to turn on. A rejected key (401/403) is `ModelAuthError`. Every error text
+is scrubbed of the key and of anything that looks like a credential before it leaves this module
+(servers echo the Authorization header back in their errors).
 """
 
 from __future__ import annotations
@@ -11,6 +19,7 @@ from __future__ import annotations
 import base64
 import email.utils
 import random
+import re
 import time
 from collections.abc import Callable
 from typing import Any
@@ -34,6 +43,25 @@ class ModelError(LLMError):
     """The endpoint refused the request (4xx other than 429) or replied with something unusable."""
 
 
+class ModelConfigurationError(ModelError):
+    """The model cannot work as configured (key, content format): the operator must fix a setting.
+
+    Unlike a transient failure this is never hidden behind a fallback: the client sees it.
+    """
+
+
+class ModelAuthError(ModelConfigurationError):
+    """The endpoint rejected the API key (HTTP 401 or 403)."""
+
+
+class ModelNotFound(ModelConfigurationError):
+    """The endpoint does not serve the configured model, or the base URL is not an API root (404)."""
+
+
+class ContentPartsRefused(ModelConfigurationError):
+    """The server cannot take list content (text + image parts): the model must be set text-only."""
+
+
 class ChatModelConfig(BaseModel):
     base_url: str = Field(description="OpenAI-compatible API root, e.g. http://127.0.0.1:8000/v1")
     model: str
@@ -41,7 +69,14 @@ class ChatModelConfig(BaseModel):
     timeout_s: float = Field(60.0, gt=0)
     max_retries: int = Field(3, ge=0, description="Extra attempts after the first one.")
     temperature: float = Field(0.0, ge=0.0, le=2.0)
-    max_tokens: int | None = Field(None, ge=1)
+    max_tokens: int | None = Field(None, ge=1, description="Longest reply; None leaves it to the server.")
+    text_only: bool = Field(
+        False, description="Send every message as one plain string and no images (text-only models)."
+    )
+    text_only_hint: str = Field(
+        "configure this model as text-only",
+        description="What the operator should do when the server refuses content parts.",
+    )
     backoff_base_s: float = Field(0.5, ge=0.0, description="First backoff; doubles each retry.")
     backoff_max_s: float = Field(20.0, ge=0.0, description="Longest backoff between two attempts.")
     max_retry_after_s: float = Field(60.0, ge=0.0, description="Longest Retry-After we are willing to wait.")
@@ -61,6 +96,7 @@ class ChatReply(BaseModel):
     text: str
     model: str
     usage: TokenUsage | None = None
+    finish_reason: str | None = Field(None, description="'length' when max_tokens cut the reply.")
     latency_ms: float = Field(description="Wall time of the whole call, retries and waits included.")
     attempts: int
 
@@ -73,6 +109,75 @@ def image_part(png_bytes: bytes, mime_type: str = "image/png") -> dict[str, Any]
     """An image content part carrying the bytes inline as a base64 data URL."""
     encoded = base64.b64encode(png_bytes).decode("ascii")
     return {"type": "image_url", "image_url": {"url": f"data:{mime_type};base64,{encoded}"}}
+
+
+# Where a server says it cannot take a list of content parts (llama.cpp GGUF templates, vLLM and
+# TGI text-only chat templates, OpenAI-style validators).
+_CONTENT_PARTS_REFUSED = re.compile(
+    r"can only concatenate str \(not \"list\"\)|"
+    r"(?:content|message)s?\b[^.\n]{0,40}\bmust be (?:a )?str|"
+    r"expected (?:a )?str(?:ing)?[^.\n]{0,20}(?:got|not) (?:a )?(?:list|array|sequence)|"
+    r"invalid type: sequence, expected a string|"
+    r"(?:image|multimodal|vision)[^.\n]{0,40}(?:not supported|unsupported|not enabled)|"
+    r"does not support (?:image|multimodal|vision)|"
+    r"unsupported content (?:part|type)",
+    re.IGNORECASE,
+)
+# 5xx texts that say the request itself cannot work: the same request fails the same way again.
+_DETERMINISTIC_SERVER_ERROR = re.compile(
+    r"\b(?:TypeError|KeyError|ValueError|AttributeError|IndexError|NotImplementedError)\b|"
+    r"context (?:length|window|size)|maximum context|too many tokens|exceeds? the (?:model|maximum)|"
+    r"not implemented|unsupported|not supported|invalid (?:request|argument|parameter)|"
+    r"chat template|jinja",
+    re.IGNORECASE,
+)
+_TRANSIENT_STATUSES = {408, 429, 502, 503, 504}
+
+# Credentials a server may echo back in an error (header echoes, query strings, provider key shapes).
+_SECRET_PATTERNS = (
+    re.compile(r"(?i)(authorization[\"']?\s*[:=]\s*[\"']?)(?:bearer|basic|token)?\s*[^\s\"',;}]+"),
+    re.compile(r"(?i)\b(bearer\s+)[A-Za-z0-9._~+/=-]{6,}"),
+    re.compile(
+        r"(?i)((?:api[_-]?key|x-api-key|access[_-]?token|secret|password)[\"']?\s*[:=]\s*[\"']?)[^\s\"',;&}]+"
+    ),
+    re.compile(r"\b(?:sk|rk|pk)-[A-Za-z0-9_-]{12,}"),
+    re.compile(r"\bhf_[A-Za-z0-9]{20,}"),
+)
+REDACTED = "[redacted]"
+
+
+def scrub_secrets(text: str, secrets: list[str] | tuple[str, ...] = ()) -> str:
+    """`text` with the given secret values and anything shaped like a credential replaced."""
+    for secret in secrets:
+        if secret and len(secret) >= 4:
+            text = text.replace(secret, REDACTED)
+    for pattern in _SECRET_PATTERNS:
+        text = pattern.sub(lambda match: (match.group(1) if match.groups() else "") + REDACTED, text)
+    return text
+
+
+def plain_text_content(content: Any) -> str:
+    """One string from a message's content: text parts joined, image parts named, never sent."""
+    if isinstance(content, str):
+        return content
+    pieces = []
+    for part in content or []:
+        if isinstance(part, dict) and part.get("type") == "text":
+            pieces.append(str(part.get("text", "")))
+        elif isinstance(part, dict):
+            pieces.append("[an image was left out: this model reads text only]")
+        else:
+            pieces.append(str(part))
+    return "\n".join(pieces)
+
+
+def as_text_only(messages: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The messages with every content a plain string (what text-only chat templates accept)."""
+    return [{**message, "content": plain_text_content(message.get("content"))} for message in messages]
+
+
+def _has_content_parts(messages: list[dict[str, Any]]) -> bool:
+    return any(isinstance(message.get("content"), list) for message in messages)
 
 
 def _retry_after_s(error: openai.APIStatusError) -> float | None:
@@ -112,6 +217,7 @@ class ChatClient:
         self.config = config
         self._sleep = sleep
         api_key = config.api_key.get_secret_value() if config.api_key else _PLACEHOLDER_KEY
+        self._secrets = (api_key,) if config.api_key else ()
         self._client = openai.OpenAI(
             base_url=config.base_url, api_key=api_key, timeout=config.timeout_s, max_retries=0
         )
@@ -130,12 +236,24 @@ class ChatClient:
         ceiling = min(self.config.backoff_max_s, self.config.backoff_base_s * 2 ** (attempt - 1))
         return ceiling * (0.5 + 0.5 * random.random())
 
+    def scrub(self, text: str) -> str:
+        """`text` without this client's key or anything shaped like a credential."""
+        return scrub_secrets(text, self._secrets)
+
     def complete(
-        self, messages: list[dict[str, Any]], response_format: dict[str, Any] | None = None
+        self,
+        messages: list[dict[str, Any]],
+        response_format: dict[str, Any] | None = None,
+        temperature: float | None = None,
     ) -> ChatReply:
-        """One chat completion. Raises ModelUnavailable or ModelError (see the module docstring)."""
+        """One chat completion. Raises ModelUnavailable or ModelError (see the module docstring).
+
+        `temperature` overrides the configured one for this call (repairs raise it).
+        """
         config = self.config
-        options: dict[str, Any] = {"temperature": config.temperature}
+        if config.text_only:
+            messages = as_text_only(messages)
+        options: dict[str, Any] = {"temperature": config.temperature if temperature is None else temperature}
         if config.max_tokens is not None:
             options["max_tokens"] = config.max_tokens
         if response_format is not None:
@@ -152,17 +270,16 @@ class ChatClient:
             except openai.APITimeoutError:
                 last_reason = f"timed out after {config.timeout_s:g}s"
             except openai.APIConnectionError as error:
-                last_reason = f"connection failed ({error.__cause__ or error.message})"
+                last_reason = self.scrub(f"connection failed ({error.__cause__ or error.message})")
             except openai.APIStatusError as error:
-                last_reason = _status_detail(error)
-                if error.status_code != 429 and error.status_code < 500:
-                    raise ModelError(f"{config.label} refused the request: {last_reason}") from error
+                last_reason = self.scrub(_status_detail(error))
+                self._raise_if_final(error, last_reason, _has_content_parts(messages))
                 wait_s = _retry_after_s(error)
                 if wait_s is not None and wait_s > config.max_retry_after_s:
                     raise ModelUnavailable(
                         f"{config.label} asked us to retry after {wait_s:.0f}s, more than the "
                         f"{config.max_retry_after_s:g}s we wait: {last_reason}"
-                    ) from error
+                    ) from None
             else:
                 return self._reply(completion, started, attempt)
             if attempt == total_attempts:
@@ -171,6 +288,35 @@ class ChatClient:
             delay = wait_s * (1.0 + 0.1 * random.random()) if wait_s is not None else self._backoff_s(attempt)
             self._sleep(delay)
         raise ModelUnavailable(f"{config.label} failed after {total_attempts} attempt(s): {last_reason}")
+
+    def _raise_if_final(self, error: openai.APIStatusError, reason: str, sent_parts: bool) -> None:
+        """Raise the right ModelError when retrying cannot help; return for transient failures.
+
+        `from None`: the openai exception carries the raw response (and our request headers).
+        """
+        label, status = self.config.label, error.status_code
+        if status in (401, 403):
+            raise ModelAuthError(
+                f"{label} rejected the API key (HTTP {status}); check the model's API key setting: {reason}"
+            ) from None
+        if status == 404:
+            raise ModelNotFound(
+                f"{label} answered HTTP 404: the model name or the base URL (the API root, usually "
+                f"ending in /v1) is wrong: {reason}"
+            ) from None
+        if sent_parts and _CONTENT_PARTS_REFUSED.search(reason):
+            raise ContentPartsRefused(
+                f"{label} cannot take messages made of content parts (text + images) and answered "
+                f"{reason!r}; it takes plain text only: {self.config.text_only_hint}"
+            ) from None
+        if status in _TRANSIENT_STATUSES:
+            return
+        if status < 500:
+            raise ModelError(f"{label} refused the request: {reason}") from None
+        if status == 501 or _DETERMINISTIC_SERVER_ERROR.search(reason):
+            raise ModelError(
+                f"{label} failed on this request in a way a retry would repeat (not retried): {reason}"
+            ) from None
 
     def _reply(self, completion: Any, started: float, attempts: int) -> ChatReply:
         if not completion.choices:
@@ -192,6 +338,7 @@ class ChatClient:
             text=text,
             model=completion.model or self.config.model,
             usage=usage,
+            finish_reason=completion.choices[0].finish_reason,
             latency_ms=(time.perf_counter() - started) * 1000.0,
             attempts=attempts,
         )
@@ -201,10 +348,17 @@ __all__ = [
     "ChatClient",
     "ChatModelConfig",
     "ChatReply",
+    "ContentPartsRefused",
     "LLMError",
+    "ModelAuthError",
+    "ModelConfigurationError",
     "ModelError",
+    "ModelNotFound",
     "ModelUnavailable",
     "TokenUsage",
+    "as_text_only",
     "image_part",
+    "plain_text_content",
+    "scrub_secrets",
     "text_part",
 ]

@@ -12,18 +12,26 @@ from dataclasses import dataclass, field
 import numpy as np
 from PIL import Image
 
-from services.agent.answering import AnswerResult, answer_from_images, answer_offline, answer_with_model
+from services.agent.answering import (
+    VISION_MODEL_HINT,
+    AnswerResult,
+    answer_from_images,
+    answer_offline,
+    answer_text_clue_with_model,
+    answer_with_model,
+)
 from services.agent.clue_views import clue_views
 from services.agent.codegen import ExecutionOutcome, generate_program
+from services.agent.evidence import typed_in_lines
 from services.agent.infrastructure import FailureRecordingClient, InfrastructureFailure, gateway_status
-from services.agent.llm import ChatClient, ChatModelConfig
+from services.agent.llm import ChatClient, ChatModelConfig, ModelConfigurationError
 from services.agent.planner import PlanningError, UnplannableQuestion, plan_intent
 from services.agent.recon_tools import ReconToolProvider
 from services.agent.sandbox import ExecutionResult, SandboxLimits, run_program
 from shared.client import ReconClient, ServiceError
 from shared.imaging import decode_image, encode_image
 from shared.question_intent import QuestionIntent, parse_question
-from shared.schemas import AttemptRecord, Clue, SolveResponse, SolveTimings
+from shared.schemas import AttemptRecord, Clue, SolveResponse, SolveTimings, TokenCounts
 from shared.settings import AgentSettings
 
 log = logging.getLogger("pyspatial.agent")
@@ -78,17 +86,28 @@ class _Stage:
     runs: list[ExecutionResult] = field(default_factory=list)
 
 
-def _model_config(
-    base_url: str | None, model: str | None, key, settings: AgentSettings
-) -> ChatModelConfig | None:
+def _model_config(settings: AgentSettings, role: str) -> ChatModelConfig | None:
+    """The chat model of `role` ("code" or "answer") from PYSPATIAL_<ROLE>_MODEL_* settings."""
+    model = getattr(settings, f"{role}_model")
     if not model:
         return None
     return ChatModelConfig(
-        base_url=base_url or "https://api.openai.com/v1",
+        base_url=getattr(settings, f"{role}_model_base_url") or "https://api.openai.com/v1",
         model=model,
-        api_key=key,
+        api_key=getattr(settings, f"{role}_model_api_key"),
         timeout_s=settings.model_timeout_s,
         max_retries=settings.model_max_retries,
+        max_tokens=getattr(settings, f"{role}_model_max_tokens"),
+        text_only=getattr(settings, f"{role}_model_text_only"),
+        text_only_hint=f"set PYSPATIAL_{role.upper()}_MODEL_TEXT_ONLY=true",
+    )
+
+
+def not_evidence_error(clue_text: str, notes: list[str]) -> str:
+    """The repair message for a program whose whole output it typed in itself."""
+    return (
+        f"the program returned text it typed in itself ({clue_text.strip()[:160]!r}), which is not "
+        "evidence: " + " ".join(notes[:2])
     )
 
 
@@ -97,12 +116,8 @@ class SolvePipeline:
         self.settings = settings
         recon_key = settings.recon_api_key.get_secret_value() if settings.recon_api_key else None
         self.recon = ReconClient(settings.recon_url, timeout=settings.recon_timeout_s, api_key=recon_key)
-        code = _model_config(
-            settings.code_model_base_url, settings.code_model, settings.code_model_api_key, settings
-        )
-        answer = _model_config(
-            settings.answer_model_base_url, settings.answer_model, settings.answer_model_api_key, settings
-        )
+        code = _model_config(settings, "code")
+        answer = _model_config(settings, "answer")
         self.code_client = ChatClient(code) if code else None
         self.answer_client = ChatClient(answer) if answer else None
         self.limits = SandboxLimits(
@@ -184,7 +199,7 @@ class SolvePipeline:
         stage = _Stage()
         attempts_so_far: list[AttemptRecord] = []
 
-        def execute(source: str) -> ExecutionOutcome:
+        def execute(source: str, written_by_model: bool = True) -> ExecutionOutcome:
             attempt = len(stage.runs) + 1
             report("program", "done", f"attempt {attempt} written")
             report("execution", "started", f"running attempt {attempt} in the sandbox")
@@ -193,7 +208,6 @@ class SolvePipeline:
             stage.execution_s += time.perf_counter() - run_started
             stage.last = result
             stage.runs.append(result)
-            report("execution", "done" if result.ok else "failed", result.error or f"attempt {attempt} ran")
             latency_ms = round((time.perf_counter() - run_started) * 1e3, 2)
             attempts_so_far.append(AttemptRecord(program=source, error=result.error, latency_ms=latency_ms))
             failure = recon_of_this_solve.failure
@@ -203,14 +217,24 @@ class SolvePipeline:
                     f"the reconstruction service failed while the program ran: {failure}",
                     attempts_so_far,
                 )
+            outcome = ExecutionOutcome(
+                ok=result.ok, error=result.error, payload=result, error_kind=result.error_kind
+            )
+            if result.ok and written_by_model and result.clue_text and not result.clue_images:
+                kept, typed = typed_in_lines(result.clue_text, source, question)
+                if kept is None:  # all it returned is its own words: ask for tool output instead
+                    outcome = ExecutionOutcome(
+                        False, not_evidence_error(result.clue_text, typed), result, "not_evidence"
+                    )
+            report("execution", "done" if outcome.ok else "failed", outcome.error or f"attempt {attempt} ran")
             repairs = self.settings.max_repairs if max_repairs is None else max_repairs
-            if not result.ok and self.code_client is not None and attempt <= repairs:
+            if not outcome.ok and self.code_client is not None and attempt <= repairs:
                 report("program", "started", f"asking {self.code_model_name} to repair attempt {attempt}")
-            return ExecutionOutcome(ok=result.ok, error=result.error, payload=result)
+            return outcome
 
         report("program", "started", f"writing a program with {self.code_model_name}")
         codegen_started = time.perf_counter()
-        attempts, program, code_model, unplannable = self._generate(
+        attempts, program, code_model, unplannable, fallback = self._generate(
             question, intent, input_pngs, execute, max_repairs
         )
         codegen_ms = (time.perf_counter() - codegen_started - stage.execution_s) * 1e3
@@ -234,9 +258,14 @@ class SolvePipeline:
                     execution_ms=stage.execution_s * 1e3,
                     attempts=attempts,
                     code_model=code_model,
+                    code_model_fallback=fallback,
                     report=report,
                 )
         notes = coverage_notes(result.clue_images) if result is not None and result.ok else []
+        clue_text = result.clue_text if result is not None else None
+        if result is not None and result.ok and fallback is None and self.code_client is not None:
+            clue_text, typed = typed_in_lines(clue_text, program, question)  # evidence, not assertions
+            notes = [*notes, *typed]
         answer_started = time.perf_counter()
         report("answer", "started", f"answering with {self.answer_model_name}")
         if result is None or not result.ok:
@@ -248,13 +277,18 @@ class SolvePipeline:
                 reason=f"no program ran successfully: {failure}; answering from the photos alone needs an "
                 "answer model (PYSPATIAL_ANSWER_MODEL)",
             )
-        elif self.answer_client is not None:
-            clue_text = "\n".join(filter(None, [result.clue_text, *notes])) or None
-            answer = answer_with_model(
-                self.answer_client, question, input_pngs, program, clue_text, result.clue_images
-            )
+            answer_model = self.answer_model_name
         else:
-            answer = answer_offline(question, result.clue_text, result.clue_images, intent)
+            answer, answer_model = self._answer(
+                question,
+                intent,
+                input_pngs,
+                program,
+                result,
+                clue_text,
+                notes,
+                code_model_failed=fallback is not None,
+            )
         answering_ms = (time.perf_counter() - answer_started) * 1e3
         report("answer", "done" if answer.answer else "failed", answer.answer or answer.reason or "")
 
@@ -276,7 +310,15 @@ class SolvePipeline:
             scene_id=scene_id,
             backbone=summary.backbone,
             code_model=code_model,
-            answer_model=self.answer_model_name,
+            code_model_fallback=fallback,
+            answer_model=answer_model,
+            answer_method=answer.method if answer.answer is not None else None,
+            tokens=TokenCounts(
+                code_prompt=sum(a.prompt_tokens or 0 for a in attempts),
+                code_completion=sum(a.completion_tokens or 0 for a in attempts),
+                answer_prompt=answer.prompt_tokens,
+                answer_completion=answer.completion_tokens,
+            ),
             intent=intent,
             timings=SolveTimings(
                 reconstruction_ms=round(reconstruction_ms, 2),
@@ -286,6 +328,45 @@ class SolvePipeline:
                 total_ms=round((time.perf_counter() - started) * 1e3, 2),
             ),
         )
+
+    def _answer(
+        self,
+        question: str,
+        intent: QuestionIntent,
+        input_pngs: list[bytes],
+        program: str,
+        result: ExecutionResult,
+        clue_text: str | None,
+        notes: list[str],
+        code_model_failed: bool = False,
+    ) -> tuple[AnswerResult, str]:
+        """The answer to a clue that ran, and the name of what gave it (vision model, text model, offline)."""
+        client, text_only = self.answer_client, self.settings.answer_model_text_only
+        if client is not None and not text_only:
+            full_text = "\n".join(filter(None, [clue_text, *notes])) or None
+            answer = answer_with_model(client, question, input_pngs, program, full_text, result.clue_images)
+            return answer, self.answer_model_name
+        if client is not None:  # a text-only answer model: it reads text clues and nothing else
+            if clue_text:
+                answer = answer_text_clue_with_model(client, question, program, clue_text)
+                return answer, f"{self.answer_model_name} (text only)"
+            count = len(result.clue_images)
+            reason = (
+                f"the answer model {self.answer_model_name!r} is text-only and the clue is {count} rendered "
+                f"view(s): {VISION_MODEL_HINT}"
+            )
+            return AnswerResult(answer=None, method="none", reason=reason), self.answer_model_name
+        offline = answer_offline(question, clue_text, result.clue_images, intent)
+        if offline.answer is not None or not clue_text or self.code_client is None or code_model_failed:
+            return offline, OFFLINE_ANSWERER
+        # Only a (text) code model is configured and the offline rules could not read the text clue.
+        answer = answer_text_clue_with_model(self.code_client, question, program, clue_text)
+        if answer.answer is None:
+            reason = (
+                f"{offline.reason}; the text model {self.code_model_name!r} gave none either: {answer.reason}"
+            )
+            return answer.model_copy(update={"reason": reason}), OFFLINE_ANSWERER
+        return answer, f"{self.code_model_name} (text only)"
 
     def _scene(self, image_files: list[bytes] | None, scene_id: str | None) -> tuple[str, list[bytes]]:
         """Upload the images (or look up the scene) and prepare PNGs for the models."""
@@ -329,6 +410,7 @@ class SolvePipeline:
         execution_ms: float = 0.0,
         attempts: list[AttemptRecord] | None = None,
         code_model: str | None = None,
+        code_model_fallback: str | None = None,
         report: ProgressCallback | None = None,
     ) -> SolveResponse:
         """No program ran: the answer model answers from the photos alone (as the paper's code does),
@@ -359,7 +441,9 @@ class SolvePipeline:
             scene_id=scene_id,
             backbone=backbone,
             code_model=code_model or self.code_model_name,
+            code_model_fallback=code_model_fallback,
             answer_model=self.answer_model_name,
+            answer_method=answer.method if answer.answer is not None else None,
             fallback=fallback,
             fallback_reason=why,
             intent=intent,
@@ -385,13 +469,13 @@ class SolvePipeline:
 
     def _generate(
         self, question: str, intent: QuestionIntent, input_pngs: list[bytes], execute, max_repairs: int | None
-    ) -> tuple[list[AttemptRecord], str | None, str, str | None]:
-        """The attempts, the program that ran (or None), the name of what wrote it, and why the
-        offline planner wrote none (None when it did or was not asked)."""
+    ) -> tuple[list[AttemptRecord], str | None, str, str | None, str | None]:
+        """The attempts, the program that ran (or None), the name of what wrote it, why the offline
+        planner wrote none (None when it did or was not asked), and why a fallback wrote it."""
         repairs = self.settings.max_repairs if max_repairs is None else max_repairs
         if self.code_client is None:
             attempts, program, unplannable = self._plan_offline(intent, len(input_pngs), execute)
-            return attempts, program, OFFLINE_PLANNER, unplannable
+            return attempts, program, OFFLINE_PLANNER, unplannable, None
         generated = generate_program(
             self.code_client,
             question,
@@ -400,14 +484,30 @@ class SolvePipeline:
             max_repairs=repairs,
             num_examples=self.settings.num_examples,
             intent=intent,
+            attach_images=not self.settings.code_model_text_only,
+            max_reply_chars=self.settings.max_reply_chars,
         )
         attempts = [
-            AttemptRecord(program=a.program, error=a.error, reply=a.reply, latency_ms=round(a.latency_ms, 2))
+            AttemptRecord(
+                program=a.program,
+                error=a.error,
+                reply=a.reply,
+                latency_ms=round(a.latency_ms, 2),
+                error_kind=a.error_kind,
+                dropped=a.dropped,
+                temperature=a.temperature,
+                prompt_tokens=a.prompt_tokens,
+                completion_tokens=a.completion_tokens,
+            )
             for a in generated.attempts
         ]
         if generated.failure == "model":
+            if isinstance(generated.model_error, ModelConfigurationError):
+                # A rejected key or a server that cannot take our messages: an operator must fix a
+                # setting, and a fallback would hide that. The client gets a 502 saying what to fix.
+                raise generated.model_error
             # The model could not be reached even after retries: the planner still gives an honest
-            # result, and the response says who wrote the program.
+            # result, and the response says who wrote the program and why.
             log.warning("code model failed (%s); falling back to the offline planner", generated.error)
             planned, program, unplannable = self._plan_offline(intent, len(input_pngs), execute)
             return (
@@ -415,8 +515,9 @@ class SolvePipeline:
                 program,
                 f"{OFFLINE_PLANNER} (fallback: {self.code_model_name} failed)",
                 unplannable,
+                f"{self.code_model_name} failed: {generated.error}",
             )
-        return attempts, generated.program if generated.ok else None, self.code_model_name, None
+        return attempts, generated.program if generated.ok else None, self.code_model_name, None, None
 
     @staticmethod
     def _plan_offline(
@@ -429,7 +530,7 @@ class SolvePipeline:
         except UnplannableQuestion as unplannable:
             return [], None, f"the offline planner has no program for this question: {unplannable.reason}"
         run_started = time.perf_counter()
-        outcome = execute(planned.source)
+        outcome = execute(planned.source, written_by_model=False)
         attempt = AttemptRecord(
             program=planned.source,
             error=outcome.error,

@@ -4,7 +4,14 @@ It is the one stand-in the tests use: a FastAPI app under a real uvicorn process
 by the real `openai` package. Each POST /v1/chat/completions takes the next entry of the script
 (the queue of the requested model, else the default queue) and records the request, so tests can
 assert on prompts. An entry is a text reply, an HTTP error (429 with Retry-After, 500, 400, ...)
-and/or a delay before answering (longer than the client timeout to provoke one).
+and/or a delay before answering (longer than the client timeout to provoke one). An entry may
+carry the `finish_reason` and `usage` a real server reported (the recorded replies of
+tests/support/model_replies.py replay that way), and an error message may contain
+"{authorization}", which becomes the request's Authorization header, as servers that echo it do.
+
+Text-only mode (POST /mode {"text_only": true}, or SCRIPTED_LLM_TEXT_ONLY=1 at start) behaves like
+llama.cpp with a GGUF chat template: a request whose message content is a list of parts gets
+`HTTP 500: can only concatenate str (not "list") to str`, without consuming a scripted reply.
 
 The script is read at start from SCRIPTED_LLM_SCRIPT (JSON) or SCRIPTED_LLM_SCRIPT_FILE (a path),
 and replaced over HTTP: POST /script, GET /requests, POST /reset. JSON shape:
@@ -38,6 +45,8 @@ class ScriptEntry(BaseModel):
     error_message: str | None = None
     retry_after: float | None = Field(None, ge=0, description="Retry-After header (seconds) of an error.")
     delay_s: float = Field(0.0, ge=0, description="Wait this long before answering.")
+    finish_reason: str = "stop"
+    usage: dict[str, int] | None = Field(None, description="Reported token usage; counted words if None.")
 
     @model_validator(mode="before")
     @classmethod
@@ -56,6 +65,13 @@ class ScriptUpdate(BaseModel):
     append: bool = False
 
 
+class ServerMode(BaseModel):
+    text_only: bool = Field(False, description="Refuse list content like llama.cpp's GGUF templates do.")
+
+
+TEXT_ONLY_ERROR = 'can only concatenate str (not "list") to str'
+
+
 class RecordedRequest(BaseModel):
     model: str | None
     messages: list[dict[str, Any]]
@@ -68,6 +84,7 @@ class _State:
     def __init__(self) -> None:
         self.queues: dict[str, deque[ScriptEntry]] = {}
         self.requests: list[RecordedRequest] = []
+        self.mode = ServerMode(text_only=os.environ.get("SCRIPTED_LLM_TEXT_ONLY", "") in ("1", "true"))
 
     def load(self, script: Script) -> None:
         self.queues = {DEFAULT_QUEUE: deque(script.default)}
@@ -104,16 +121,26 @@ def _error(status: int, message: str, headers: dict[str, str] | None = None) -> 
     return JSONResponse({"error": {"message": message, "type": kind, "code": None}}, status, headers=headers)
 
 
-def _completion(model: str, text: str, messages: list[dict[str, Any]]) -> dict[str, Any]:
+def _completion(model: str, entry: ScriptEntry, messages: list[dict[str, Any]]) -> dict[str, Any]:
+    text = entry.text or ""
     # Whitespace-separated words stand in for tokens: enough for tests that read `usage`.
     prompt_tokens = sum(len(json.dumps(message.get("content", "")).split()) for message in messages)
     completion_tokens = len(text.split())
+    if entry.usage is not None:
+        prompt_tokens = entry.usage.get("prompt_tokens", prompt_tokens)
+        completion_tokens = entry.usage.get("completion_tokens", completion_tokens)
     return {
         "id": f"chatcmpl-{uuid.uuid4().hex[:12]}",
         "object": "chat.completion",
         "created": int(time.time()),
         "model": model,
-        "choices": [{"index": 0, "message": {"role": "assistant", "content": text}, "finish_reason": "stop"}],
+        "choices": [
+            {
+                "index": 0,
+                "message": {"role": "assistant", "content": text},
+                "finish_reason": entry.finish_reason,
+            }
+        ],
         "usage": {
             "prompt_tokens": prompt_tokens,
             "completion_tokens": completion_tokens,
@@ -148,6 +175,11 @@ def create_app() -> FastAPI:
         queue.extend(update.replies)
         return {"queued": len(queue)}
 
+    @app.post("/mode")
+    def set_mode(mode: ServerMode) -> ServerMode:
+        state.mode = mode
+        return state.mode
+
     @app.get("/requests")
     def requests() -> list[RecordedRequest]:
         return state.requests
@@ -156,6 +188,7 @@ def create_app() -> FastAPI:
     def reset() -> dict[str, str]:
         state.load(Script())
         state.requests.clear()
+        state.mode = ServerMode()
         return {"status": "reset"}
 
     @app.post("/v1/chat/completions")
@@ -176,6 +209,10 @@ def create_app() -> FastAPI:
                 received_at=time.time(),
             )
         )
+        if state.mode.text_only and any(
+            isinstance(m, dict) and isinstance(m.get("content"), list) for m in body["messages"]
+        ):
+            return _error(500, TEXT_ONLY_ERROR)
         entry = state.next_entry(model)
         if entry is None:
             return _error(409, f"the scripted LLM has no reply left for model {model!r}")
@@ -183,8 +220,10 @@ def create_app() -> FastAPI:
             await asyncio.sleep(entry.delay_s)
         if entry.status != 200:
             headers = {"Retry-After": f"{entry.retry_after:g}"} if entry.retry_after is not None else None
-            return _error(entry.status, entry.error_message or f"scripted HTTP {entry.status}", headers)
-        return JSONResponse(_completion(model or "scripted", entry.text or "", body["messages"]))
+            message = entry.error_message or f"scripted HTTP {entry.status}"
+            message = message.replace("{authorization}", request.headers.get("authorization", ""))
+            return _error(entry.status, message, headers)
+        return JSONResponse(_completion(model or "scripted", entry, body["messages"]))
 
     return app
 
@@ -213,7 +252,12 @@ class ScriptedLLM:
         return response.json()
 
     def reset(self) -> None:
+        """Empty queues, forget requests, and leave text-only mode."""
         httpx.post(self.service.url + "/reset", timeout=5.0).raise_for_status()
+
+    def text_only(self, enabled: bool = True) -> None:
+        """Refuse list content from now on, as a llama.cpp server with a GGUF template does."""
+        httpx.post(self.service.url + "/mode", json={"text_only": enabled}, timeout=5.0).raise_for_status()
 
     def stop(self) -> None:
         self.service.stop()

@@ -3,6 +3,11 @@
 Reconstruction, camera motion and rendering are requests to the parent over the tool channel; the
 parent owns every pixel, so an `Image` here is only a handle (id, width, height). The pose tools
 are pure numpy and run locally from `shared.poses`.
+
+Extrinsics reach programs as 4x4 homogeneous camera-from-world matrices `[[R, t], [0, 0, 0, 1]]`
+(the paper's API): `np.linalg.inv(E)` and `E1 @ np.linalg.inv(E2)` then just work, which is what
+code models write. Every tool takes 3x4 or 4x4 and returns the shape it was given. Shape mistakes
+are reported with the shapes, the convention and the helper that does the job.
 """
 
 from __future__ import annotations
@@ -15,6 +20,11 @@ from shared import poses
 
 MIN_RENDER_SIZE = 16
 MAX_RENDER_SIZE = 2048
+EXTRINSIC_CONVENTION = (
+    "an extrinsic is a 4x4 camera-from-world matrix [[R, t], [0, 0, 0, 1]] (3x4 [R | t] is accepted "
+    "too): x_cam = R @ x_world + t, camera axes x right, y down, z forward; take one from "
+    "recon.extrinsics[i] or from a pySpatial pose tool"
+)
 
 
 class ToolError(RuntimeError):
@@ -119,7 +129,8 @@ class Reconstruction(_Frozen):
 
     @property
     def extrinsics(self) -> list[np.ndarray]:
-        return [matrix.copy() for matrix in self._extrinsics]
+        """One 4x4 camera-from-world matrix per view (unregistered views: all NaN)."""
+        return [_homogeneous(matrix) for matrix in self._extrinsics]
 
     @property
     def intrinsics(self) -> list[np.ndarray]:
@@ -147,6 +158,59 @@ class Reconstruction(_Frozen):
 
     def __repr__(self) -> str:
         return f"<Reconstruction of {self.num_views} views>"
+
+
+def _homogeneous(matrix: np.ndarray) -> np.ndarray:
+    square = np.eye(4)
+    square[:3, :] = matrix
+    if not np.all(np.isfinite(matrix)):
+        square[3, :] = np.nan  # an unregistered view has no pose at all, not half of one
+    return square
+
+
+def _extrinsic(value: Any, tool: str, argument: str = "extrinsic") -> np.ndarray:
+    """`value` as a validated float 3x4 or 4x4 pose, or a ValueError a code model can act on."""
+    try:
+        matrix = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(
+            f"pySpatial.{tool}: {argument} must be a pose matrix, got {type(value).__name__}; "
+            f"{EXTRINSIC_CONVENTION}"
+        ) from None
+    if matrix.shape not in ((3, 4), (4, 4)):
+        hint = ""
+        if matrix.shape == (3,):
+            hint = " (that is a 3D point; pass the camera's pose, e.g. recon.extrinsics[0])"
+        elif matrix.shape == (3, 3):
+            hint = " (that is a rotation or an intrinsic matrix, not a pose)"
+        raise ValueError(
+            f"pySpatial.{tool}: {argument} must be 3x4 or 4x4, got shape {matrix.shape}{hint}; "
+            f"{EXTRINSIC_CONVENTION}"
+        )
+    if not np.all(np.isfinite(matrix)):
+        raise ValueError(
+            f"pySpatial.{tool}: {argument} contains NaN: that view was not registered by the "
+            "reconstruction (see recon.registered), so it has no pose"
+        )
+    try:
+        return poses.validate_extrinsic(matrix)
+    except ValueError as error:
+        raise ValueError(f"pySpatial.{tool}: {argument}: {error}; {EXTRINSIC_CONVENTION}") from None
+
+
+def _point(value: Any, tool: str) -> np.ndarray:
+    try:
+        vector = np.asarray(value, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise TypeError(f"pySpatial.{tool}: point must be 3 numbers (x, y, z) in world coordinates") from None
+    if vector.shape == (4,) and abs(vector[3]) > 1e-12:
+        vector = vector[:3] / vector[3]  # a homogeneous point
+    if vector.shape != (3,) or not np.all(np.isfinite(vector)):
+        raise ValueError(
+            f"pySpatial.{tool}: point must be 3 finite numbers (x, y, z) in world coordinates "
+            f"(or homogeneous (x, y, z, 1)), got shape {np.asarray(value).shape}"
+        )
+    return vector
 
 
 def _scene_up(reported: Any, extrinsics: list[np.ndarray], registered: list[bool]) -> np.ndarray | None:
@@ -196,7 +260,7 @@ class PySpatial(_Frozen):
         self, recon: Reconstruction, new_extrinsic: Any, width: int = 512, height: int = 512
     ) -> Image:
         _require_reconstruction(recon, "synthesize_novel_view")
-        pose = poses.validate_extrinsic(new_extrinsic)[:3, :]
+        pose = _extrinsic(new_extrinsic, "synthesize_novel_view", "new_extrinsic")[:3, :]
         for label, value in (("width", width), ("height", height)):
             if not isinstance(value, int | np.integer) or not MIN_RENDER_SIZE <= value <= MAX_RENDER_SIZE:
                 raise ValueError(f"{label} must be an integer from {MIN_RENDER_SIZE} to {MAX_RENDER_SIZE}")
@@ -206,19 +270,53 @@ class PySpatial(_Frozen):
         return Image(str(reply["id"]), (int(reply["width"]), int(reply["height"])), self._channel)
 
     def rotate_left(self, extrinsic: Any, angle: float = 45.0) -> np.ndarray:
-        return poses.rotate_left(extrinsic, _number(angle, "angle"), up=self._up)
+        pose = _extrinsic(extrinsic, "rotate_left")
+        return poses.rotate_left(pose, _number(angle, "angle"), up=self._up)
 
     def rotate_right(self, extrinsic: Any, angle: float = 45.0) -> np.ndarray:
-        return poses.rotate_right(extrinsic, _number(angle, "angle"), up=self._up)
+        pose = _extrinsic(extrinsic, "rotate_right")
+        return poses.rotate_right(pose, _number(angle, "angle"), up=self._up)
 
     def move_forward(self, extrinsic: Any, distance: float = 0.3) -> np.ndarray:
-        return poses.move_forward(extrinsic, _number(distance, "distance"), up=self._up)
+        pose = _extrinsic(extrinsic, "move_forward")
+        return poses.move_forward(pose, _number(distance, "distance"), up=self._up)
 
     def move_backward(self, extrinsic: Any, distance: float = 0.3) -> np.ndarray:
-        return poses.move_backward(extrinsic, _number(distance, "distance"), up=self._up)
+        pose = _extrinsic(extrinsic, "move_backward")
+        return poses.move_backward(pose, _number(distance, "distance"), up=self._up)
 
     def turn_around(self, extrinsic: Any) -> np.ndarray:
-        return poses.turn_around(extrinsic, up=self._up)
+        return poses.turn_around(_extrinsic(extrinsic, "turn_around"), up=self._up)
+
+    # ---- helpers code models reach for --------------------------------------------------------
+
+    def camera_center(self, extrinsic: Any) -> np.ndarray:
+        """Where the camera is, in world coordinates: `-R.T @ t` (a 3-vector)."""
+        return poses.camera_center(_extrinsic(extrinsic, "camera_center"))
+
+    def relative_pose(self, from_extrinsic: Any, to_extrinsic: Any) -> np.ndarray:
+        """4x4 matrix taking coordinates in the first camera's frame to the second camera's frame."""
+        first = poses.as_4x4(_extrinsic(from_extrinsic, "relative_pose", "from_extrinsic"))
+        second = poses.as_4x4(_extrinsic(to_extrinsic, "relative_pose", "to_extrinsic"))
+        return second @ np.linalg.inv(first)
+
+    def heading_angle(self, from_extrinsic: Any, to_extrinsic: Any) -> float:
+        """How far the viewing direction turned from the first view to the second, about the scene up.
+
+        Degrees in (-180, 180]: positive = turned right, negative = turned left.
+        """
+        first = _extrinsic(from_extrinsic, "heading_angle", "from_extrinsic")
+        second = _extrinsic(to_extrinsic, "heading_angle", "to_extrinsic")
+        up = self._up if self._up is not None else poses.estimate_up_axis(np.stack([first[:3], second[:3]]))
+        forward_first = poses.horizontal_forward(first[:3, :3], up)
+        forward_second = poses.horizontal_forward(second[:3, :3], up)
+        right_first = np.cross(forward_first, up)
+        return float(np.degrees(np.arctan2(forward_second @ right_first, forward_second @ forward_first)))
+
+    def distance_to_point(self, extrinsic: Any, point: Any) -> float:
+        """Distance from the camera's centre to a world point (reconstruction units)."""
+        centre = poses.camera_center(_extrinsic(extrinsic, "distance_to_point"))
+        return float(np.linalg.norm(_point(point, "distance_to_point") - centre))
 
     def __repr__(self) -> str:
         return "<pySpatial API>"
