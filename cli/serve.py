@@ -57,7 +57,15 @@ def run_one(which: str, host: str, port: int) -> None:
     configure_logging()
     console.print(f"[bold]{which} service[/] on http://{reachable_host(host)}:{port} (API docs at /docs)")
     console.print(f"  {describe_configuration(which)}")
-    uvicorn.run(APP_FACTORIES[which], factory=True, host=host, port=port, log_level="info")
+    drain_s = round(ReconSettings().drain_s) if which == "recon" else None  # bounded SIGTERM drain
+    uvicorn.run(
+        APP_FACTORIES[which],
+        factory=True,
+        host=host,
+        port=port,
+        log_level="info",
+        timeout_graceful_shutdown=drain_s,
+    )
 
 
 def run_both(host: str, recon_port: int, agent_port: int) -> None:

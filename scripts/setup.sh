@@ -20,7 +20,9 @@ fi
 # chromium, chromium-driver: the web page's browser tests (selenium drives Debian's headless Chromium).
 REQUIRED_PACKAGES=(libusb-1.0-0 libgomp1 redis-server mesa-vulkan-drivers libvulkan1 libegl1
     chromium chromium-driver)
-REQUIRED_PACKAGES+=(nginx)  # tests: `nginx -t` checks deploy/nginx/nginx.conf, the compose load balancer
+# nginx: the load balancer in front of two recon replicas in tests/test_scale_out.py and bench.load,
+# and `nginx -t` of deploy/nginx/nginx.conf (the compose load balancer) in tests/test_compose.py
+REQUIRED_PACKAGES+=(nginx)
 if command -v dpkg-query >/dev/null 2>&1; then
     missing=()
     for package in "${REQUIRED_PACKAGES[@]}"; do

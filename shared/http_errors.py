@@ -29,8 +29,9 @@ STATUS_MEANINGS = {
     429: "Rate limit exceeded; see the Retry-After header.",
     500: "An unexpected error in the service (a bug); the message names it, the log has the details.",
     502: "A service this one depends on failed.",
-    503: "Not ready, or a service this one depends on is unreachable.",
+    503: "Not ready, busy (see Retry-After), storage unusable, or a dependency is unreachable.",
     504: "A service this one depends on did not answer in time.",
+    507: "The service has no room left to store the input (its data dir or scene store is full).",
 }
 
 

@@ -89,7 +89,11 @@ class ServiceProcess:
 
 
 def start_service(
-    app: str, env: dict[str, str] | None = None, ready_path: str = "/healthz", timeout: float = 60.0
+    app: str,
+    env: dict[str, str] | None = None,
+    ready_path: str = "/healthz",
+    timeout: float = 60.0,
+    preexec_fn=None,
 ) -> ServiceProcess:
     """Run `uvicorn <app> --factory` as a real process and wait for `ready_path` to answer 200.
 
@@ -111,11 +115,15 @@ def start_service(
             str(port),
             "--log-level",
             "warning",
+            # SIGTERM: finish requests for at most this long, then stop (PYSPATIAL_DRAIN_S)
+            "--timeout-graceful-shutdown",
+            str(max(1, round(float(process_env.get("PYSPATIAL_DRAIN_S", "20"))))),
         ],
         cwd=REPO_ROOT,
         env=process_env,
         stdout=log_file,
         stderr=subprocess.STDOUT,
+        preexec_fn=preexec_fn,  # e.g. resource limits for fault tests
     )
     service = ServiceProcess(url=f"http://127.0.0.1:{port}", process=process, log_path=Path(log_file.name))
     deadline = time.monotonic() + timeout

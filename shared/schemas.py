@@ -146,6 +146,7 @@ class Readiness(_Model):
     backbone_ready: bool
     backbone_detail: str
     cache: str = Field(..., description="redis, memory, or redis-unavailable (serving from memory).")
+    storage: str = Field("ok", description="ok, or what keeps scenes from being stored (recon data dir).")
     warnings: list[str]
 
 

@@ -14,6 +14,9 @@ from pydantic_settings import BaseSettings, SettingsConfigDict
 DEFAULT_DATA_DIR = Path.home() / ".cache" / "pyspatial"
 DEFAULT_RECON_PORT = 8001
 DEFAULT_AGENT_PORT = 8000
+# The agent's recon timeout must outlast the longest a recon request may wait for a lease or a
+# queue slot plus one reconstruction; tests/test_recon_runtime.py checks the defaults agree.
+RECON_WAIT_S = 300.0
 
 
 class _Settings(BaseSettings):
@@ -57,8 +60,34 @@ class ReconSettings(AccessSettings):
     max_render_side: int = Field(2048, ge=16, description="Largest rendered image side.")
     reconstruct_workers: int = Field(1, ge=1, description="Reconstructions run at once (CPU/GPU bound).")
     reconstruct_lease_s: int = Field(
-        900, ge=5, description="Longest a replica may hold a reconstruction lease (crash recovery)."
+        15,
+        ge=3,
+        description="Lifetime of a reconstruction lease; renewed every third of it while the work runs, "
+        "so a crashed replica blocks a scene for at most this long.",
     )
+    reconstruct_wait_s: float = Field(
+        RECON_WAIT_S,
+        gt=0,
+        description="Longest a request waits for a worker or another replica's reconstruction (then 503).",
+    )
+    max_queued_reconstructions: int = Field(
+        16, ge=1, description="Reconstructions waiting for a worker; more get 503 with Retry-After."
+    )
+    shared_scenes: bool = Field(
+        True, description="With REDIS_URL: publish scenes to Redis so every replica serves every scene."
+    )
+    scene_ttl_s: int = Field(30 * 24 * 3600, ge=60, description="Lifetime of a shared scene in Redis.")
+    max_request_pixels: int = Field(
+        400_000_000, ge=1, description="Most decoded pixels in one upload (all images together)."
+    )
+    max_decoding_pixels: int = Field(
+        800_000_000, ge=1, description="Most pixels decoded at once; more uploads get 503 + Retry-After."
+    )
+    decode_processes: int = Field(
+        2, ge=0, description="Processes that decode uploaded images (0: threads of the service process)."
+    )
+    max_motion_pairs: int = Field(1024, ge=1, description="Most view pairs in one camera-motion request.")
+    drain_s: float = Field(20.0, gt=0, description="On SIGTERM: longest wait for running work before exit.")
 
 
 class AgentSettings(AccessSettings):
@@ -69,7 +98,9 @@ class AgentSettings(AccessSettings):
     readiness_timeout_s: float = Field(
         5.0, gt=0, description="Longest /readyz waits for the recon service before answering 503."
     )
-    recon_timeout_s: float = Field(600.0, gt=0, description="Timeout of one call to the recon service.")
+    recon_timeout_s: float = Field(
+        600.0, gt=0, description="Timeout of one call to the recon service (above its reconstruct_wait_s)."
+    )
     code_model: str | None = Field(None, description="Code model name; the offline planner when unset.")
     code_model_base_url: str | None = Field(None, description="OpenAI-compatible endpoint of the code model.")
     code_model_api_key: SecretStr | None = Field(None, description="API key of the code model endpoint.")

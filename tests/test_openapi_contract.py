@@ -11,6 +11,8 @@ import base64
 import io
 import json
 import os
+import resource
+import shutil
 import signal
 import socket
 import uuid
@@ -20,6 +22,7 @@ import httpx
 import numpy as np
 import pytest
 
+from shared.imaging import encode_image
 from shared.local_services import ServiceProcess, start_service
 from shared.schemas import ErrorBody
 from tests.support.scenes import orbit_views
@@ -67,6 +70,12 @@ def recon_env(tmp_path_factory, redis_url, **extra) -> dict[str, str]:
     }
 
 
+def small_file_size_limit() -> None:
+    """In the service process: files may not grow past 64 KiB (EFBIG, as on a full disk)."""
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a failing write instead of a killed process
+    resource.setrlimit(resource.RLIMIT_FSIZE, (64 * 1024, 64 * 1024))
+
+
 def start_all(app: str, environments: dict[str, dict]) -> dict[str, ServiceProcess]:
     """Start the processes one after the other; if one fails, stop the others and raise."""
     started = {}
@@ -106,6 +115,10 @@ def stack(tmp_path_factory, redis_url):
     nothing.bind(("127.0.0.1", 0))
     try:
         services.update(start_all(RECON_APP, recons))
+        storage_dir = tmp_path_factory.mktemp("storage")
+        services["recon_storage"] = start_service(
+            RECON_APP, {"PYSPATIAL_DATA_DIR": str(storage_dir)}, preexec_fn=small_file_size_limit
+        )
         recon_url, unready_url = services["recon"].url, services["recon_unready"].url
         agents = {
             "agent": {
@@ -131,7 +144,7 @@ def stack(tmp_path_factory, redis_url):
             },
         }
         services.update(start_all(AGENT_APP, agents))
-        yield services
+        yield {**services, "recon_storage_dir": storage_dir}
     finally:
         for service in services.values():
             service.stop()
@@ -177,6 +190,15 @@ def exercise_recon(observe: Observer, stack, views) -> None:
     recon("POST", "/v1/scenes", "/v1/scenes", 422, headers=key, json={"images": []})
     over = {**key, "content-type": "application/json"}
     recon("POST", "/v1/scenes", "/v1/scenes", 413, headers=over, content=b" " * 3_100_000)
+    # Storage faults: a full disk is a 507, an unwritable data dir a 503.
+    storage = stack["recon_storage"]
+    noise = np.random.default_rng(0).integers(0, 256, (160, 200, 3), dtype=np.uint8)  # ~96 KB as PNG
+    big = [("images", ("noise.png", encode_image(noise)))]
+    recon("POST", "/v1/scenes", "/v1/scenes", 507, url=storage.url, files=big)
+    shutil.rmtree(stack["recon_storage_dir"] / "scenes")
+    (stack["recon_storage_dir"] / "scenes").write_text("a file where the scenes directory should be")
+    small = [("images", ("0.png", views.pngs()[0]))]
+    recon("POST", "/v1/scenes", "/v1/scenes", 503, url=storage.url, files=small)
     unready_scene = recon(
         "POST", "/v1/scenes", "/v1/scenes", 201, url=unready, files=[("images", ("0.png", views.pngs()[0]))]
     ).json()["scene_id"]

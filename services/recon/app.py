@@ -2,26 +2,25 @@
 
 from __future__ import annotations
 
-import io
-import json
 import logging
 from contextlib import asynccontextmanager
 
 import numpy as np
 from fastapi import FastAPI, Query, Request
 from fastapi.responses import JSONResponse, Response
-from pydantic import ValidationError
-from starlette.datastructures import UploadFile
 
 from services.recon.backbones import available_backbones
-from services.recon.errors import InvalidInput, PayloadTooLarge, ReconServiceError
+from services.recon.disconnect import until_disconnected
+from services.recon.errors import ReconServiceError
+from services.recon.offload import run_cpu
 from services.recon.preview import MAX_PREVIEW_POINTS, point_cloud_preview
-from services.recon.scene_store import SceneInput, has_all_intrinsics
+from services.recon.scene_store import has_all_intrinsics
 from services.recon.service import ReconService
+from services.recon.uploads import SceneUploads
 from shared.access import docs_urls, install_access_control
-from shared.http_bodies import install_input_error_handlers, read_body_limited
+from shared.http_bodies import install_input_error_handlers
 from shared.http_errors import error_responses, install_error_shape
-from shared.imaging import decode_base64, media_type
+from shared.imaging import media_type
 from shared.poses import estimate_up_axis
 from shared.reconstruction import Reconstruction
 from shared.schemas import (
@@ -75,6 +74,7 @@ _UPLOAD_DOC = {
 def create_app(settings: ReconSettings | None = None) -> FastAPI:
     settings = settings or ReconSettings()
     service = ReconService(settings)
+    uploads = SceneUploads(settings)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI):
@@ -88,7 +88,15 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
         )
         if not ready:  # no silent fallback: the service answers, /readyz says 503 and why
             log.error("backbone %s is NOT ready: %s", settings.backbone, detail)
+        storage = service.store.check_writable()
+        if storage:
+            log.error("data dir is NOT writable: %s", storage)
         yield
+        uploads.close()
+        # SIGTERM: uvicorn stops accepting and gives requests `drain_s` (--timeout-graceful-shutdown);
+        # then queued reconstructions are dropped and running ones stopped, releasing their leases
+        # for another replica (the reconstruction threads are daemons: they do not delay the exit).
+        await service.jobs.drain(timeout_s=1.0)
         await service.cache.close()
 
     app = FastAPI(
@@ -105,7 +113,8 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
 
     @app.exception_handler(ReconServiceError)
     async def service_error(_: Request, error: ReconServiceError) -> JSONResponse:
-        return JSONResponse({"detail": error.message}, status_code=error.status_code)
+        headers = {"Retry-After": str(error.retry_after_s)} if error.retry_after_s else None
+        return JSONResponse({"detail": error.message}, status_code=error.status_code, headers=headers)
 
     install_input_error_handlers(app)
 
@@ -133,15 +142,19 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
                 "Redis is unreachable: serving from the in-process cache "
                 f"({service.cache.pending_writes} writes pending)"
             )
+        storage = await run_cpu(service.storage_status)
+        warnings.extend(storage.warnings)
+        ready = backbone_ready and storage.ok
         body = Readiness(
-            ready=backbone_ready,
+            ready=ready,
             backbone=settings.backbone,
             backbone_ready=backbone_ready,
             backbone_detail=detail,
             cache=cache_mode,
+            storage=storage.detail,
             warnings=warnings,
         )
-        return JSONResponse(body.model_dump(), status_code=200 if backbone_ready else 503)
+        return JSONResponse(body.model_dump(), status_code=200 if ready else 503)
 
     @app.post(
         "/v1/scenes",
@@ -151,15 +164,15 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
         openapi_extra=_UPLOAD_DOC,
         responses={
             200: {"model": SceneCreated, "description": "The same scene had been uploaded before."},
-            **error_responses(400, 401, 413, 422, 429),
+            **error_responses(400, 401, 413, 422, 429, 503, 507),
         },
     )
     async def create_scene(request: Request) -> JSONResponse:
-        scene = await _read_scene_upload(request, service)
-        scene_id, created = service.add_scene(scene)
+        scene = await uploads.read(request)
+        scene_id, created = await service.add_scene(scene)
         body = SceneCreated(
             scene_id=scene_id,
-            num_images=len(scene.images),
+            num_images=scene.num_images,
             image_sizes=scene.image_sizes,
             has_depth=scene.depths is not None,
             has_cameras=scene.extrinsics is not None and has_all_intrinsics(scene),
@@ -174,7 +187,7 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
         responses=error_responses(401, 404, 429),
     )
     async def scene_info(scene_id: str) -> SceneInfo:
-        return SceneInfo(scene_id=scene_id, **service.store.info(scene_id))
+        return SceneInfo(scene_id=scene_id, **await run_cpu(service.store.info, scene_id))
 
     @app.get(
         "/v1/scenes/{scene_id}/images/{index}",
@@ -184,7 +197,8 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
     )
     async def scene_image(scene_id: str, index: int) -> Response:
         """One uploaded image file, byte for byte as it was uploaded."""
-        return Response(service.store.image_file(scene_id, index), media_type="application/octet-stream")
+        blob = await run_cpu(service.store.image_file, scene_id, index)
+        return Response(blob, media_type="application/octet-stream")
 
     @app.post(
         "/v1/scenes/{scene_id}/reconstruct",
@@ -192,8 +206,12 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
         response_model=ReconstructionSummary,
         responses=error_responses(401, 404, 422, 429, 503),
     )
-    async def reconstruct(scene_id: str, request: ReconstructRequest | None = None) -> ReconstructionSummary:
-        outcome = await service.reconstruct(scene_id, request.backbone if request else None)
+    async def reconstruct(
+        http: Request, scene_id: str, request: ReconstructRequest | None = None
+    ) -> ReconstructionSummary:
+        outcome = await until_disconnected(
+            http, service.reconstruct(scene_id, request.backbone if request else None)
+        )
         return _summary(
             scene_id, outcome.reconstruction, outcome.cached, outcome.joined_in_flight, outcome.timings_ms
         )
@@ -207,18 +225,19 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
         },
     )
     async def reconstruction(
+        http: Request,
         scene_id: str,
         backbone: str | None = None,
         format: str = Query("npz", pattern="^(npz|ply)$", description="npz (shared.Reconstruction) or ply"),
     ) -> Response:
-        recon = (await service.reconstruct(scene_id, backbone)).reconstruction
+        recon = (await until_disconnected(http, service.reconstruct(scene_id, backbone))).reconstruction
         if format == "ply":
             return Response(
-                recon.to_ply(),
+                await run_cpu(recon.to_ply),
                 media_type="application/x-ply",
                 headers={"Content-Disposition": f'attachment; filename="{scene_id}.ply"'},
             )
-        return Response(recon.to_bytes(), media_type="application/octet-stream")
+        return Response(await run_cpu(recon.to_bytes), media_type="application/octet-stream")
 
     @app.get(
         "/v1/scenes/{scene_id}/points",
@@ -227,14 +246,17 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
         responses=error_responses(401, 404, 422, 429, 503),
     )
     async def points(
+        http: Request,
         scene_id: str,
         backbone: str | None = None,
         max_points: int = Query(30_000, ge=1, le=MAX_PREVIEW_POINTS, description="Subsample size."),
     ) -> PointCloudPreview:
         """A subsample of the points with their colours, and the cameras: for viewers."""
-        outcome = await service.reconstruct(scene_id, backbone)
+        outcome = await until_disconnected(http, service.reconstruct(scene_id, backbone))
         summary = _summary(scene_id, outcome.reconstruction, outcome.cached, outcome.joined_in_flight, {})
-        return point_cloud_preview(scene_id, outcome.reconstruction, summary.cameras, summary.up, max_points)
+        return await run_cpu(
+            point_cloud_preview, scene_id, outcome.reconstruction, summary.cameras, summary.up, max_points
+        )
 
     @app.post(
         "/v1/render",
@@ -245,15 +267,18 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
             **error_responses(401, 404, 422, 429, 503),
         },
     )
-    async def render(request: RenderRequest) -> Response:
-        image = await service.render(
-            request.scene_id,
-            request.extrinsic,
-            request.width,
-            request.height,
-            request.zoom_out,
-            request.format,
-            request.backbone,
+    async def render(http: Request, request: RenderRequest) -> Response:
+        image = await until_disconnected(
+            http,
+            service.render(
+                request.scene_id,
+                request.extrinsic,
+                request.width,
+                request.height,
+                request.zoom_out,
+                request.format,
+                request.backbone,
+            ),
         )
         return Response(image, media_type=media_type(request.format))
 
@@ -263,9 +288,11 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
         response_model=CameraMotionResponse,
         responses=error_responses(401, 404, 422, 429, 503),
     )
-    async def camera_motion(request: CameraMotionRequest) -> CameraMotionResponse:
+    async def camera_motion(http: Request, request: CameraMotionRequest) -> CameraMotionResponse:
         """Per pair of views a description, or (described = false) why there is none."""
-        recon, motions, scale = await service.camera_motion(request.scene_id, request.pairs, request.backbone)
+        recon, motions, scale = await until_disconnected(
+            http, service.camera_motion(request.scene_id, request.pairs, request.backbone)
+        )
         items = [CameraMotionItem.model_validate(m.to_dict()) for m in motions]
         return CameraMotionResponse(
             scene_id=request.scene_id,
@@ -312,103 +339,3 @@ def _summary(
         joined_in_flight=joined,
         timings_ms={k: round(v, 2) for k, v in timings.items()},
     )
-
-
-# ---- upload parsing ------------------------------------------------------------------------
-
-
-async def _read_scene_upload(request: Request, service: ReconService) -> SceneInput:
-    settings = service.settings
-    declared = request.headers.get("content-length")
-    if declared and declared.isdigit() and int(declared) > settings.max_request_bytes:
-        raise PayloadTooLarge(f"request is {declared} bytes; the limit is {settings.max_request_bytes}")
-    content_type = request.headers.get("content-type", "")
-    if content_type.startswith("multipart/form-data"):
-        return await _read_multipart(request, service)
-    if content_type.startswith("application/json"):
-        body = await read_body_limited(request, settings.max_request_bytes)
-        try:
-            upload = SceneUpload.model_validate_json(body)
-        except ValidationError as error:
-            raise InvalidInput(f"invalid scene upload: {_first_error(error)}") from error
-        files = [decode_base64(text, f"image {i}") for i, text in enumerate(upload.images)]
-        depths = None
-        if upload.depths is not None:
-            depths = [
-                _load_npy(decode_base64(t, f"depth {i}"), f"depth {i}") for i, t in enumerate(upload.depths)
-            ]
-        return _scene_from_parts(service, files, depths, upload.extrinsics, upload.intrinsics)
-    raise InvalidInput(
-        "send the images as multipart/form-data (field 'images') or JSON {\"images\": [base64,...]}"
-    )
-
-
-async def _read_multipart(request: Request, service: ReconService) -> SceneInput:
-    limit = service.settings.max_images
-    try:
-        form = await request.form(max_files=2 * limit + 2, max_fields=16)
-    except Exception as error:  # starlette raises several parser errors for malformed bodies
-        raise InvalidInput(f"could not parse the multipart upload: {error}") from error
-    files = []
-    for item in form.getlist("images"):
-        if not isinstance(item, UploadFile):
-            raise InvalidInput("field 'images' must carry files")
-        if item.size is not None and item.size > service.settings.max_image_bytes:
-            raise PayloadTooLarge(
-                f"{item.filename} is {item.size} bytes; the limit is {service.settings.max_image_bytes}"
-            )
-        files.append(await item.read())
-    depths = None
-    depth_items = form.getlist("depths")
-    if depth_items:
-        depths = [
-            _load_npy(await item.read(), f"depth {i}")
-            for i, item in enumerate(depth_items)
-            if isinstance(item, UploadFile)
-        ]
-    cameras = {}
-    for name in ("extrinsics", "intrinsics"):
-        raw = form.get(name)
-        if raw is not None:
-            try:
-                cameras[name] = json.loads(raw if isinstance(raw, str) else await raw.read())
-            except ValueError as error:
-                raise InvalidInput(f"{name} must be JSON: {error}") from error
-    return _scene_from_parts(service, files, depths, cameras.get("extrinsics"), cameras.get("intrinsics"))
-
-
-def _scene_from_parts(
-    service: ReconService, files: list[bytes], depths, extrinsics, intrinsics
-) -> SceneInput:
-    limit = service.settings.max_images
-    if not files:
-        raise InvalidInput(f"no images: send 1 to {limit} images in the field 'images'")
-    if len(files) > limit:
-        raise InvalidInput(f"{len(files)} images; a scene has at most {limit}")
-    images = [service.decode(blob, f"image {i}") for i, blob in enumerate(files)]
-    scene = SceneInput(image_files=files, images=images, depths=depths)
-    if isinstance(intrinsics, list):  # null for a view whose camera is unknown
-        intrinsics = [np.full((3, 3), np.nan) if matrix is None else matrix for matrix in intrinsics]
-    for name, value in (("extrinsics", extrinsics), ("intrinsics", intrinsics)):
-        if value is not None:
-            try:
-                setattr(scene, name, np.asarray(value, dtype=np.float64))
-            except (TypeError, ValueError) as error:
-                raise InvalidInput(f"{name} must be a list of numeric matrices: {error}") from error
-    return scene
-
-
-def _load_npy(data: bytes, label: str) -> np.ndarray:
-    try:
-        array = np.load(io.BytesIO(data), allow_pickle=False)
-    except (ValueError, OSError, EOFError) as error:
-        raise InvalidInput(f"{label} is not a .npy array: {error}") from error
-    if not np.issubdtype(array.dtype, np.number):
-        raise InvalidInput(f"{label} must be numeric, got {array.dtype}")
-    return array.astype(np.float32)
-
-
-def _first_error(error: ValidationError) -> str:
-    first = error.errors()[0]
-    location = ".".join(str(part) for part in first["loc"])
-    return f"{location}: {first['msg']}" if location else first["msg"]

@@ -22,6 +22,9 @@ LOCAL_LEASE = "local"  # granted without Redis: nobody else to coordinate with
 _RELEASE_IF_OWNER = (
     "if redis.call('get', KEYS[1]) == ARGV[1] then return redis.call('del', KEYS[1]) end return 0"
 )
+_RENEW_IF_OWNER = (
+    "if redis.call('get', KEYS[1]) == ARGV[1] then return redis.call('expire', KEYS[1], ARGV[2]) end return 0"
+)
 
 
 class MemoryLRU:
@@ -148,6 +151,29 @@ class ReconstructionCache:
             self._failed(error)
             return LOCAL_LEASE
         return token if acquired else None
+
+    async def renew_lease(self, key: str, token: str, ttl_s: int) -> bool:
+        """Extend our lease (the heartbeat); False when it is no longer ours (expired, taken over)."""
+        if token == LOCAL_LEASE or not self._available():
+            return True
+        try:
+            renewed = await self._redis.eval(
+                _RENEW_IF_OWNER, 1, self.key_prefix + "lease:" + key, token, ttl_s
+            )
+        except (redis.RedisError, OSError) as error:
+            self._failed(error)
+            return True  # Redis down: nobody can take it over through Redis either
+        return bool(renewed)
+
+    async def lease_held(self, key: str) -> bool:
+        """Whether some replica holds the lease on `key` now (False without Redis)."""
+        if not self._available():
+            return False
+        try:
+            return bool(await self._redis.exists(self.key_prefix + "lease:" + key))
+        except (redis.RedisError, OSError) as error:
+            self._failed(error)
+            return False
 
     async def release_lease(self, key: str, token: str) -> None:
         if token == LOCAL_LEASE or not self._available():

@@ -3,6 +3,7 @@
 
 class ReconServiceError(Exception):
     status_code = 400
+    retry_after_s: int | None = None  # sent as Retry-After when set (busy / overloaded)
 
     def __init__(self, message: str) -> None:
         super().__init__(message)
@@ -22,4 +23,36 @@ class SceneNotFound(ReconServiceError):
 
 
 class BackboneUnavailable(ReconServiceError):
+    status_code = 503
+
+
+class Overloaded(ReconServiceError):
+    """Admission limits are full (queued reconstructions, images being decoded): retry later."""
+
+    status_code = 503
+
+    def __init__(self, message: str, retry_after_s: int) -> None:
+        super().__init__(message)
+        self.retry_after_s = retry_after_s
+
+
+class LeaseWaitTimeout(ReconServiceError):
+    """Another replica holds the reconstruction lease longer than this replica will wait."""
+
+    status_code = 503
+
+    def __init__(self, message: str, retry_after_s: int) -> None:
+        super().__init__(message)
+        self.retry_after_s = retry_after_s
+
+
+class StorageFull(ReconServiceError):
+    """The data dir (or the shared scene store) has no room left: 507 Insufficient Storage."""
+
+    status_code = 507
+
+
+class StorageUnavailable(ReconServiceError):
+    """The data dir cannot be written or read (read-only, permissions, I/O error)."""
+
     status_code = 503

@@ -1,7 +1,12 @@
-"""Uploaded scenes on disk, content-addressed, written atomically so a crash never leaves half a scene."""
+"""Uploaded scenes on disk, content-addressed, written atomically so a crash never leaves half a scene.
+
+With a `SharedScenes` mirror (Redis), every stored scene is also published there and a scene this
+replica has not seen is fetched from there, so any replica can serve any scene.
+"""
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import io
 import json
@@ -14,7 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from services.recon.errors import InvalidInput, SceneNotFound
+from services.recon.errors import InvalidInput, SceneNotFound, StorageFull, StorageUnavailable
+from services.recon.shared_scenes import SharedScenes
 
 _SCENE_ID = re.compile(r"^[0-9a-f]{24}$")
 
@@ -24,14 +30,21 @@ class SceneInput:
     """What a client uploaded, decoded and validated."""
 
     image_files: list[bytes]  # the encoded files exactly as uploaded
-    images: list[np.ndarray]  # decoded uint8 RGB
+    images: list[np.ndarray] | None = None  # decoded uint8 RGB (None: only validated, see sizes)
     depths: list[np.ndarray] | None = None
     extrinsics: np.ndarray | None = None  # (V, 3, 4)
     intrinsics: np.ndarray | None = None  # (V, 3, 3); an all-NaN matrix: not given for that view
+    sizes: list[tuple[int, int]] | None = None  # (width, height) per image when `images` is None
+
+    @property
+    def num_images(self) -> int:
+        return len(self.image_files)
 
     @property
     def image_sizes(self) -> list[tuple[int, int]]:
-        return [(image.shape[1], image.shape[0]) for image in self.images]
+        if self.sizes is not None:
+            return list(self.sizes)
+        return [(image.shape[1], image.shape[0]) for image in self.images or []]
 
     def content_id(self) -> str:
         """Hash of the files in order (and any depths and cameras): same upload, same scene."""
@@ -55,23 +68,89 @@ def check_scene_id(scene_id: str) -> str:
     return scene_id
 
 
+def storage_error(action: str, error: OSError) -> StorageFull | StorageUnavailable:
+    """An OSError of the data dir as the HTTP error that says what failed (507 full, else 503)."""
+    message = f"could not {action}: {error.strerror or error} ({error.filename or 'data dir'})"
+    if error.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
+        return StorageFull(message)
+    return StorageUnavailable(message)
+
+
 class SceneStore:
-    def __init__(self, root: Path) -> None:
+    def __init__(self, root: Path, shared: SharedScenes | None = None) -> None:
         self.root = Path(root) / "scenes"
-        self.root.mkdir(parents=True, exist_ok=True)
+        self.shared = shared
+        self.setup_error: str | None = None
+        try:
+            self.root.mkdir(parents=True, exist_ok=True)
+        except OSError as error:  # the service still starts; /readyz and uploads say what failed
+            self.setup_error = str(storage_error("create the data dir", error).message)
 
     def _path(self, scene_id: str) -> Path:
         return self.root / check_scene_id(scene_id)
 
     def exists(self, scene_id: str) -> bool:
-        return (self._path(scene_id) / "meta.json").exists()
+        return self._ensure_local(scene_id)
 
-    def save(self, scene: SceneInput) -> tuple[str, bool]:
-        """Store the scene; returns (scene_id, created)."""
-        scene_id = scene.content_id()
+    def _ensure_local(self, scene_id: str) -> bool:
+        """True when the scene is in the data dir, fetching it from the shared store if needed."""
         final = self._path(scene_id)
         if (final / "meta.json").exists():
-            return scene_id, False
+            return True
+        if self.shared is None:
+            return False
+        try:
+            staging = Path(tempfile.mkdtemp(prefix=".fetching-", dir=self.root))
+        except OSError as error:
+            raise storage_error("copy a shared scene into the data dir", error) from error
+        try:
+            if not self.shared.fetch(scene_id, staging):
+                return False
+            try:
+                os.rename(staging, final)
+            except OSError:  # another request fetched it first
+                if not (final / "meta.json").exists():
+                    raise
+            return True
+        except OSError as error:
+            raise storage_error("copy a shared scene into the data dir", error) from error
+        finally:
+            if staging.exists():
+                shutil.rmtree(staging, ignore_errors=True)
+
+    def check_writable(self) -> str | None:
+        """None when a scene could be stored now; else what is wrong (for /readyz)."""
+        if self.setup_error:
+            return self.setup_error
+        probe = self.root / f".probe-{os.getpid()}"
+        try:
+            probe.write_bytes(b"ok")
+            probe.unlink()
+            stats = os.statvfs(self.root)
+        except OSError as error:
+            return storage_error("write to the data dir", error).message
+        free = stats.f_bavail * stats.f_frsize
+        if free < 16 * 2**20:
+            return f"the data dir {self.root} has only {free // 2**20} MiB free"
+        return None
+
+    def save(self, scene: SceneInput) -> tuple[str, bool]:
+        """Store the scene (and publish it to the shared store); returns (scene_id, created)."""
+        scene_id = scene.content_id()
+        if self.setup_error:
+            raise StorageUnavailable(self.setup_error)
+        try:
+            created = self._save_local(scene_id, scene)
+        except OSError as error:
+            raise storage_error("store the scene", error) from error
+        if self.shared is not None:
+            self.shared.publish(scene_id, self._path(scene_id))
+        return scene_id, created
+
+    def _save_local(self, scene_id: str, scene: SceneInput) -> bool:
+        final = self._path(scene_id)
+        if (final / "meta.json").exists():
+            return False
         staging = Path(tempfile.mkdtemp(prefix=".incoming-", dir=self.root))
         try:
             for index, blob in enumerate(scene.image_files):
@@ -86,7 +165,7 @@ class SceneStore:
             if arrays:
                 np.savez(staging / "geometry.npz", **arrays)
             meta = {
-                "num_images": len(scene.images),
+                "num_images": scene.num_images,
                 "image_sizes": scene.image_sizes,
                 "has_depth": scene.depths is not None,
                 "has_cameras": scene.extrinsics is not None and has_all_intrinsics(scene),
@@ -97,16 +176,16 @@ class SceneStore:
             except OSError:  # a concurrent upload of the same scene won the race
                 if not (final / "meta.json").exists():
                     raise
-                return scene_id, False
+                return False
         finally:
             if staging.exists():
                 shutil.rmtree(staging, ignore_errors=True)
-        return scene_id, True
+        return True
 
     def info(self, scene_id: str) -> dict:
         """The scene's metadata: num_images, image_sizes, has_depth, has_cameras."""
         path = self._path(scene_id)
-        if not (path / "meta.json").exists():
+        if not self._ensure_local(scene_id):
             raise SceneNotFound(f"scene {scene_id} is not known here: upload its images with POST /v1/scenes")
         return json.loads((path / "meta.json").read_text())
 
@@ -139,7 +218,7 @@ def has_all_intrinsics(scene: SceneInput) -> bool:
 
 def validate_geometry(scene: SceneInput) -> None:
     """Depths and cameras, when given, must fit the images one to one."""
-    views = len(scene.images)
+    views = scene.num_images
     if scene.depths is not None:
         if len(scene.depths) != views:
             raise InvalidInput(f"{len(scene.depths)} depth maps for {views} images")

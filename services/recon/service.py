@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import asyncio
 import logging
 import threading
 import time
@@ -16,8 +15,11 @@ from services.recon.backbones import Backbone, BackboneError, create_backbone
 from services.recon.cache import ReconstructionCache
 from services.recon.camera_inputs import INPUTS_VERSION, view_intrinsics
 from services.recon.errors import BackboneUnavailable, InvalidInput, SceneNotFound
+from services.recon.jobs import ReconstructionJobs
 from services.recon.motion_inputs import motion_scene_scale, view_pose_problems
+from services.recon.offload import run_cpu, run_in_daemon_thread
 from services.recon.scene_store import SceneInput, SceneStore, check_scene_id, validate_geometry
+from services.recon.shared_scenes import SharedScenes
 from shared.camera_motion import CameraMotion, UnknownMotion, describe_pairs
 from shared.imaging import decode_image, encode_image
 from shared.poses import estimate_up_axis, validate_extrinsic
@@ -27,7 +29,11 @@ from shared.settings import ReconSettings
 
 log = logging.getLogger("pyspatial.recon")
 
-LEASE_POLL_S = 0.25  # how often a replica waiting on another's reconstruction looks for the result
+@dataclass
+class StorageStatus:
+    ok: bool
+    detail: str
+    warnings: list[str]
 
 
 @dataclass
@@ -41,7 +47,12 @@ class ReconstructOutcome:
 class ReconService:
     def __init__(self, settings: ReconSettings) -> None:
         self.settings = settings
-        self.store = SceneStore(settings.data_dir)
+        shared = (
+            SharedScenes(settings.redis_url, settings.cache_namespace, settings.scene_ttl_s)
+            if settings.redis_url and settings.shared_scenes
+            else None
+        )
+        self.store = SceneStore(settings.data_dir, shared)
         self.cache = ReconstructionCache(
             settings.redis_url,
             settings.cache_ttl_s,
@@ -51,10 +62,14 @@ class ReconService:
         self._backbones: dict[str, Backbone] = {}
         self._backbone_errors: dict[str, str] = {}
         self._backbone_lock = threading.Lock()
-        self._in_flight: dict[str, asyncio.Future] = {}
-        self._leases: dict[str, str] = {}  # key -> token of the cross-replica lease we hold
         self._decoded: OrderedDict[str, Reconstruction] = OrderedDict()  # a few hot scenes, deserialized
-        self._limiter = anyio.CapacityLimiter(settings.reconstruct_workers)
+        self.jobs = ReconstructionJobs(
+            self.cache,
+            workers=settings.reconstruct_workers,
+            max_queued=settings.max_queued_reconstructions,
+            lease_s=settings.reconstruct_lease_s,
+            wait_s=settings.reconstruct_wait_s,
+        )
 
     # ---- backbones ---------------------------------------------------------------------------
 
@@ -93,6 +108,19 @@ class ReconService:
 
     # ---- scenes ----------------------------------------------------------------------------
 
+    def storage_status(self) -> StorageStatus:
+        """Whether scenes can be stored now (data dir writable with room; shared store caught up)."""
+        problem = self.store.check_writable()
+        if problem:
+            return StorageStatus(False, problem, [problem])
+        warnings = []
+        shared = self.store.shared
+        if shared is not None and shared.pending and shared.catch_up():
+            warnings.append(
+                f"{shared.pending} scenes are stored on this replica only (shared store: {shared.last_error})"
+            )
+        return StorageStatus(True, "ok", warnings)
+
     def decode(self, data: bytes, label: str) -> np.ndarray:
         return decode_image(
             data,
@@ -101,17 +129,17 @@ class ReconService:
             label=label,
         )
 
-    def add_scene(self, scene: SceneInput) -> tuple[str, bool]:
-        if not 1 <= len(scene.images) <= self.settings.max_images:
-            raise InvalidInput(f"a scene has 1 to {self.settings.max_images} images; got {len(scene.images)}")
+    async def add_scene(self, scene: SceneInput) -> tuple[str, bool]:
+        if not 1 <= scene.num_images <= self.settings.max_images:
+            raise InvalidInput(f"a scene has 1 to {self.settings.max_images} images; got {scene.num_images}")
         validate_geometry(scene)
-        return self.store.save(scene)
+        return await run_cpu(self.store.save, scene)
 
     # ---- reconstruction ----------------------------------------------------------------------
 
     async def reconstruct(self, scene_id: str, backbone_name: str | None = None) -> ReconstructOutcome:
         check_scene_id(scene_id)
-        if not self.store.exists(scene_id):
+        if not await run_cpu(self.store.exists, scene_id):
             raise SceneNotFound(f"scene {scene_id} is not known here: upload its images with POST /v1/scenes")
         backbone = await anyio.to_thread.run_sync(self.backbone, backbone_name)
         ready, detail = backbone.ready()
@@ -125,51 +153,24 @@ class ReconService:
             return ReconstructOutcome(hot, True, False, {"cache_ms": _ms(started)})
         payload = await self.cache.get(key)
         if payload is not None:
-            reconstruction = Reconstruction.from_bytes(payload)
+            reconstruction = await run_cpu(Reconstruction.from_bytes, payload)
             self._remember(key, reconstruction)
             return ReconstructOutcome(reconstruction, True, False, {"cache_ms": _ms(started)})
 
-        if key in self._in_flight:  # single flight: wait for the identical job already running
-            reconstruction, timings = await asyncio.shield(self._in_flight[key])
-            return ReconstructOutcome(reconstruction, False, True, {**timings, "waited_ms": _ms(started)})
-        future: asyncio.Future = asyncio.get_running_loop().create_future()
-        self._in_flight[key] = future
-        try:
-            waited = await self._lease_or_result(key)
-            if waited is not None:  # another replica computed it while we waited
-                self._remember(key, waited)
-                timings = {"waited_ms": _ms(started)}
-                future.set_result((waited, timings))
-                return ReconstructOutcome(waited, False, True, timings)
-            try:
-                reconstruction, timings = await self._run_backbone(scene_id, backbone)
-                await self.cache.set(key, reconstruction.to_bytes())
-            finally:
-                await self.cache.release_lease(key, self._leases.pop(key))
-            self._remember(key, reconstruction)
-            future.set_result((reconstruction, timings))
-        except asyncio.CancelledError:
-            future.cancel()
-            raise
-        except BaseException as error:
-            future.set_exception(error)
-            future.exception()  # mark retrieved: nobody may be waiting
-            raise
-        finally:
-            del self._in_flight[key]
-        return ReconstructOutcome(reconstruction, False, False, {**timings, "total_ms": _ms(started)})
+        async def compute() -> tuple[Reconstruction, dict[str, float]]:
+            reconstruction, timings = await self._run_backbone(scene_id, backbone)
+            await self.cache.set(key, await run_cpu(reconstruction.to_bytes))
+            return reconstruction, timings
 
-    async def _lease_or_result(self, key: str) -> Reconstruction | None:
-        """Take the cross-replica lease on `key` (None), or wait for its holder's result."""
-        while True:
-            token = await self.cache.acquire_lease(key, self.settings.reconstruct_lease_s)
-            if token is not None:
-                self._leases[key] = token
-                return None
-            await asyncio.sleep(LEASE_POLL_S)
-            payload = await self.cache.get(key)
-            if payload is not None:
-                return Reconstruction.from_bytes(payload)
+        async def load(payload: bytes) -> tuple[Reconstruction, dict[str, float]]:
+            return await run_cpu(Reconstruction.from_bytes, payload), {}
+
+        result, joined = await self.jobs.run(key, compute, load)
+        reconstruction, timings = result.value
+        self._remember(key, reconstruction)
+        if joined or not result.computed_here:  # waited for this process's or another replica's job
+            return ReconstructOutcome(reconstruction, False, True, {**timings, "waited_ms": _ms(started)})
+        return ReconstructOutcome(reconstruction, False, False, {**timings, "total_ms": _ms(started)})
 
     async def _run_backbone(
         self, scene_id: str, backbone: Backbone
@@ -203,7 +204,7 @@ class ReconService:
                 )
             return reconstruction, {"load_ms": (loaded - started) * 1e3, "reconstruct_ms": _ms(loaded)}
 
-        return await anyio.to_thread.run_sync(work, limiter=self._limiter)
+        return await run_in_daemon_thread(work, name=f"reconstruct {scene_id}")
 
     def _remember(self, key: str, reconstruction: Reconstruction) -> None:
         self._decoded[key] = reconstruction
@@ -240,8 +241,17 @@ class ReconService:
         self, scene_id: str, pairs: list[tuple[int, int]] | None, backbone: str | None
     ) -> tuple[Reconstruction, list[CameraMotion | UnknownMotion], float]:
         """Per pair a description or why there is none; (reconstruction, motions, scene scale)."""
+        limit = self.settings.max_motion_pairs
+        if pairs is not None and len(pairs) > limit:
+            raise InvalidInput(f"{len(pairs)} view pairs; one camera-motion request takes at most {limit}")
         outcome = await self.reconstruct(scene_id, backbone)
         recon = outcome.reconstruction
+        motions, scale = await run_cpu(self._describe_motion, recon, pairs)
+        return recon, motions, scale
+
+    def _describe_motion(
+        self, recon: Reconstruction, pairs: list[tuple[int, int]] | None
+    ) -> tuple[list[CameraMotion | UnknownMotion], float]:
         views = recon.num_views
         if views < 2:
             raise InvalidInput("camera motion needs at least two views; this scene has one")
@@ -254,7 +264,7 @@ class ReconService:
         up = estimate_up_axis(recon.extrinsics[usable]) if usable else None
         scale = motion_scene_scale(recon, usable)
         motions = describe_pairs(recon.extrinsics, problems, pairs=pairs, up=up, scene_scale=scale)
-        return recon, motions, scale
+        return motions, scale
 
 
 def _validated_pose(extrinsic: list[list[float]]) -> np.ndarray:
