@@ -24,7 +24,8 @@ REQUIRED_PACKAGES=(
     bubblewrap   # the OS jail of the agent's program sandbox (namespaces, read-only view)
     libseccomp2  # the sandbox worker's seccomp filter (through PyPI pyseccomp)
 )
-# nginx: the load balancer in front of two recon replicas in tests/test_scale_out.py and bench.load
+# nginx: the load balancer in front of two recon replicas in tests/test_scale_out.py and bench.load,
+# and `nginx -t` of deploy/nginx/nginx.conf (the compose load balancer) in tests/test_compose.py
 REQUIRED_PACKAGES+=(nginx)
 if command -v dpkg-query >/dev/null 2>&1; then
     missing=()

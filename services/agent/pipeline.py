@@ -23,6 +23,7 @@ from services.agent.answering import (
 from services.agent.clue_views import clue_views
 from services.agent.codegen import ExecutionOutcome, generate_program
 from services.agent.evidence import typed_in_lines
+from services.agent.infrastructure import FailureRecordingClient, InfrastructureFailure, gateway_status
 from services.agent.llm import ChatClient, ChatModelConfig, ModelConfigurationError
 from services.agent.planner import PlanningError, UnplannableQuestion, plan_intent
 from services.agent.recon_tools import ReconToolProvider
@@ -115,7 +116,8 @@ def not_evidence_error(clue_text: str, notes: list[str]) -> str:
 class SolvePipeline:
     def __init__(self, settings: AgentSettings) -> None:
         self.settings = settings
-        self.recon = ReconClient(settings.recon_url, timeout=settings.recon_timeout_s)
+        recon_key = settings.recon_api_key.get_secret_value() if settings.recon_api_key else None
+        self.recon = ReconClient(settings.recon_url, timeout=settings.recon_timeout_s, api_key=recon_key)
         code = _model_config(settings, "code")
         answer = _model_config(settings, "answer")
         self.code_client = ChatClient(code) if code else None
@@ -206,8 +208,10 @@ class SolvePipeline:
             f"{summary.backbone}: {registered} of {len(summary.cameras)} views placed, "
             f"{summary.num_points} points{' (cached)' if summary.cached else ''}",
         )
-        tools = ReconToolProvider(self.recon, scene_id, backbone, input_pngs)
+        recon_of_this_solve = FailureRecordingClient(self.recon)
+        tools = ReconToolProvider(recon_of_this_solve, scene_id, backbone, input_pngs)
         stage = _Stage()
+        attempts_so_far: list[AttemptRecord] = []
 
         def execute(source: str, written_by_model: bool = True) -> ExecutionOutcome:
             attempt = len(stage.runs) + 1
@@ -226,6 +230,15 @@ class SolvePipeline:
             stage.execution_s += time.perf_counter() - run_started
             stage.last = result
             stage.runs.append(result)
+            latency_ms = round((time.perf_counter() - run_started) * 1e3, 2)
+            attempts_so_far.append(AttemptRecord(program=source, error=result.error, latency_ms=latency_ms))
+            failure = recon_of_this_solve.failure
+            if failure is not None:  # the service failed, not the program: no repair can help
+                raise InfrastructureFailure(
+                    gateway_status(failure),
+                    f"the reconstruction service failed while the program ran: {failure}",
+                    attempts_so_far,
+                )
             outcome = ExecutionOutcome(
                 ok=result.ok, error=result.error, payload=result, error_kind=result.error_kind
             )
