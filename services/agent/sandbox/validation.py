@@ -85,7 +85,7 @@ def validate_program(source: str, max_chars: int = MAX_PROGRAM_CHARS) -> ast.Mod
         tree = ast.parse(source, filename="<program>", mode="exec")
     except SyntaxError as error:
         raise ProgramRejected(f"syntax error at line {error.lineno}: {error.msg}") from None
-    except (RecursionError, MemoryError):
+    except (RecursionError, MemoryError, SystemError):  # CPython 3.11 raises SystemError on deep nesting
         raise ProgramRejected("the program is nested too deeply to parse; simplify it") from None
     except ValueError as error:
         raise ProgramRejected(f"the program cannot be parsed: {error}") from None
