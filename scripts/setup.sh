@@ -18,9 +18,14 @@ fi
 # libusb-1.0-0, libgomp1: Open3D; redis-server: the tests' real Redis;
 # mesa-vulkan-drivers, libvulkan1, libegl1: Open3D's offscreen renderer (render benchmark).
 # chromium, chromium-driver: the web page's browser tests (selenium drives Debian's headless Chromium).
-REQUIRED_PACKAGES=(libusb-1.0-0 libgomp1 redis-server mesa-vulkan-drivers libvulkan1 libegl1
-    chromium chromium-driver)
-# nginx: the load balancer in front of two recon replicas in tests/test_scale_out.py and bench.load
+REQUIRED_PACKAGES=(
+    libusb-1.0-0 libgomp1 redis-server mesa-vulkan-drivers libvulkan1 libegl1
+    chromium chromium-driver
+    bubblewrap   # the OS jail of the agent's program sandbox (namespaces, read-only view)
+    libseccomp2  # the sandbox worker's seccomp filter (through PyPI pyseccomp)
+)
+# nginx: the load balancer in front of two recon replicas in tests/test_scale_out.py and bench.load,
+# and `nginx -t` of deploy/nginx/nginx.conf (the compose load balancer) in tests/test_compose.py
 REQUIRED_PACKAGES+=(nginx)
 if command -v dpkg-query >/dev/null 2>&1; then
     missing=()

@@ -7,6 +7,7 @@ import io
 import json
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from urllib.parse import quote
 
 import httpx
 import numpy as np
@@ -44,6 +45,15 @@ class ServiceUnreachable(RuntimeError):
     """Nothing answered at the service URL (not started, wrong URL, or timed out)."""
 
 
+class ServiceTimeout(ServiceUnreachable):
+    """The service accepted the request but did not answer within the timeout."""
+
+
+def _segment(value: str) -> str:
+    """One URL path segment: quoted, so an id can never change the path or add a query."""
+    return quote(str(value), safe="")
+
+
 def image_bytes(image: ImageLike) -> bytes:
     """Encoded image file bytes from a path, raw bytes or an RGB array."""
     if isinstance(image, bytes):
@@ -62,17 +72,22 @@ def _npy(array: np.ndarray) -> bytes:
 class _ServiceClient:
     service_name = "service"
 
-    def __init__(self, base_url: str, timeout: float = 600.0, client: httpx.Client | None = None) -> None:
+    def __init__(
+        self,
+        base_url: str,
+        timeout: float = 600.0,
+        client: httpx.Client | None = None,
+        api_key: str | None = None,
+    ) -> None:
         self.base_url = base_url.rstrip("/")
-        self._http = client or httpx.Client(base_url=self.base_url, timeout=timeout)
+        headers = {"Authorization": f"Bearer {api_key}"} if api_key else {}
+        self._http = client or httpx.Client(base_url=self.base_url, timeout=timeout, headers=headers)
 
     def _request(self, method: str, path: str, **kwargs) -> httpx.Response:
         try:
             response = self._http.request(method, self.base_url + path, **kwargs)
         except httpx.TimeoutException as error:
-            raise ServiceUnreachable(
-                f"the {self.service_name} at {self.base_url} timed out ({error})"
-            ) from error
+            raise ServiceTimeout(f"the {self.service_name} at {self.base_url} timed out ({error})") from error
         except httpx.TransportError as error:
             raise ServiceUnreachable(
                 f"cannot reach the {self.service_name} at {self.base_url}: {error}. "
@@ -83,7 +98,7 @@ class _ServiceClient:
 
     @staticmethod
     def _raise_for_status(response: httpx.Response, method: str, path: str) -> None:
-        if response.status_code >= 400:
+        if response.status_code >= 300:  # redirects are not followed: a path we did not mean
             try:
                 detail = response.json().get("detail", response.text)
             except (ValueError, AttributeError):
@@ -107,13 +122,31 @@ class _ServiceClient:
 class ReconClient(_ServiceClient):
     service_name = "reconstruction service"
 
-    def readyz(self) -> Readiness:
-        response = self._http.get(self.base_url + "/readyz")
-        return Readiness.model_validate(response.json())
+    def readyz(self, timeout: float | None = None) -> Readiness:
+        """The service's readiness (200 or 503 both carry it); ServiceUnreachable when it is down."""
+        try:
+            response = self._http.get(self.base_url + "/readyz", timeout=timeout or self._http.timeout)
+        except httpx.TimeoutException as error:
+            raise ServiceTimeout(
+                f"the {self.service_name} at {self.base_url} did not answer /readyz in {timeout} s"
+            ) from error
+        except httpx.TransportError as error:
+            raise ServiceUnreachable(
+                f"cannot reach the {self.service_name} at {self.base_url}: {error}"
+            ) from error
+        try:
+            return Readiness.model_validate_json(response.content)
+        except ValueError as error:
+            raise ServiceError(
+                response.status_code,
+                f"/readyz answered something else than readiness: {response.text[:200]}",
+                "GET /readyz",
+            ) from error
 
-    def backbones(self) -> dict:
+    def backbones(self, timeout: float | None = None) -> dict:
         """{"default": name, "available": [names]}"""
-        return self._request("GET", "/v1/backbones").json()
+        kwargs = {"timeout": timeout} if timeout is not None else {}
+        return self._request("GET", "/v1/backbones", **kwargs).json()
 
     def upload_scene(
         self,
@@ -135,23 +168,25 @@ class ReconClient(_ServiceClient):
         return SceneCreated.model_validate(self._request("POST", "/v1/scenes", files=files, data=data).json())
 
     def scene_info(self, scene_id: str) -> SceneInfo:
-        return SceneInfo.model_validate(self._request("GET", f"/v1/scenes/{scene_id}").json())
+        return SceneInfo.model_validate(self._request("GET", f"/v1/scenes/{_segment(scene_id)}").json())
 
     def scene_image(self, scene_id: str, index: int) -> bytes:
-        return self._request("GET", f"/v1/scenes/{scene_id}/images/{index}").content
+        return self._request("GET", f"/v1/scenes/{_segment(scene_id)}/images/{int(index)}").content
 
     def reconstruct(self, scene_id: str, backbone: str | None = None) -> ReconstructionSummary:
-        response = self._request("POST", f"/v1/scenes/{scene_id}/reconstruct", json={"backbone": backbone})
+        response = self._request(
+            "POST", f"/v1/scenes/{_segment(scene_id)}/reconstruct", json={"backbone": backbone}
+        )
         return ReconstructionSummary.model_validate(response.json())
 
     def reconstruction(self, scene_id: str, backbone: str | None = None) -> Reconstruction:
         params = {"backbone": backbone} if backbone else {}
-        response = self._request("GET", f"/v1/scenes/{scene_id}/reconstruction", params=params)
+        response = self._request("GET", f"/v1/scenes/{_segment(scene_id)}/reconstruction", params=params)
         return Reconstruction.from_bytes(response.content)
 
     def ply(self, scene_id: str, backbone: str | None = None) -> bytes:
         params = {"format": "ply", **({"backbone": backbone} if backbone else {})}
-        return self._request("GET", f"/v1/scenes/{scene_id}/reconstruction", params=params).content
+        return self._request("GET", f"/v1/scenes/{_segment(scene_id)}/reconstruction", params=params).content
 
     def render(
         self,
@@ -178,7 +213,7 @@ class ReconClient(_ServiceClient):
         self, scene_id: str, backbone: str | None = None, max_points: int = 30_000
     ) -> PointCloudPreview:
         params = {"max_points": max_points, **({"backbone": backbone} if backbone else {})}
-        response = self._request("GET", f"/v1/scenes/{scene_id}/points", params=params)
+        response = self._request("GET", f"/v1/scenes/{_segment(scene_id)}/points", params=params)
         return PointCloudPreview.model_validate_json(response.content)
 
     def camera_motion(

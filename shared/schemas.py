@@ -10,6 +10,7 @@ from shared.question_intent import QuestionIntent
 
 Matrix = list[list[float]]
 ImageFormat = Literal["png", "jpeg"]
+SCENE_ID_PATTERN = r"^[0-9a-f]{24}$"  # content hash prefix, see services/recon/scene_store.py
 
 
 class _Model(BaseModel):
@@ -179,12 +180,31 @@ class Readiness(_Model):
 # ---- agent service -------------------------------------------------------------------------
 
 
+class SandboxStatus(_Model):
+    jail: str = Field(..., description="'active', 'off (operator opt-out)' or 'unavailable'.")
+    runs_programs: bool = Field(..., description="Whether generated programs are run at all.")
+    detail: str = Field(..., description="How the jail was set up, or why it could not be.")
+
+
+class AgentReadiness(_Model):
+    ready: bool
+    reason: str | None = Field(None, description="Why the agent is not ready (null when ready).")
+    recon: Readiness | None = Field(None, description="The recon service's readiness, when it answered.")
+    sandbox: SandboxStatus | None = Field(None, description="The program sandbox's OS jail.")
+    code_model: str
+    answer_model: str
+
+
 class SolveRequest(_Model):
     """JSON form of /v1/solve (multipart uses files `images` plus form fields of the same names)."""
 
     question: str = Field(..., min_length=1, max_length=10_000)
     images: list[str] | None = Field(None, description="Images in order, base64 or data URLs.")
-    scene_id: str | None = Field(None, description="A scene already uploaded to the recon service.")
+    scene_id: str | None = Field(
+        None,
+        pattern=SCENE_ID_PATTERN,
+        description="A scene already uploaded to the recon service (24 hex characters).",
+    )
     backbone: str | None = None
     max_repairs: Annotated[int, Field(ge=0, le=5)] | None = None
 
@@ -235,6 +255,15 @@ class SolveTimings(_Model):
     execution_ms: float
     answering_ms: float
     total_ms: float
+
+
+class ErrorBody(_Model):
+    """Every error response of both services."""
+
+    detail: str = Field(..., description="What went wrong, for a person to read.")
+    attempts: list[AttemptRecord] | None = Field(
+        None, description="/v1/solve only, when the infrastructure failed mid-solve: the attempts so far."
+    )
 
 
 class TokenCounts(_Model):
@@ -309,6 +338,9 @@ class ErrorEvent(_Model):
     status_code: int
     detail: str
     stage: SolveStage | None = Field(None, description="The stage that was running, if any.")
+    attempts: list[AttemptRecord] | None = Field(
+        None, description="When the infrastructure failed while a program ran: the attempts so far."
+    )
 
 
 SolveEvent = Annotated[StageEvent | ResultEvent | ErrorEvent, Field(discriminator="type")]

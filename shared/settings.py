@@ -7,6 +7,7 @@ REDIS_URL, which follows the common convention.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Literal
 
 from pydantic import AliasChoices, Field, SecretStr
 from pydantic_settings import BaseSettings, SettingsConfigDict
@@ -23,7 +24,23 @@ class _Settings(BaseSettings):
     model_config = SettingsConfigDict(env_prefix="PYSPATIAL_", env_file=".env", extra="ignore")
 
 
-class ReconSettings(_Settings):
+class AccessSettings(_Settings):
+    """Access control of one service (both have these; shared/access.py applies them to /v1/)."""
+
+    api_keys: SecretStr | None = Field(
+        None, description="Comma-separated bearer keys accepted on /v1/; no authentication when unset."
+    )
+    rate_limit_per_minute: int = Field(
+        0, ge=0, description="Requests per minute per key (per client address without keys); 0 = off."
+    )
+    rate_limit_burst: int = Field(20, ge=1, description="Requests a key may send at once before 429.")
+    cors_origins: str = Field(
+        "", description="Comma-separated origins allowed by CORS (`*` for any); CORS is off when empty."
+    )
+    docs_enabled: bool = Field(True, description="Serve /docs, /redoc and /openapi.json.")
+
+
+class ReconSettings(AccessSettings):
     backbone: str = Field("classical", description="Default backbone: classical, posed-rgbd or vggt.")
     vggt_checkpoint: Path | None = Field(None, description="Local VGGT-1B checkpoint (.pt or .safetensors).")
     vggt_config: Path | None = Field(None, description="JSON model config; VGGT-1B sizes when unset.")
@@ -74,8 +91,14 @@ class ReconSettings(_Settings):
     drain_s: float = Field(20.0, gt=0, description="On SIGTERM: longest wait for running work before exit.")
 
 
-class AgentSettings(_Settings):
+class AgentSettings(AccessSettings):
     recon_url: str = Field(f"http://127.0.0.1:{DEFAULT_RECON_PORT}", description="Reconstruction service.")
+    recon_api_key: SecretStr | None = Field(
+        None, description="Bearer key the agent sends to the recon service (one of recon's API keys)."
+    )
+    readiness_timeout_s: float = Field(
+        5.0, gt=0, description="Longest /readyz waits for the recon service before answering 503."
+    )
     recon_timeout_s: float = Field(
         600.0, gt=0, description="Timeout of one call to the recon service (above its reconstruct_wait_s)."
     )
@@ -111,6 +134,16 @@ class AgentSettings(_Settings):
     sandbox_cpu_s: int = Field(20, ge=1, description="CPU seconds a program may use.")
     sandbox_wall_s: int = Field(120, ge=1, description="Wall-clock seconds a program may take.")
     sandbox_memory_mb: int = Field(2048, ge=256, description="Address-space limit of a program.")
+    sandbox_jail: Literal["required", "off"] = Field(
+        "required",
+        description="OS jail of generated programs (bubblewrap + seccomp); 'off' is an unsafe opt-out "
+        "that runs them behind the Python-level checks only.",
+    )
+    sandbox_test_only_unchecked: bool = Field(
+        False,
+        description="TEST ONLY: skip the Python-level sandbox checks to prove the OS jail alone; "
+        "refused unless the jail is active.",
+    )
     max_images: int = Field(32, ge=1, description="Most images in one /v1/solve request.")
     max_image_bytes: int = Field(25 * 2**20, ge=1024, description="Largest encoded image file.")
     max_request_bytes: int = Field(300 * 2**20, ge=1024, description="Largest request body.")

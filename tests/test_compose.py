@@ -5,6 +5,7 @@ from __future__ import annotations
 import importlib
 import json
 import re
+import subprocess
 import sys
 from pathlib import Path
 from urllib.parse import urlparse
@@ -37,7 +38,7 @@ def dockerfile_command(path: Path) -> list[str]:
 
 
 def test_every_service_is_there_with_a_healthcheck():
-    assert {"redis", "recon", "recon-gpu", "agent"} <= set(SERVICES)
+    assert {"redis", "recon", "recon-gpu", "agent", "nginx"} <= set(SERVICES)
     for name, service in SERVICES.items():
         assert service.get("healthcheck", {}).get("test"), f"{name} has no healthcheck"
     assert SERVICES["redis"]["image"].startswith("redis:7")
@@ -46,11 +47,11 @@ def test_every_service_is_there_with_a_healthcheck():
 
 def test_ports_and_urls_agree_with_the_settings_defaults():
     for name, port in APP_SERVICES.items():
-        published = [str(entry).split(":")[-1] for entry in SERVICES[name]["ports"]]
-        assert published == [str(port)], f"{name} must publish container port {port}"
         assert f":{port}/healthz" in " ".join(SERVICES[name]["healthcheck"]["test"])
+    published = sorted(str(entry) for entry in SERVICES["nginx"]["ports"])
+    assert published == sorted(f"{port}:{port}" for port in (DEFAULT_AGENT_PORT, DEFAULT_RECON_PORT))
     recon_url = urlparse(default_of(SERVICES["agent"]["environment"]["PYSPATIAL_RECON_URL"]))
-    assert (recon_url.hostname, recon_url.port) == ("recon", DEFAULT_RECON_PORT)
+    assert (recon_url.hostname, recon_url.port) == ("nginx", DEFAULT_RECON_PORT)  # balanced
     redis_url = urlparse(SERVICES["recon"]["environment"]["REDIS_URL"])
     assert redis_url.hostname == "redis" and redis_url.port == 6379
     assert urlparse(AgentSettings.model_fields["recon_url"].default).port == DEFAULT_RECON_PORT
@@ -59,7 +60,9 @@ def test_ports_and_urls_agree_with_the_settings_defaults():
 def test_start_order_waits_for_health():
     assert SERVICES["recon"]["depends_on"]["redis"]["condition"] == "service_healthy"
     assert SERVICES["agent"]["depends_on"]["recon"]["condition"] == "service_healthy"
-    for name in APP_SERVICES:
+    for name in ("agent", "recon"):
+        assert SERVICES["nginx"]["depends_on"][name]["condition"] == "service_healthy"
+    for name in (*APP_SERVICES, "nginx"):
         assert SERVICES[name]["restart"] == "unless-stopped"
 
 
@@ -77,7 +80,7 @@ def test_gpu_service_reserves_an_nvidia_device_under_a_profile():
     assert gpu["profiles"] == ["gpu"]
     devices = gpu["deploy"]["resources"]["reservations"]["devices"]
     assert devices[0]["driver"] == "nvidia" and "gpu" in devices[0]["capabilities"]
-    assert "deploy" not in SERVICES["recon"]  # the default stack runs without a GPU
+    assert "resources" not in SERVICES["recon"].get("deploy", {})  # the default stack needs no GPU
 
 
 def test_environment_names_are_settings_fields():
@@ -104,6 +107,7 @@ def test_each_dockerfile_runs_its_app_factory(name, module):
     assert module_name == module
     assert callable(getattr(importlib.import_module(module_name), factory_name))
     assert command[command.index("--port") + 1] == str(APP_SERVICES[name])
+    assert command[command.index("--forwarded-allow-ips") + 1] == "*"  # client address from nginx
 
 
 def test_readme_documents_every_setting():
@@ -127,3 +131,70 @@ def test_gpu_service_builds_the_cuda_torch():
     assert "TORCH_VARIANT" not in str(compose["services"]["recon"].get("build", {}).get("args", {}))
     dockerfile = (REPO_ROOT / "services" / "recon" / "Dockerfile").read_text()
     assert "ARG TORCH_VARIANT=cpu" in dockerfile and '"$TORCH_VARIANT" = "cuda"' in dockerfile
+
+
+# ---- scale-out behind nginx, non-root containers ------------------------------------------
+
+NGINX_CONF = REPO_ROOT / "deploy" / "nginx" / "nginx.conf"
+SERVICE_UID = "10001"
+
+
+def nginx_servers(text: str) -> dict[int, str]:
+    """listen port -> the upstream URL its location proxies to (through a `set` variable)."""
+    servers = {}
+    for block in re.findall(r"server\s*\{(.*?)\n    \}", text, flags=re.S):
+        port = int(re.search(r"listen\s+(\d+);", block).group(1))
+        variable = re.search(r"proxy_pass\s+\$(\w+);", block).group(1)
+        servers[port] = re.search(rf"set\s+\${variable}\s+(\S+);", block).group(1)
+    return servers
+
+
+def test_replicas_scale_behind_nginx():
+    for name in ("recon", "agent"):
+        service = SERVICES[name]
+        assert "ports" not in service and "container_name" not in service, f"{name} cannot be scaled"
+        assert service["deploy"]["replicas"] >= 2
+    mount = next(v for v in SERVICES["nginx"]["volumes"] if v.endswith(":/etc/nginx/nginx.conf:ro"))
+    assert (REPO_ROOT / mount.split(":")[0]).resolve() == NGINX_CONF.resolve()
+    servers = nginx_servers(NGINX_CONF.read_text())
+    assert servers == {
+        DEFAULT_AGENT_PORT: f"http://agent:{DEFAULT_AGENT_PORT}",
+        DEFAULT_RECON_PORT: f"http://recon:{DEFAULT_RECON_PORT}",
+    }
+    text = NGINX_CONF.read_text()
+    assert "resolver 127.0.0.11" in text  # Docker's DNS, asked at request time: new replicas join
+    limit_mb = int(re.search(r"client_max_body_size (\d+)m;", text).group(1))
+    assert limit_mb * 2**20 >= ReconSettings.model_fields["max_request_bytes"].default
+    read_timeout = int(re.search(r"proxy_read_timeout (\d+)s;", text).group(1))
+    assert read_timeout > AgentSettings.model_fields["recon_timeout_s"].default
+
+
+def test_nginx_accepts_the_config(tmp_path):
+    (tmp_path / "logs").mkdir()
+    result = subprocess.run(
+        ["nginx", "-t", "-p", str(tmp_path), "-e", "stderr", "-c", str(NGINX_CONF)],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "test is successful" in result.stderr
+
+
+def test_recon_is_reachable_only_with_the_agents_key():
+    recon_keys = SERVICES["recon"]["environment"]["PYSPATIAL_API_KEYS"]
+    agent_key = SERVICES["agent"]["environment"]["PYSPATIAL_RECON_API_KEY"]
+    assert recon_keys == agent_key and recon_keys.startswith("${PYSPATIAL_RECON_API_KEY:?")  # required
+
+
+@pytest.mark.parametrize("name", ["recon", "agent"])
+def test_containers_run_as_a_non_root_user(name):
+    build = SERVICES[name]["build"]
+    text = (REPO_ROOT / build["context"] / build["dockerfile"]).read_text()
+    after_last_from = text[text.rindex("\nFROM ") :]
+    users = re.findall(r"^USER (\S+)$", after_last_from, flags=re.M)
+    assert users and users[-1].split(":")[0] == SERVICE_UID
+    assert f"--uid {SERVICE_UID}" in text
+    assert text.index("\nUSER ") > text.index("pip install --no-cache-dir .")  # installs ran as root
+    if name == "recon":
+        assert f"chown {SERVICE_UID}:{SERVICE_UID} /data" in text

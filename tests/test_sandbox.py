@@ -430,3 +430,38 @@ def test_concurrent_runs_are_independent() -> None:
     with ThreadPoolExecutor(max_workers=3) as pool:
         outcomes = sorted(pool.map(run_one, range(3)))
     assert outcomes == [(0, "run 0 1"), (1, "run 1 2"), (2, "run 2 3")]
+
+
+# Ordinary model code that earlier versions refused or broke (issue 9, item 6).
+FALSE_POSITIVES = (
+    "from math import atan2\n"
+    "from math import degrees as deg\n"
+    "import numpy as np\n"
+    "def program(input_scene):\n"
+    "    count = 0\n"
+    "    for _ in range(3):\n"
+    "        count += 1\n"
+    "    dir = 'left'\n"
+    "    a = np.array([3, 1, 2, 3])\n"
+    "    try:\n"
+    "        np.linalg.inv(np.zeros((2, 2)))\n"
+    "        singular = 'no'\n"
+    "    except np.linalg.LinAlgError:\n"
+    "        singular = 'yes'\n"
+    "    return [count, dir, hasattr(input_scene, 'images'), format(3.14159, '.2f'), hex(255),\n"
+    "            bool(np.all(a > 0)), bool(np.any(a > 2)), np.unique(a).tolist(), round(deg(atan2(1, 1))),\n"
+    "            singular, isinstance(a, np.ndarray), isinstance('x', str), str.join('-', ['a', 'b'])]\n"
+)
+FALSE_POSITIVES_CLUE = "3\nleft\nTrue\n3.14\n0xff\nTrue\nTrue\n[1, 2, 3]\n45\nyes\nTrue\nTrue\na-b"
+
+
+def test_ordinary_model_code_is_not_refused() -> None:
+    result = run(FALSE_POSITIVES)
+    assert result.ok, result.error
+    assert result.clue_text == FALSE_POSITIVES_CLUE
+
+
+def test_compile_errors_are_reported_as_they_are() -> None:
+    result = run("def program(input_scene):\n    for x in range(3):\n        pass\n    continue\n")
+    assert not result.ok and result.error_kind == "rejected"
+    assert result.error == "rejected: syntax error at line 4: 'continue' not properly in loop"

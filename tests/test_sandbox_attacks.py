@@ -14,6 +14,7 @@ import re
 import subprocess
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,9 +25,9 @@ from services.agent.sandbox import SandboxLimits, run_program
 from services.agent.sandbox.builtins import OutputCapture, program_globals
 from services.agent.sandbox.runner import REPO_ROOT
 
-LIMITS = SandboxLimits(
-    cpu_seconds=5, wall_seconds=5, memory_mb=512, max_output_chars=2000, max_images=4, max_tool_calls=8
-)
+# The agent's own output, image and tool-call limits, so that the corpus ends the same way through
+# the runner and through /v1/solve (tests/test_sandbox_http.py sets the same CPU, wall and memory).
+LIMITS = SandboxLimits(cpu_seconds=5, wall_seconds=5, memory_mb=512)
 
 
 class TinyTools:
@@ -68,7 +69,8 @@ class Attack:
     name: str
     body: str  # the program; `def program(input_scene):` is added when the body is indented code
     kind: str
-    reason: str  # a fragment the error message must contain
+    reason: str  # a fragment the error message must contain (for "ok": the exact clue text)
+    stdout: str | None = None  # for "ok": what the program printed, exactly (checked by the runner)
 
     @property
     def source(self) -> str:
@@ -263,13 +265,13 @@ ATTACKS = [
         "huge_print",
         wrap("while True:", "    print('x' * 1000)"),
         "output",
-        "printed more than 2000 characters",
+        "printed more than 20000 characters",
     ),
     Attack(
         "caught_huge_print",
-        wrap("try:", "    print('x' * 5000)", "except Exception:", "    pass", "return 'fine'"),
+        wrap("try:", "    print('x' * 50000)", "except Exception:", "    pass", "return 'fine'"),
         "output",
-        "printed more than 2000 characters",
+        "printed more than 20000 characters",
     ),
     Attack(
         "return_function",
@@ -282,7 +284,12 @@ ATTACKS = [
     Attack("return_scene", wrap("return input_scene"), "output", "type Scene cannot be returned"),
     Attack("return_api", wrap("return [pySpatial]"), "output", "type PySpatial cannot be returned"),
     Attack("deep_nesting", wrap("return [[[[1]]]]"), "output", "nested more than 3 levels"),
-    Attack("object_array", wrap("return np.array([input_scene])"), "output", "dtype object"),
+    Attack(
+        "object_array",
+        wrap("return np.array([input_scene])"),
+        "exception",
+        "np.array would make a numpy array of dtype object",
+    ),
     # --- tool abuse -----------------------------------------------------------------------
     Attack(
         "render_too_big",
@@ -311,18 +318,366 @@ ATTACKS = [
 ]
 
 
-@pytest.mark.parametrize("attack", ATTACKS, ids=[attack.name for attack in ATTACKS])
-def test_attack_is_refused_with_the_right_reason(attack: Attack) -> None:
-    result = run_program(attack.source, "What is left of me?", 2, TinyTools(), LIMITS)
-    assert result.ok is False, f"{attack.name} was not stopped: {result.clue_text!r}"
-    assert result.error_kind == attack.kind, result.error
-    assert attack.reason in result.error, result.error
-    assert result.clue_text is None and result.clue_images == []
+E, OUT, OK = "exception", "output", "ok"
+NDARRAY = "TypeError: np.ndarray(...) is not available in the sandbox; use np.array, np.zeros or np.ones"
+OBJECT_DTYPE = "TypeError: numpy arrays of dtype object are not available in the sandbox"
+HIDDEN = "<function program.<locals>.f at (address hidden)>"
+F = "    def f():\n        return 1\n"
+MEMORY_ATTACKS = [
+    # --- raw memory through numpy: buffers, strides, offsets, object dtypes ---------------
+    Attack(
+        "ndarray_buffer_object", wrap("return np.ndarray((1,), buffer=b'x' * 8, dtype=float)"), E, NDARRAY
+    ),
+    Attack("ndarray_strides", wrap("return np.ndarray((4,), strides=(0,))"), E, NDARRAY),
+    Attack("ndarray_offset", wrap("return np.ndarray((1,), buffer=b'x' * 64, offset=56)"), E, NDARRAY),
+    Attack("ndarray_positional", wrap("return np.ndarray((2,), float, b'x' * 16, 0, (8,))"), E, NDARRAY),
+    Attack("ndarray_object", wrap("return np.ndarray((1,), dtype=int)"), E, NDARRAY),
+    Attack(
+        "ndarray_attribute",
+        wrap("return np.ndarray.copy"),
+        E,
+        "AttributeError: np.ndarray.copy is not available in the sandbox",
+    ),
+    Attack(
+        "ndarray_dunder_new",
+        wrap("return np.ndarray.__new__(np.ndarray, (1,))"),
+        R,
+        "'.__new__' is not allowed",
+    ),
+    Attack(
+        "array_dtype_object", wrap("return np.array([1, 2], dtype=object)"), R, "'object' is not available"
+    ),
+    Attack("array_dtype_O", wrap("return np.array([1, 2], dtype='O')"), E, OBJECT_DTYPE),
+    Attack(
+        "array_dtype_positional",
+        wrap("return np.array([1, 2], 'O')"),
+        E,
+        "TypeError: np.array would make a numpy array of dtype object",
+    ),
+    Attack("zeros_object", wrap("return np.zeros(3, dtype='O')"), E, OBJECT_DTYPE),
+    Attack(
+        "ones_object",
+        wrap("return np.ones(3, 'O')"),
+        E,
+        "TypeError: np.ones would make a numpy array of dtype object",
+    ),
+    Attack(
+        "asarray_scene",
+        wrap("return np.asarray([input_scene, 1])"),
+        E,
+        "TypeError: np.asarray would make a numpy array of dtype object",
+    ),
+    Attack(
+        "stack_api",
+        wrap("return np.stack([[pySpatial], [pySpatial]])"),
+        E,
+        "TypeError: np.stack would make a numpy array of dtype object",
+    ),
+    Attack(
+        "where_object",
+        wrap("return np.where([True], [input_scene], [0])"),
+        E,
+        "TypeError: np.where would make a numpy array of dtype object",
+    ),
+    Attack(
+        "concatenate_object",
+        wrap("return np.concatenate([[input_scene], [1]])"),
+        E,
+        "TypeError: np.concatenate would make a numpy array of dtype object",
+    ),
+    Attack(
+        "void_dtype",
+        wrap("return np.zeros(2, dtype='V8')"),
+        E,
+        "TypeError: numpy arrays of dtype |V8 are not available in the sandbox",
+    ),
+    Attack(
+        "datetime_dtype",
+        wrap("return np.zeros(2, dtype='M8[s]')"),
+        E,
+        "TypeError: numpy arrays of dtype datetime64[s] are not available in the sandbox",
+    ),
+    Attack(
+        "np_empty", wrap("return np.empty(3)"), E, "AttributeError: np.empty is not available in the sandbox"
+    ),
+    Attack(
+        "np_dtype",
+        wrap("return np.dtype('O')"),
+        E,
+        "AttributeError: np.dtype is not available in the sandbox",
+    ),
+    Attack("np_frombuffer", wrap("return np.frombuffer(bytearray(8))"), R, "'.frombuffer' is not available"),
+    Attack(
+        "np_fromstring", wrap("return np.fromstring('1 2', sep=' ')"), R, "'.fromstring' is not available"
+    ),
+    Attack(
+        "np_stride_tricks",
+        wrap("return np.lib.stride_tricks.as_strided(np.zeros(1), (9,), (0,))"),
+        R,
+        "'.lib' is not available",
+    ),
+    Attack(
+        "np_as_strided",
+        wrap("return np.as_strided"),
+        E,
+        "AttributeError: np.as_strided is not available in the sandbox",
+    ),
+    Attack("array_view", wrap("return np.zeros(2).view('O')"), R, "'.view' is not available"),
+    Attack("array_tobytes", wrap("return np.zeros(2).tobytes()"), R, "'.tobytes' is not available"),
+    Attack("array_tostring", wrap("return np.zeros(2).tostring()"), R, "'.tostring' is not available"),
+    Attack("array_getfield", wrap("return np.zeros(2).getfield('O', 0)"), R, "'.getfield' is not available"),
+    Attack(
+        "array_setfield",
+        wrap("a = np.zeros(2)", "a.setfield(1, 'O', 0)", "return 1"),
+        R,
+        "'.setfield' is not available",
+    ),
+    Attack(
+        "array_itemset",
+        wrap("a = np.zeros(2)", "a.itemset(0, 1)", "return 1"),
+        R,
+        "'.itemset' is not available",
+    ),
+    Attack("array_data", wrap("return np.zeros(2).data"), R, "'.data' is not available"),
+    Attack("array_base", wrap("return np.zeros(4)[1:].base"), R, "'.base' is not available"),
+    Attack(
+        "array_strides_write",
+        wrap("a = np.zeros(2)", "a.strides = (0,)", "return 1"),
+        R,
+        "assigning or deleting attributes",
+    ),
+    Attack(
+        "array_interface",
+        wrap("return np.zeros(2).__array_interface__"),
+        R,
+        "'.__array_interface__' is not allowed",
+    ),
+    Attack("array_ctypes_data", wrap("return np.zeros(2).ctypes.data"), R, "'.ctypes' is not available"),
+    Attack(
+        "array_setflags",
+        wrap("a = np.zeros(2)", "a.setflags(write=True)", "return 1"),
+        R,
+        "'.setflags' is not available",
+    ),
+    Attack(
+        "array_newbyteorder", wrap("return np.zeros(2).newbyteorder()"), R, "'.newbyteorder' is not available"
+    ),
+    Attack(
+        "astype_void_returned",
+        wrap("return np.zeros(2).astype('V8')"),
+        OUT,
+        "output is not serializable: numpy arrays of dtype |V8 cannot be returned; return numbers",
+    ),
+    Attack("memoryview_name", wrap("return memoryview(bytearray(8))"), R, "'memoryview' is not available"),
+    Attack("bytearray_name", wrap("return bytearray(8)"), E, "NameError: name 'bytearray' is not defined"),
+    Attack(
+        "linalg_lapack",
+        wrap("return np.linalg.lapack_lite"),
+        E,
+        "AttributeError: np.linalg.lapack_lite is not available in the sandbox",
+    ),
+    Attack("str_stand_in_dunder", wrap("return str.__base__"), R, "'.__base__' is not allowed"),
+    Attack(
+        "str_stand_in_unknown",
+        wrap("return str.maketrans_unknown"),
+        E,
+        "AttributeError: str.maketrans_unknown is not available in the sandbox",
+    ),
+    # --- heap addresses never reach a program's text ---------------------------------------
+    Attack("address_repr", F + wrap("return repr(f)"), OK, HIDDEN),
+    Attack("address_str", F + wrap("return str(f)"), OK, HIDDEN),
+    Attack("address_fstring", F + wrap("return f'{f}'"), OK, HIDDEN),
+    Attack("address_fstring_repr", F + wrap("return f'{f!r}'"), OK, HIDDEN),
+    Attack("address_percent", F + wrap("return '%s' % f"), OK, HIDDEN),
+    Attack("address_percent_assign", F + wrap("text = '%r'", "text %= (f,)", "return text"), OK, HIDDEN),
+    Attack("address_format_method", F + wrap("return '{}'.format(f)"), OK, HIDDEN),
+    Attack("address_format_builtin", F + wrap("return format(f)"), OK, HIDDEN),
+    Attack("address_ascii", F + wrap("return ascii(f)"), OK, HIDDEN),
+    Attack("address_in_list", F + wrap("return str([f])"), OK, f"[{HIDDEN}]"),
+    Attack("address_in_dict", F + wrap("return repr({'k': f})"), OK, f"{{'k': {HIDDEN}}}"),
+    Attack("address_print", F + wrap("print(f)", "return 1 + 1"), OK, "2", stdout=HIDDEN + "\n"),
+    Attack(
+        "address_lambda",
+        wrap("return repr(lambda: 1)"),
+        OK,
+        "<function program.<locals>.<lambda> at (address hidden)>",
+    ),
+    Attack(
+        "address_generator",
+        wrap("return str(i for i in range(1))"),
+        OK,
+        "<generator object program.<locals>.<genexpr> at (address hidden)>",
+    ),
+    Attack(
+        "address_builtin",
+        wrap("return repr(len) + str(print)[:22]"),
+        OK,
+        "<built-in function len><function make_print.<",
+    ),
+    Attack(
+        "address_in_error",
+        F + wrap("return {}[f]"),
+        E,
+        "program raised KeyError: <function program.<locals>.f at (address hidden)> (line 4)",
+    ),
+    Attack("address_id", wrap("return id(input_scene)"), R, "'id' is not available"),
+    Attack("address_hash", wrap("return hash(input_scene)"), E, "NameError: name 'hash' is not defined"),
+    Attack(
+        "address_object_array_bytes",
+        wrap("return np.array([input_scene]).tobytes()"),
+        R,
+        "'.tobytes' is not available",
+    ),
+    # --- processes, sessions, the parent: names the program never has ----------------------
+    Attack("fork_name", wrap("return os.fork()"), E, "NameError: name 'os' is not defined"),
+    Attack("setsid_name", wrap("return os.setsid()"), E, "NameError: name 'os' is not defined"),
+    Attack("kill_parent", wrap("return os.kill(os.getppid(), 9)"), E, "NameError: name 'os' is not defined"),
+    Attack("fork_via_import", wrap("import os", "return os.fork()"), R, "imports are not allowed"),
+    Attack(
+        "subprocess_import",
+        wrap("import subprocess", "return subprocess.run(['id'])"),
+        R,
+        "imports are not allowed",
+    ),
+    Attack("socket_import", wrap("import socket", "return socket.socket()"), R, "imports are not allowed"),
+    Attack(
+        "from_math_private",
+        "from math import __loader__\ndef program(input_scene):\n    return 1\n",
+        R,
+        "'__loader__' is not allowed",
+    ),
+    Attack(
+        "from_os_import",
+        "from os import fork\ndef program(input_scene):\n    return fork()\n",
+        R,
+        "imports are not allowed",
+    ),
+    Attack(
+        "from_math_star",
+        "from math import *\ndef program(input_scene):\n    return 1\n",
+        R,
+        "'from math import *' is not allowed",
+    ),
+    Attack(
+        "from_numpy_hidden",
+        "from numpy import frombuffer\ndef program(input_scene):\n    return frombuffer\n",
+        E,
+        "AttributeError: np.frombuffer is not available in the sandbox",
+    ),
+    Attack(
+        "relative_import",
+        "from . import math\ndef program(input_scene):\n    return 1\n",
+        R,
+        "imports are not allowed",
+    ),
+    Attack(
+        "hasattr_private",
+        wrap("return [hasattr(input_scene, '__class__'), hasattr(input_scene, 'gi_frame')]"),
+        OK,
+        "False\nFalse",
+    ),
+    Attack(
+        "hasattr_non_string",
+        wrap("return hasattr(input_scene, 1)"),
+        E,
+        "TypeError: hasattr(): attribute name must be a string",
+    ),
+    # --- text that cannot be encoded ---------------------------------------------------------
+    Attack("surrogate_return", wrap("return 'a\\ud800b'"), OK, "a\ufffdb"),
+    Attack("surrogate_in_list", wrap("return ['\\udfff', 'ok']"), OK, "\ufffd\nok"),
+    Attack("surrogate_dict_key", wrap("return {'\\ud83d': 1}"), OK, "\ufffd: 1"),
+    Attack("surrogate_nested", wrap("return [['\\ud800']]"), OK, '["\ufffd"]'),
+    Attack(
+        "surrogate_error",
+        wrap("raise ValueError('bad \\ud800 text')"),
+        E,
+        "program raised ValueError: bad \ufffd text (line 2)",
+    ),
+    Attack(
+        "surrogate_key_error", wrap("return {}['\\udc80']"), E, "program raised KeyError: '\\udc80' (line 2)"
+    ),
+    Attack(
+        "surrogate_in_source",
+        wrap("return 'x\ud800'"),
+        R,
+        "rejected: the program cannot be parsed: 'utf-8' codec can't encode character '\\ud800' in "
+        "position 39: surrogates not allowed",
+    ),
+    Attack("surrogate_print", wrap("print('\\ud800')", "return 1 + 2"), OK, "3", stdout="\ufffd\n"),
+    Attack("surrogate_chr", wrap("return chr(0xDFFF) + chr(0xD800)"), OK, "\ufffd\ufffd"),
+    # --- honest compile errors ---------------------------------------------------------------
+    Attack("break_outside_loop", wrap("break"), R, "rejected: syntax error at line 2: 'break' outside loop"),
+    Attack(
+        "continue_outside_loop",
+        wrap("continue"),
+        R,
+        "rejected: syntax error at line 2: 'continue' not properly in loop",
+    ),
+    Attack(
+        "return_outside_function",
+        "def program(input_scene):\n    return 1\nif True:\n    return 2\n",
+        R,
+        "top level",
+    ),
+    Attack(
+        "nonlocal_missing",
+        "def program(input_scene):\n    def inner():\n        nonlocal missing\n    return 1\n",
+        R,
+        "'nonlocal' is not allowed",
+    ),
+    Attack(
+        "duplicate_argument",
+        wrap("def g(a, a):", "    return 1", "return 1"),
+        R,
+        "rejected: syntax error at line 2: duplicate argument 'a' in function definition",
+    ),
+    Attack(
+        "too_many_blocks",
+        wrap(*["    " * i + f"for i{i} in range(1):" for i in range(21)], "    " * 21 + "pass", "return 1"),
+        R,
+        "rejected: syntax error at line 22: too many statically nested blocks",
+    ),
+]
+
+ATTACKS += MEMORY_ATTACKS
+
+
+def outcome_problem(attack: Attack, result) -> str | None:
+    """None when `result` is exactly how `attack` must end, else what differs."""
+    if attack.kind == "ok":  # harmless by construction (hidden addresses, replaced surrogates)
+        if not result.ok or result.clue_text != attack.reason:
+            got = f"ok={result.ok} {result.clue_text!r} {result.error!r}"
+            return f"expected ok with {attack.reason!r}, got {got}"
+        if attack.stdout is not None and result.stdout != attack.stdout:
+            return f"expected stdout {attack.stdout!r}, got {result.stdout!r}"
+        result.clue_text.encode("utf-8")
+        result.stdout.encode("utf-8")
+        return None
+    if result.ok:
+        return f"was not stopped: {result.clue_text!r}"
+    if result.error_kind != attack.kind or attack.reason not in result.error:
+        return f"expected {attack.kind} with {attack.reason!r}, got {result.error_kind}: {result.error!r}"
+    if result.clue_text is not None or result.clue_images:
+        return "a failed run carried a clue"
+    return None
+
+
+def test_every_attack_ends_exactly_as_stated() -> None:
+    """The whole corpus through the runner, four programs at a time (each in its own process)."""
+
+    def run_one(attack: Attack) -> str | None:
+        result = run_program(attack.source, "What is left of me?", 2, TinyTools(), LIMITS)
+        problem = outcome_problem(attack, result)
+        return f"{attack.name}: {problem}" if problem else None
+
+    with ThreadPoolExecutor(max_workers=4) as pool:
+        problems = [problem for problem in pool.map(run_one, ATTACKS) if problem]
+    assert problems == []
 
 
 def test_corpus_is_large_and_covers_every_wall() -> None:
-    assert len(ATTACKS) >= 40
-    assert {attack.kind for attack in ATTACKS} == {"rejected", "exception", "memory", "output"}
+    assert len(ATTACKS) >= 150
+    assert {attack.kind for attack in ATTACKS} == {"rejected", "exception", "memory", "output", "ok"}
     assert len({attack.name for attack in ATTACKS}) == len(ATTACKS)
 
 
@@ -398,6 +753,7 @@ def test_program_globals_alone_offer_no_import_open_or_numpy_files() -> None:
 PROCESS_WALL_SCRIPT = """
 import errno, json, os, sys
 sys.path.insert(0, sys.argv[1])
+from services.agent.sandbox import worker
 from services.agent.sandbox.worker import apply_resource_limits, arm_audit_hook
 
 def outcome(action):
@@ -413,6 +769,8 @@ report = {"new_fd": outcome(lambda: os.open("/dev/null", os.O_RDONLY))}
 apply_resource_limits(cpu_seconds=5, memory_mb=512)
 report["new_fd_limited"] = outcome(lambda: os.open("/dev/null", os.O_RDONLY))
 arm_audit_hook(compile("1", "<program>", "exec"))
+# the block lists live in the hook's closure: emptying the module's copies changes nothing
+worker.BLOCKED_EVENTS = worker.BLOCKED_EVENT_MODULES = frozenset()
 report["open"] = outcome(lambda: open(sys.argv[1] + "/pyproject.toml"))
 report["system"] = outcome(lambda: os.system("true"))
 report["listdir"] = outcome(lambda: os.listdir("/"))

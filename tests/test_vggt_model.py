@@ -87,8 +87,10 @@ def test_tiny_model_reproduces_the_published_outputs(tiny_model: VGGT) -> None:
     )
     for name in expected.files:
         assert actual[name].shape == expected[name].shape, name
-        # Relative 1e-4; the absolute floor only matters for values that are exactly zero.
-        np.testing.assert_allclose(actual[name], expected[name], rtol=1e-4, atol=1e-7, err_msg=name)
+        # Relative 1e-4. The absolute floor covers values near zero that are differences of O(1)
+        # float32 terms (points_from_depth): there the rounding of those terms (~1e-7 each, a few of
+        # them) is the error, and it depends on the CPU's BLAS kernels.
+        np.testing.assert_allclose(actual[name], expected[name], rtol=1e-4, atol=1e-6, err_msg=name)
 
 
 def test_batched_input_with_a_leading_batch_dimension_gives_the_same_outputs(tiny_model: VGGT) -> None:

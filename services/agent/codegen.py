@@ -32,7 +32,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from services.agent.example_choice import choose_examples
 from services.agent.llm import ChatClient, ChatReply, LLMError, image_part, text_part
-from services.agent.program_cleanup import clean_program, program_fingerprint
+from services.agent.program_cleanup import UNPARSABLE_ERRORS, clean_program, program_fingerprint
 from services.agent.prompts import load_template
 from services.agent.reply_blocks import CodeBlock, code_blocks, defines_function, unfenced_function
 from shared.question_intent import QuestionIntent
@@ -99,7 +99,7 @@ class ProgramChoice(NamedTuple):
 def _parses(code: str) -> ast.Module | None:
     try:
         return ast.parse(code)
-    except (SyntaxError, ValueError, RecursionError, MemoryError):
+    except UNPARSABLE_ERRORS:
         return None
 
 

@@ -25,6 +25,7 @@ from __future__ import annotations
 import ast
 import re
 
+from services.agent.program_cleanup import UNPARSABLE_ERRORS
 from shared.choices import normalize_direction, normalize_turn, parse_options
 
 _MIN_LITERAL_CHARS = 2
@@ -39,7 +40,7 @@ def program_literals(program: str) -> list[str]:
     """The string constants of a program (f-string pieces included), normalized, longest first."""
     try:
         tree = ast.parse(program)
-    except (SyntaxError, ValueError, RecursionError, MemoryError):
+    except UNPARSABLE_ERRORS:
         return []
     found = {
         _normalized(node.value)

@@ -23,10 +23,13 @@ from services.agent.answering import (
 from services.agent.clue_views import clue_views
 from services.agent.codegen import ExecutionOutcome, generate_program
 from services.agent.evidence import typed_in_lines
+from services.agent.infrastructure import FailureRecordingClient, InfrastructureFailure, gateway_status
 from services.agent.llm import ChatClient, ChatModelConfig, ModelConfigurationError
 from services.agent.planner import PlanningError, UnplannableQuestion, plan_intent
 from services.agent.recon_tools import ReconToolProvider
 from services.agent.sandbox import ExecutionResult, SandboxLimits, run_program
+from services.agent.sandbox.jail import JailMode, JailStatus, probe
+from services.agent.sandbox.text import clean_text
 from shared.client import ReconClient, ServiceError
 from shared.imaging import decode_image, encode_image
 from shared.question_intent import QuestionIntent, parse_question
@@ -113,7 +116,8 @@ def not_evidence_error(clue_text: str, notes: list[str]) -> str:
 class SolvePipeline:
     def __init__(self, settings: AgentSettings) -> None:
         self.settings = settings
-        self.recon = ReconClient(settings.recon_url, timeout=settings.recon_timeout_s)
+        recon_key = settings.recon_api_key.get_secret_value() if settings.recon_api_key else None
+        self.recon = ReconClient(settings.recon_url, timeout=settings.recon_timeout_s, api_key=recon_key)
         code = _model_config(settings, "code")
         answer = _model_config(settings, "answer")
         self.code_client = ChatClient(code) if code else None
@@ -123,6 +127,16 @@ class SolvePipeline:
             wall_seconds=settings.sandbox_wall_s,
             memory_mb=settings.sandbox_memory_mb,
         )
+        self._jail: JailStatus | None = None
+
+    @property
+    def jail(self) -> JailStatus:
+        """The OS jail of the program sandbox, probed once (a real program run, ~0.1 s)."""
+        if self._jail is None:
+            self._jail = probe(JailMode(self.settings.sandbox_jail))
+            if self.settings.sandbox_test_only_unchecked and not self._jail.jailed:
+                raise RuntimeError("PYSPATIAL_SANDBOX_TEST_ONLY_UNCHECKED needs an active OS jail")
+        return self._jail
 
     @property
     def code_model_name(self) -> str:
@@ -155,6 +169,8 @@ class SolvePipeline:
             available = self.recon.backbones()["available"]
             if backbone not in available:
                 raise SolveError(422, f"unknown backbone {backbone!r}; available: {', '.join(available)}")
+        if not self.jail.runs_programs:
+            raise SolveError(503, f"the program sandbox is unavailable: {self.jail.detail}")
         report("upload", "started", f"{len(image_files)} images" if image_files else f"scene {scene_id}")
         scene_id, input_pngs = self._scene(image_files, scene_id)
         report("upload", "done", f"scene {scene_id}")
@@ -192,18 +208,37 @@ class SolvePipeline:
             f"{summary.backbone}: {registered} of {len(summary.cameras)} views placed, "
             f"{summary.num_points} points{' (cached)' if summary.cached else ''}",
         )
-        tools = ReconToolProvider(self.recon, scene_id, backbone, input_pngs)
+        recon_of_this_solve = FailureRecordingClient(self.recon)
+        tools = ReconToolProvider(recon_of_this_solve, scene_id, backbone, input_pngs)
         stage = _Stage()
+        attempts_so_far: list[AttemptRecord] = []
 
         def execute(source: str, written_by_model: bool = True) -> ExecutionOutcome:
             attempt = len(stage.runs) + 1
             report("program", "done", f"attempt {attempt} written")
             report("execution", "started", f"running attempt {attempt} in the sandbox")
             run_started = time.perf_counter()
-            result = run_program(source, question, len(input_pngs), tools, self.limits)
+            result = run_program(
+                source,
+                question,
+                len(input_pngs),
+                tools,
+                self.limits,
+                jail_status=self.jail,
+                python_checks=not self.settings.sandbox_test_only_unchecked,
+            )
             stage.execution_s += time.perf_counter() - run_started
             stage.last = result
             stage.runs.append(result)
+            latency_ms = round((time.perf_counter() - run_started) * 1e3, 2)
+            attempts_so_far.append(AttemptRecord(program=source, error=result.error, latency_ms=latency_ms))
+            failure = recon_of_this_solve.failure
+            if failure is not None:  # the service failed, not the program: no repair can help
+                raise InfrastructureFailure(
+                    gateway_status(failure),
+                    f"the reconstruction service failed while the program ran: {failure}",
+                    attempts_so_far,
+                )
             outcome = ExecutionOutcome(
                 ok=result.ok, error=result.error, payload=result, error_kind=result.error_kind
             )
@@ -476,9 +511,9 @@ class SolvePipeline:
         )
         attempts = [
             AttemptRecord(
-                program=a.program,
-                error=a.error,
-                reply=a.reply,
+                program=_encodable(a.program),
+                error=_encodable(a.error),
+                reply=_encodable(a.reply),
                 latency_ms=round(a.latency_ms, 2),
                 error_kind=a.error_kind,
                 dropped=a.dropped,
@@ -504,7 +539,8 @@ class SolvePipeline:
                 unplannable,
                 f"{self.code_model_name} failed: {generated.error}",
             )
-        return attempts, generated.program if generated.ok else None, self.code_model_name, None, None
+        program = _encodable(generated.program) if generated.ok else None
+        return attempts, program, self.code_model_name, None, None
 
     @staticmethod
     def _plan_offline(
@@ -525,3 +561,8 @@ class SolvePipeline:
             latency_ms=round((time.perf_counter() - run_started) * 1e3, 2),
         )
         return [attempt], planned.source if outcome.ok else None, None
+
+
+def _encodable(text: str | None) -> str | None:
+    """A model's text in the response: lone surrogates (valid in JSON, not in UTF-8) replaced."""
+    return None if text is None else clean_text(text)

@@ -20,6 +20,10 @@ import ast
 import hashlib
 from dataclasses import dataclass, field
 
+# What ast.parse raises on hostile text: SystemError too, which CPython 3.11 raises on deep nesting
+# ("AST constructor recursion depth mismatch") where RecursionError would be expected.
+UNPARSABLE_ERRORS = (SyntaxError, ValueError, RecursionError, MemoryError, SystemError)
+
 PROGRAM_NAME = "program"
 # Names the sandbox binds: a program's own definition of one is a stand-in, never the real thing.
 PROVIDED_NAMES = frozenset(
@@ -129,7 +133,7 @@ def clean_program(source: str) -> CleanedProgram:
     """
     try:
         tree = ast.parse(source)
-    except (SyntaxError, ValueError, RecursionError, MemoryError):
+    except UNPARSABLE_ERRORS:
         return CleanedProgram(source)
     body = tree.body
     programs = [
@@ -200,7 +204,7 @@ def program_fingerprint(source: str) -> str:
     """Equal for programs that differ only in comments, blank lines or formatting."""
     try:
         canonical = ast.dump(ast.parse(source))
-    except (SyntaxError, ValueError, RecursionError, MemoryError):
+    except UNPARSABLE_ERRORS:
         canonical = "\n".join(line.strip() for line in source.splitlines() if line.strip())
     return hashlib.sha256(canonical.encode("utf-8", "surrogatepass")).hexdigest()
 

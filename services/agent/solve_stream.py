@@ -20,6 +20,7 @@ import anyio
 from pydantic import BaseModel
 from starlette.responses import StreamingResponse
 
+from services.agent.infrastructure import InfrastructureFailure, recon_error_status
 from services.agent.llm import LLMError
 from services.agent.pipeline import ProgressCallback, SolveError
 from shared.client import ServiceError, ServiceUnreachable
@@ -45,11 +46,10 @@ def failure_status(error: BaseException) -> tuple[int, str]:
         return 413, str(error)
     if isinstance(error, ImageError):
         return (413 if error.over_limit else 400), str(error)
-    if isinstance(error, ServiceError):
-        status = error.status_code if error.status_code < 500 else 502
-        return status, f"reconstruction service: {error.message}"
-    if isinstance(error, ServiceUnreachable):
-        return 503, str(error)
+    if isinstance(error, (ServiceError, ServiceUnreachable)):
+        return recon_error_status(error)
+    if isinstance(error, InfrastructureFailure):
+        return error.status_code, error.message
     if isinstance(error, LLMError):
         return 502, f"language model: {error}"
     return 500, f"internal error: {type(error).__name__}: {error}"
@@ -93,7 +93,9 @@ async def _events(run: Callable[[ProgressCallback], SolveResponse]) -> AsyncIter
     status, detail = failure_status(error)
     if status >= 500:
         log.error("solve failed: %s", detail, exc_info=error if status == 500 else None)
-    yield sse(ErrorEvent(status_code=status, detail=detail, stage=current[0] if current else None))
+    attempts = error.attempts if isinstance(error, InfrastructureFailure) else None
+    stage = current[0] if current else None
+    yield sse(ErrorEvent(status_code=status, detail=detail, stage=stage, attempts=attempts))
 
 
 async def _until_done(

@@ -8,18 +8,19 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
+from pathlib import Path as FilePath
 
 import anyio
-from fastapi import FastAPI, HTTPException, Query
+from fastapi import FastAPI, HTTPException, Path, Query
 from fastapi.responses import FileResponse
 from fastapi.staticfiles import StaticFiles
 
 from services.agent.pipeline import SolvePipeline
-from shared.schemas import PointCloudPreview
+from shared.http_errors import error_responses
+from shared.schemas import SCENE_ID_PATTERN, PointCloudPreview
 
-WEB_DIR = Path(__file__).resolve().parent / "web"
-EXAMPLE_DIR = Path(__file__).resolve().parents[2] / "examples" / "living_room"
+WEB_DIR = FilePath(__file__).resolve().parent / "web"
+EXAMPLE_DIR = FilePath(__file__).resolve().parents[2] / "examples" / "living_room"
 
 
 def install_web_routes(app: FastAPI, pipeline: SolvePipeline) -> None:
@@ -29,21 +30,26 @@ def install_web_routes(app: FastAPI, pipeline: SolvePipeline) -> None:
     async def page() -> FileResponse:
         return FileResponse(WEB_DIR / "index.html", headers={"Cache-Control": "no-cache"})
 
-    @app.get("/v1/scenes/{scene_id}/points", tags=["scenes"], response_model=PointCloudPreview)
+    @app.get(
+        "/v1/scenes/{scene_id}/points",
+        tags=["scenes"],
+        response_model=PointCloudPreview,
+        responses=error_responses(401, 404, 422, 429, 502, 503, 504),
+    )
     async def points(
-        scene_id: str,
+        scene_id: str = Path(pattern=SCENE_ID_PATTERN),  # checked before it goes into a recon URL
         backbone: str | None = None,
         max_points: int = Query(30_000, ge=1, le=200_000),
     ) -> PointCloudPreview:
         """A subsample of the scene's points and its cameras (from the recon service), for viewers."""
         return await anyio.to_thread.run_sync(pipeline.recon.points, scene_id, backbone, max_points)
 
-    @app.get("/v1/backbones", tags=["web"])
+    @app.get("/v1/backbones", tags=["web"], responses=error_responses(401, 429, 502, 503, 504))
     async def backbones() -> dict:
         """The recon service's backbones and its default (for the page's backbone menu)."""
         return await anyio.to_thread.run_sync(pipeline.recon.backbones)
 
-    @app.get("/v1/example", tags=["web"])
+    @app.get("/v1/example", tags=["web"], responses=error_responses(401, 404, 429))
     async def example() -> dict:
         """The bundled example: its question and the URLs of its images."""
         spec = _example_spec()
@@ -53,7 +59,12 @@ def install_web_routes(app: FastAPI, pipeline: SolvePipeline) -> None:
             "images": [f"/v1/example/images/{name}" for name in spec["images"]],
         }
 
-    @app.get("/v1/example/images/{name}", tags=["web"], response_class=FileResponse)
+    @app.get(
+        "/v1/example/images/{name}",
+        tags=["web"],
+        response_class=FileResponse,
+        responses=error_responses(401, 404, 429),
+    )
     async def example_image(name: str) -> FileResponse:
         if name not in _example_spec()["images"]:
             raise HTTPException(404, f"the example has no image {name!r}")

@@ -19,7 +19,9 @@ from services.recon.preview import MAX_PREVIEW_POINTS, point_cloud_preview
 from services.recon.scene_store import has_all_intrinsics
 from services.recon.service import ReconService
 from services.recon.uploads import SceneUploads
+from shared.access import docs_urls, install_access_control
 from shared.http_bodies import install_input_error_handlers
+from shared.http_errors import error_responses, install_error_shape
 from shared.imaging import media_type
 from shared.poses import estimate_up_axis
 from shared.reconstruction import Reconstruction
@@ -104,8 +106,12 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
         version="0.1.0",
         description="Reconstructs scenes from images and renders, measures and describes them.",
         lifespan=lifespan,
+        redirect_slashes=False,  # "/v1/scenes/<id>%2F" must be a 404, not a redirect elsewhere
+        **docs_urls(settings),
     )
     app.state.service = service
+    install_error_shape(app)
+    install_access_control(app, settings)
 
     @app.exception_handler(ReconServiceError)
     async def service_error(_: Request, error: ReconServiceError) -> JSONResponse:
@@ -114,7 +120,7 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
 
     install_input_error_handlers(app)
 
-    @app.get("/v1/backbones", tags=["health"])
+    @app.get("/v1/backbones", tags=["health"], responses=error_responses(401, 429))
     async def backbones() -> dict:
         """The registered backbones and the default one."""
         return {"default": settings.backbone, "available": available_backbones()}
@@ -123,7 +129,12 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
     async def healthz() -> dict:
         return {"status": "ok"}
 
-    @app.get("/readyz", tags=["health"], response_model=Readiness)
+    @app.get(
+        "/readyz",
+        tags=["health"],
+        response_model=Readiness,
+        responses={503: {"model": Readiness, "description": "Not ready; `backbone_detail` says why."}},
+    )
     async def readyz() -> JSONResponse:
         backbone_ready, detail = service.backbone_status()
         cache_mode = await service.cache.check()
@@ -148,7 +159,15 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
         return JSONResponse(body.model_dump(), status_code=200 if ready else 503)
 
     @app.post(
-        "/v1/scenes", tags=["scenes"], response_model=SceneCreated, status_code=201, openapi_extra=_UPLOAD_DOC
+        "/v1/scenes",
+        tags=["scenes"],
+        response_model=SceneCreated,
+        status_code=201,
+        openapi_extra=_UPLOAD_DOC,
+        responses={
+            200: {"model": SceneCreated, "description": "The same scene had been uploaded before."},
+            **error_responses(400, 401, 413, 422, 429, 503, 507),
+        },
     )
     async def create_scene(request: Request) -> JSONResponse:
         scene = await uploads.read(request)
@@ -163,7 +182,12 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
         )
         return JSONResponse(body.model_dump(), status_code=201 if created else 200)
 
-    @app.get("/v1/scenes/{scene_id}", tags=["scenes"], response_model=SceneInfo)
+    @app.get(
+        "/v1/scenes/{scene_id}",
+        tags=["scenes"],
+        response_model=SceneInfo,
+        responses=error_responses(401, 404, 429),
+    )
     async def scene_info(scene_id: str) -> SceneInfo:
         return SceneInfo(scene_id=scene_id, **await run_cpu(service.store.info, scene_id))
 
@@ -171,14 +195,19 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
         "/v1/scenes/{scene_id}/images/{index}",
         tags=["scenes"],
         response_class=Response,
-        responses={200: {"content": {"application/octet-stream": {}}}},
+        responses={200: {"content": {"application/octet-stream": {}}}, **error_responses(401, 404, 422, 429)},
     )
     async def scene_image(scene_id: str, index: int) -> Response:
         """One uploaded image file, byte for byte as it was uploaded."""
         blob = await run_cpu(service.store.image_file, scene_id, index)
         return Response(blob, media_type="application/octet-stream")
 
-    @app.post("/v1/scenes/{scene_id}/reconstruct", tags=["scenes"], response_model=ReconstructionSummary)
+    @app.post(
+        "/v1/scenes/{scene_id}/reconstruct",
+        tags=["scenes"],
+        response_model=ReconstructionSummary,
+        responses=error_responses(401, 404, 422, 429, 503),
+    )
     async def reconstruct(
         http: Request, scene_id: str, request: ReconstructRequest | None = None
     ) -> ReconstructionSummary:
@@ -192,7 +221,10 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
     @app.get(
         "/v1/scenes/{scene_id}/reconstruction",
         tags=["scenes"],
-        responses={200: {"content": {"application/octet-stream": {}, "application/x-ply": {}}}},
+        responses={
+            200: {"content": {"application/octet-stream": {}, "application/x-ply": {}}},
+            **error_responses(401, 404, 422, 429, 503),
+        },
     )
     async def reconstruction(
         http: Request,
@@ -209,7 +241,12 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
             )
         return Response(await run_cpu(recon.to_bytes), media_type="application/octet-stream")
 
-    @app.get("/v1/scenes/{scene_id}/points", tags=["scenes"], response_model=PointCloudPreview)
+    @app.get(
+        "/v1/scenes/{scene_id}/points",
+        tags=["scenes"],
+        response_model=PointCloudPreview,
+        responses=error_responses(401, 404, 422, 429, 503),
+    )
     async def points(
         http: Request,
         scene_id: str,
@@ -227,7 +264,10 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
         "/v1/render",
         tags=["tools"],
         response_class=Response,
-        responses={200: {"content": {"image/png": {}, "image/jpeg": {}}}},
+        responses={
+            200: {"content": {"image/png": {}, "image/jpeg": {}}},
+            **error_responses(401, 404, 422, 429, 503),
+        },
     )
     async def render(http: Request, request: RenderRequest) -> Response:
         image = await until_disconnected(
@@ -244,7 +284,12 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
         )
         return Response(image, media_type=media_type(request.format))
 
-    @app.post("/v1/camera-motion", tags=["tools"], response_model=CameraMotionResponse)
+    @app.post(
+        "/v1/camera-motion",
+        tags=["tools"],
+        response_model=CameraMotionResponse,
+        responses=error_responses(401, 404, 422, 429, 503),
+    )
     async def camera_motion(http: Request, request: CameraMotionRequest) -> CameraMotionResponse:
         """Per pair of views a description, or (described = false) why there is none."""
         recon, motions, scale = await until_disconnected(

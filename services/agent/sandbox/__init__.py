@@ -1,24 +1,32 @@
 """Run untrusted generated programs: `def program(input_scene): ...` against the pySpatial API.
 
-Three walls in depth (tests/test_sandbox_attacks.py holds each of them to account):
+Four walls in depth (tests/test_sandbox_attacks.py, test_sandbox_jail.py and test_sandbox_http.py
+hold each of them to account):
 
+0. jail.py / seccomp_filter.py: the OS jail, independent of everything below. The worker runs under
+   bubblewrap in its own PID, network (empty), IPC, UTS and mount namespaces with a read-only view
+   of only the interpreter, site-packages and this package, as uid 65534 without capabilities,
+   with no-new-privs, dying with its parent, behind a seccomp filter that refuses new processes,
+   exec, signals to others, sockets, sessions, mounts and writable opens. No jail, no programs
+   (unless the operator opts out with PYSPATIAL_SANDBOX_JAIL=off).
 1. validation.py checks the syntax tree before anything runs (own AST checker rather than
    RestrictedPython: the allowed language is tiny, so rejecting outright is simpler than
    RestrictedPython's rewrite-and-guard model, needs no guard functions to get right, and gives the
-   code model one plain message per problem to repair). No imports (but `import numpy as np` and
-   `import math` are accepted as no-ops), no classes, no `global`/`yield`/async/`with`, no name or
-   attribute starting with `_`, no frame/generator/code attributes, no file or pickle attributes
-   of numpy, no attribute writes. `x.format(...)` is rewritten to a formatter that refuses
-   `{0.attr}` / `{0[key]}` fields.
+   code model one plain message per problem to repair). No imports (but `import numpy as np`,
+   `import math` and `from math import atan2` are accepted and bound to the stand-ins), no classes,
+   no `global`/`yield`/async/`with`, no name or attribute starting with `_` (except the name `_`),
+   no frame/generator/code attributes, no file, pickle or raw-memory attributes of numpy, no
+   attribute writes. `x.format(...)`, f-string fields and `%` are rewritten to formatters that
+   refuse `{0.attr}` / `{0[key]}` fields and hide heap addresses.
 2. builtins.py: the program's globals hold only whitelisted builtins, a captured `print`, a bounded
-   `range`, a read-only numpy stand-in (`np`, arithmetic and linear algebra only) and `math`.
-3. worker.py runs the program in a fresh `python -I` process (one per run) in an empty temporary
-   directory with an empty environment, RLIMIT_CPU / AS / FSIZE=0 / NOFILE=0 / CORE=0 / NPROC=0,
-   an audit hook refusing open / import / exec / os / socket / subprocess events, and stdin/stdout
-   replaced by /dev/null (the protocol uses private copies of the pipes, so prints cannot forge
-   messages). numpy's lazily initialised paths are warmed up before the hook is armed. The parent
-   enforces the wall-clock limit and kills the whole process group. RLIMIT_NPROC does not bind
-   root; no network namespace is created (nothing in the program can reach a socket).
+   `range`, a read-only numpy stand-in (`np`: functions that build new arrays, never object arrays;
+   `np.ndarray` only for isinstance) and `math`.
+3. worker.py runs the program in a fresh `python -I` process (one per run) with an empty
+   environment, RLIMIT_CPU / AS / FSIZE=0 / NOFILE=0 / CORE=0 / NPROC=0, an audit hook refusing
+   open / import / exec / os / socket / subprocess events, and stdin/stdout replaced by /dev/null
+   (the protocol uses private copies of the pipes, so prints cannot forge messages). numpy's lazily
+   initialised paths are warmed up before the hook is armed. The parent enforces the wall-clock
+   limit, bounds every message it reads, and kills the whole process group.
 
 The program never sees files or the network: reconstruction, camera-motion sentences, rendering and
 input images are requests to the parent (runner.py), which serves them through a `ToolProvider`
@@ -26,8 +34,30 @@ and keeps every pixel; the program holds opaque `Image` handles. Pose tools (sha
 locally in the child. Time spent in the parent's tools does not count against `wall_seconds`.
 """
 
-from services.agent.sandbox.runner import ExecutionResult, SandboxLimits, ToolProvider, run_program
-from services.agent.sandbox.validation import ProgramRejected, validate_program
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from services.agent.sandbox.runner import ExecutionResult, SandboxLimits, ToolProvider, run_program
+    from services.agent.sandbox.validation import ProgramRejected, validate_program
+
+_EXPORTS = {
+    "ExecutionResult": "runner",
+    "SandboxLimits": "runner",
+    "ToolProvider": "runner",
+    "run_program": "runner",
+    "ProgramRejected": "validation",
+    "validate_program": "validation",
+}
+
+
+def __getattr__(name: str):  # noqa: ANN202
+    """Lazy exports: the worker imports this package too, and needs none of the parent's modules."""
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+
+    return getattr(importlib.import_module(f"{__name__}.{_EXPORTS[name]}"), name)
+
 
 __all__ = [
     "ExecutionResult",

@@ -7,38 +7,55 @@ name and attribute starting with `_`), never the numpy module itself.
 
 from __future__ import annotations
 
+import functools
 import math
+import re
 import string
 from collections.abc import Callable
 from typing import Any
 
 import numpy
 
+from services.agent.sandbox.validation import FSTRING_FUNCTION_NAME, PERCENT_FUNCTION_NAME
+
+__all__ = ["FORMAT_FUNCTION_NAME", "FSTRING_FUNCTION_NAME", "PERCENT_FUNCTION_NAME", "program_globals"]
+
 MAX_RANGE_ITEMS = 10_000_000
-FORMAT_FUNCTION_NAME = "__sandbox_format__"  # injected by the rewriter; programs cannot spell it
+# Injected by the rewriter (validation.prepare_for_execution); programs cannot spell these names.
+FORMAT_FUNCTION_NAME = "__sandbox_format__"  # x.format(...)
+# CPython's default repr names an object's heap address ("<function f at 0x7f...>"); addresses
+# are the first step of every memory attack, so text a program builds never shows them.
+_ADDRESS = re.compile(r" at 0x[0-9a-fA-F]+")
+ADDRESS_HIDDEN = " at (address hidden)"
 
 _SAFE_FUNCTIONS: tuple[Callable[..., Any] | type, ...] = (
-    abs, all, any, bool, chr, dict, divmod, enumerate, filter, float, frozenset, int, isinstance, iter,
-    len, list, map, max, min, next, ord, pow, repr, reversed, round, set, slice, sorted, str, sum,
-    tuple, zip,
+    abs, all, any, bin, bool, callable, chr, dict, divmod, enumerate, filter, float, frozenset, hex,
+    int, isinstance, iter, len, list, map, max, min, next, oct, ord, pow, reversed, round, set, slice,
+    sorted, sum, tuple, zip,
 )  # fmt: skip
 
 _SAFE_EXCEPTIONS: tuple[type[BaseException], ...] = (
-    ArithmeticError, AssertionError, Exception, IndexError, KeyError, LookupError, OverflowError,
-    RuntimeError, StopIteration, TypeError, ValueError, ZeroDivisionError,
+    ArithmeticError, AssertionError, AttributeError, Exception, IndexError, KeyError, LookupError,
+    NameError, NotImplementedError, OverflowError, RuntimeError, StopIteration, TypeError, ValueError,
+    ZeroDivisionError,
 )  # fmt: skip
 
-NUMPY_NAMES = (
-    "abs", "allclose", "arange", "arccos", "arcsin", "arctan", "arctan2", "argmax", "argmin",
-    "argsort", "array", "array_equal", "asarray", "ceil", "clip", "column_stack", "concatenate",
-    "cos", "cross", "cumsum", "deg2rad", "degrees", "diag", "dot", "e", "exp", "eye", "float32",
-    "float64", "floor", "hstack", "inf", "int32", "int64", "isclose", "isfinite", "isnan", "linspace",
-    "log", "matmul", "max", "maximum", "mean", "median", "min", "minimum", "nan", "ndarray", "newaxis",
-    "ones", "outer", "pi", "rad2deg", "radians", "round", "sign", "sin", "sort", "sqrt", "square",
-    "stack", "std", "sum", "tan", "trace", "transpose", "uint8", "vstack", "where", "zeros",
-    "zeros_like", "ones_like",
+# Functions that build new arrays from values (never from buffers, strides or offsets). Each is
+# wrapped so that no object-dtype array can come out of it (see _guarded).
+NUMPY_FUNCTIONS = (
+    "abs", "all", "allclose", "any", "arange", "arccos", "arcsin", "arctan", "arctan2", "argmax",
+    "argmin", "argsort", "array", "array_equal", "asarray", "ceil", "clip", "column_stack",
+    "concatenate", "cos", "cross", "cumsum", "deg2rad", "degrees", "diag", "dot", "exp", "eye",
+    "floor", "hstack", "isclose", "isfinite", "isnan", "linspace", "log", "matmul", "max", "maximum",
+    "mean", "median", "min", "minimum", "ones", "outer", "rad2deg", "radians", "round", "sign", "sin",
+    "sort", "sqrt", "square", "stack", "std", "sum", "tan", "trace", "transpose", "unique", "vstack",
+    "where", "zeros", "zeros_like", "ones_like",
 )  # fmt: skip
-NUMPY_LINALG_NAMES = ("det", "inv", "norm", "pinv", "solve", "svd")
+# Plain values and scalar types (scalar constructors take a number, not a buffer).
+NUMPY_VALUES = ("e", "float32", "float64", "inf", "int32", "int64", "nan", "newaxis", "pi", "uint8")
+NUMPY_LINALG_FUNCTIONS = ("det", "inv", "norm", "pinv", "solve", "svd")
+NUMPY_NAMES = NUMPY_FUNCTIONS + NUMPY_VALUES + ("ndarray",)
+_REFUSED_DTYPE_KINDS = "OVM"  # object, void (raw records), datetime: none is arithmetic
 
 
 class ReadOnlyNamespace:
@@ -67,12 +84,75 @@ class ReadOnlyNamespace:
         return f"<sandbox module {object.__getattribute__(self, '_label')}>"
 
 
+class _TypeStandInMeta(type):
+    """Metaclass of stand-ins for real types: isinstance works, everything else is chosen."""
+
+    def __instancecheck__(cls, value: object) -> bool:
+        return isinstance(value, cls._sandbox_real)
+
+    def __subclasscheck__(cls, subclass: type) -> bool:
+        return issubclass(subclass, cls._sandbox_real)
+
+    def __call__(cls, *arguments: Any, **keywords: Any) -> Any:
+        return cls._sandbox_call(*arguments, **keywords)
+
+    def __getattr__(cls, name: str) -> Any:
+        if name.startswith("_") or name not in cls._sandbox_members:
+            raise AttributeError(f"{cls._sandbox_label}.{name} is not available in the sandbox")
+        return getattr(cls._sandbox_real, name)
+
+    def __repr__(cls) -> str:
+        return f"<class '{cls._sandbox_label}'>"
+
+
+def type_stand_in(real: type, label: str, call: Callable[..., Any], members: tuple[str, ...] = ()) -> type:
+    """A name that passes `isinstance(x, stand_in)` like `real`, calls `call`, and offers `members`."""
+    namespace = {
+        "_sandbox_real": real,
+        "_sandbox_label": label,
+        "_sandbox_call": staticmethod(call),
+        "_sandbox_members": frozenset(members),
+        "__slots__": (),
+    }
+    return _TypeStandInMeta(label.rsplit(".", 1)[-1], (), namespace)
+
+
+def _refuse_ndarray_constructor(*arguments: Any, **keywords: Any) -> Any:
+    raise TypeError("np.ndarray(...) is not available in the sandbox; use np.array, np.zeros or np.ones")
+
+
+def _check_dtype(dtype: Any) -> None:
+    if dtype is not None and numpy.dtype(dtype).kind in _REFUSED_DTYPE_KINDS:
+        raise TypeError(f"numpy arrays of dtype {numpy.dtype(dtype)} are not available in the sandbox")
+
+
+def _guarded(label: str, function: Callable[..., Any]) -> Callable[..., Any]:
+    """`function`, refusing object / raw dtypes asked for or produced."""
+
+    @functools.wraps(function, assigned=("__name__", "__qualname__", "__doc__"))
+    def call(*arguments: Any, **keywords: Any) -> Any:
+        _check_dtype(keywords.get("dtype"))
+        result = function(*arguments, **keywords)
+        for item in result if isinstance(result, tuple) else (result,):
+            if isinstance(item, numpy.ndarray) and item.dtype.kind in _REFUSED_DTYPE_KINDS:
+                raise TypeError(
+                    f"{label} would make a numpy array of dtype {item.dtype}; only numbers are available "
+                    "in the sandbox"
+                )
+        return result
+
+    return call
+
+
 def restricted_numpy() -> ReadOnlyNamespace:
-    linalg = ReadOnlyNamespace(
-        "np.linalg", {name: getattr(numpy.linalg, name) for name in NUMPY_LINALG_NAMES}
-    )
-    members = {name: getattr(numpy, name) for name in NUMPY_NAMES}
-    members["linalg"] = linalg
+    linalg_members: dict[str, Any] = {
+        name: _guarded(f"np.linalg.{name}", getattr(numpy.linalg, name)) for name in NUMPY_LINALG_FUNCTIONS
+    }
+    linalg_members["LinAlgError"] = numpy.linalg.LinAlgError  # an exception class programs catch
+    members: dict[str, Any] = {name: _guarded(f"np.{name}", getattr(numpy, name)) for name in NUMPY_FUNCTIONS}
+    members.update({name: getattr(numpy, name) for name in NUMPY_VALUES})
+    members["ndarray"] = type_stand_in(numpy.ndarray, "np.ndarray", _refuse_ndarray_constructor)
+    members["linalg"] = ReadOnlyNamespace("np.linalg", linalg_members)
     return ReadOnlyNamespace("np", members)
 
 
@@ -120,7 +200,7 @@ def make_print(capture: OutputCapture) -> Callable[..., None]:
             raise TypeError("print(file=...) is not available in the sandbox")
         sep = " " if sep is None else str(sep)
         end = "\n" if end is None else str(end)
-        capture.write(sep.join(str(value) for value in values) + end)
+        capture.write(sep.join(safe_str(value) for value in values) + end)
         if capture.overflowed:
             raise OutputLimitExceeded(f"the program printed more than {capture.max_chars} characters")
 
@@ -150,19 +230,76 @@ class _FieldCheckingFormatter(string.Formatter):
         return super().get_field(field_name, args, kwargs)
 
 
+def hide_addresses(text: str) -> str:
+    return _ADDRESS.sub(ADDRESS_HIDDEN, text)
+
+
+def safe_str(value: object = "", *arguments: Any) -> str:
+    if isinstance(value, str) and not arguments:
+        return value
+    return hide_addresses(str(value, *arguments))
+
+
+def safe_repr(value: object) -> str:
+    return hide_addresses(repr(value))
+
+
+def safe_ascii(value: object) -> str:
+    return hide_addresses(ascii(value))
+
+
+def safe_format_value(value: object, spec: str = "") -> str:
+    return hide_addresses(format(value, spec))
+
+
+_CONVERSIONS: dict[int, Callable[[object], str]] = {ord("s"): str, ord("r"): repr, ord("a"): ascii}
+
+
+def fstring_value(value: object, conversion: int, spec: str) -> str:
+    """One `{value!conversion:spec}` of an f-string (rewritten by the validator's rewriter)."""
+    if conversion in _CONVERSIONS:
+        value = _CONVERSIONS[conversion](value)
+    return hide_addresses(format(value, spec))
+
+
+def percent(left: Any, right: Any) -> Any:
+    """`left % right`; for text formatting, the result hides addresses."""
+    result = left % right
+    return hide_addresses(result) if isinstance(result, str) else result
+
+
+def safe_hasattr(value: object, name: str) -> bool:
+    """hasattr for public attributes; names starting with '_' always answer False."""
+    if not isinstance(name, str):
+        raise TypeError("hasattr(): attribute name must be a string")
+    if name.startswith(("_", "gi_", "f_", "tb_", "co_", "cr_", "ag_")):
+        return False
+    return hasattr(value, name)
+
+
+# The program's `str`: isinstance(x, str) and str.join / str.lower ... work; str(x) hides addresses.
+_STR_METHODS = tuple(name for name in dir(str) if not name.startswith("_") and name != "format_map")
+SAFE_STR = type_stand_in(str, "str", safe_str, _STR_METHODS)
+
+
 def safe_format(template: object, *args: object, **kwargs: object) -> str:
     """Stands in for every `x.format(...)` call of a program (see validation.prepare_for_execution)."""
-    if template is str and args:  # str.format(template, ...)
+    if template in (str, SAFE_STR) and args:  # str.format(template, ...)
         template, args = args[0], args[1:]
     if not isinstance(template, str):
         raise TypeError(f"'{type(template).__name__}' object has no format method")
-    return _FieldCheckingFormatter().vformat(template, args, kwargs)
+    return hide_addresses(_FieldCheckingFormatter().vformat(template, args, kwargs))
 
 
 def safe_builtins(capture: OutputCapture) -> dict[str, Any]:
     names: dict[str, Any] = {item.__name__: item for item in _SAFE_FUNCTIONS + _SAFE_EXCEPTIONS}
     names["range"] = bounded_range
     names["print"] = make_print(capture)
+    names["str"] = SAFE_STR
+    names["repr"] = safe_repr
+    names["ascii"] = safe_ascii
+    names["format"] = safe_format_value
+    names["hasattr"] = safe_hasattr
     names["True"], names["False"], names["None"] = True, False, None
     return names
 
@@ -174,6 +311,8 @@ def program_globals(capture: OutputCapture, extra: dict[str, Any]) -> dict[str, 
         "__builtins__": safe_builtins(capture),
         "__name__": "program",
         FORMAT_FUNCTION_NAME: safe_format,
+        FSTRING_FUNCTION_NAME: fstring_value,
+        PERCENT_FUNCTION_NAME: percent,
         "np": numpy_stand_in,
         "numpy": numpy_stand_in,
         "math": restricted_math(),

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import selectors
 import time
 from typing import Any, BinaryIO
@@ -30,14 +31,38 @@ def encode_message(message: dict[str, Any]) -> bytes:
     return json.dumps(message, separators=(",", ":")).encode("utf-8") + b"\n"
 
 
+MAX_NESTING = 64  # real messages nest a few levels (a 3x4 matrix in a dict in a list)
+
+
 def decode_message(line: bytes) -> dict[str, Any]:
+    """One message; ProtocolError for anything else (bounded work: depth is checked before parsing)."""
+    if _nesting_depth(line) > MAX_NESTING:
+        raise ProtocolError(f"malformed message: nested more than {MAX_NESTING} levels")
     try:
         message = json.loads(line)
-    except (ValueError, UnicodeDecodeError) as error:
-        raise ProtocolError(f"malformed message: {error}") from None
+    except (ValueError, UnicodeDecodeError, RecursionError) as error:
+        raise ProtocolError(f"malformed message: {str(error)[:200]}") from None
     if not isinstance(message, dict) or not isinstance(message.get("type"), str):
         raise ProtocolError("a message must be a JSON object with a 'type'")
     return message
+
+
+_BRACKETS = re.compile(rb'[\[\]{}]|"(?:[^"\\]|\\.)*"')
+
+
+def _nesting_depth(line: bytes) -> int:
+    """Deepest [ / { nesting outside strings, in one linear pass."""
+    depth = deepest = 0
+    for match in _BRACKETS.finditer(line):
+        token = match.group()
+        if token in (b"[", b"{"):
+            depth += 1
+            deepest = max(deepest, depth)
+            if deepest > MAX_NESTING:
+                break
+        elif token in (b"]", b"}"):
+            depth -= 1
+    return deepest
 
 
 def write_message(stream: BinaryIO, message: dict[str, Any]) -> None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -16,7 +17,10 @@ from typing import Any, Protocol
 import numpy as np
 from PIL import Image as PILImage
 
+from services.agent.sandbox import jail
+from services.agent.sandbox.jail import JailMode, JailStatus
 from services.agent.sandbox.protocol import TOOL_NAMES, ChildStreams, ProtocolError, send_before
+from services.agent.sandbox.text import clean_text
 from services.agent.sandbox.validation import MAX_PROGRAM_CHARS, ProgramRejected, validate_program
 
 REPO_ROOT = Path(__file__).resolve().parents[3]
@@ -25,6 +29,12 @@ _BOOT = (
     f"import sys; sys.path.insert(0, {str(REPO_ROOT)!r}); "
     "from services.agent.sandbox.worker import main; main()"
 )
+# In the jail: -S as well (no site-packages scan, no .pth files); sys.path is exactly what is mounted.
+_JAILED_BOOT = (
+    "import sys; sys.path[:0] = {paths!r}; "
+    "from services.agent.sandbox.worker import main; main(jailed=True)"
+)
+_JAILED_STATUS = JailStatus(JailMode.REQUIRED, True, "")
 MIN_RENDER_SIZE = 16
 MAX_RENDER_SIZE = 2048
 MAX_TOOL_ERROR_CHARS = 1000
@@ -62,13 +72,16 @@ class SandboxLimits:
 class ExecutionResult:
     ok: bool
     error: str | None = None
-    # rejected | timeout | cpu | memory | exception | output | tool_limit | crash
+    # rejected | timeout | cpu | memory | exception | output | tool_limit | crash | jail
     error_kind: str | None = None
     clue_text: str | None = None
     clue_images: list[bytes] = field(default_factory=list)
     stdout: str = ""
     tool_calls: list[str] = field(default_factory=list)
     duration_ms: float = 0.0
+
+
+_CHILD_FAILURE_KINDS = ("rejected", "memory", "exception", "output", "crash")
 
 
 class _ToolFailure(Exception):
@@ -181,12 +194,12 @@ def _plain(value: Any) -> Any:
     return value
 
 
-def _child_environment(workdir: str) -> dict[str, str]:
+def _child_environment(home: str) -> dict[str, str]:
     threads = "1"  # one BLAS thread: cheaper start, and the CPU limit means what it says
     return {
         "PATH": "/usr/bin:/bin",
-        "HOME": workdir,
-        "TMPDIR": workdir,
+        "HOME": home,
+        "TMPDIR": home,
         "LANG": "C.UTF-8",
         "OPENBLAS_NUM_THREADS": threads,
         "OMP_NUM_THREADS": threads,
@@ -204,20 +217,38 @@ def run_program(
     num_images: int,
     tools: ToolProvider,
     limits: SandboxLimits | None = None,
+    jail_status: JailStatus | None = None,
+    python_checks: bool = True,
 ) -> ExecutionResult:
-    """Run `def program(input_scene)` from `source` in a sandbox process and collect its clue."""
+    """Run `def program(input_scene)` from `source` in a sandbox process and collect its clue.
+
+    `jail_status` defaults to the probed OS jail (PYSPATIAL_SANDBOX_JAIL=required): without a working
+    jail nothing runs. `python_checks=False` is a test-only mode that proves the jail on its own.
+    """
     limits = limits or SandboxLimits()
+    jail_status = jail_status or jail.probe(JailMode.REQUIRED)
     started = time.perf_counter()
-    try:
-        validate_program(source, max_chars=MAX_PROGRAM_CHARS)
-    except ProgramRejected as error:
-        return _failure(f"rejected: {error}", "rejected", duration_ms=_ms_since(started))
+    if not jail_status.runs_programs:
+        return _failure(
+            f"refused: the OS sandbox is unavailable ({jail_status.detail}); model-written programs "
+            "are not run without it (PYSPATIAL_SANDBOX_JAIL=off switches it off, unsafely)",
+            "jail",
+            duration_ms=_ms_since(started),
+        )
+    if not python_checks and not jail_status.jailed:
+        raise ValueError("the Python-level checks may only be switched off inside the OS jail")
+    if python_checks:
+        try:
+            validate_program(source, max_chars=MAX_PROGRAM_CHARS)
+        except ProgramRejected as error:
+            return _failure(f"rejected: {error}", "rejected", duration_ms=_ms_since(started))
     broker = _ToolBroker(tools, num_images, limits)
     job = {
         "type": "job",
         "source": source,
         "question": question,
         "num_images": num_images,
+        "python_checks": python_checks,
         "limits": {
             "cpu_seconds": limits.cpu_seconds,
             "memory_mb": limits.memory_mb,
@@ -225,24 +256,69 @@ def run_program(
             "max_images": limits.max_images,
         },
     }
-    with tempfile.TemporaryDirectory(prefix="pyspatial-sandbox-") as workdir:
-        process = subprocess.Popen(
-            [sys.executable, "-I", "-c", _BOOT],
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            cwd=workdir,
-            env=_child_environment(workdir),
-            start_new_session=True,  # its own process group: one kill takes everything it started
-            close_fds=True,
-        )
-        try:
-            result = _converse(process, job, broker, limits)
-        finally:
-            _kill(process)
+    if jail_status.jailed:
+        boot = _JAILED_BOOT.format(paths=list(jail.python_path()))
+        command = jail.bwrap_command(["-I", "-S", "-c", boot])
+        result = _run_child(command, "/", _child_environment("/tmp"), job, broker, limits)
+    else:  # operator opt-out: a host temporary directory, Python-level walls and rlimits only
+        with tempfile.TemporaryDirectory(prefix=jail.workdir_prefix()) as workdir:
+            command = [sys.executable, "-I", "-c", _BOOT]
+            result = _run_child(command, workdir, _child_environment(workdir), job, broker, limits)
     result.tool_calls = list(broker.calls)
     result.duration_ms = _ms_since(started)
+    return _cleaned(result)
+
+
+def _run_child(
+    command: list[str],
+    cwd: str,
+    environment: dict[str, str],
+    job: dict[str, Any],
+    broker: _ToolBroker,
+    limits: SandboxLimits,
+) -> ExecutionResult:
+    process = subprocess.Popen(
+        command,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        cwd=cwd,
+        env=environment,
+        start_new_session=True,  # its own process group: one kill takes everything it started
+        close_fds=True,
+    )
+    try:
+        return _converse(process, job, broker, limits)
+    finally:
+        _kill(process)
+
+
+def _cleaned(result: ExecutionResult) -> ExecutionResult:
+    """Text that crosses into HTTP responses and model prompts must be encodable (no lone surrogates)."""
+    result.error = clean_text(result.error) if result.error is not None else None
+    result.clue_text = clean_text(result.clue_text) if result.clue_text is not None else None
+    result.stdout = clean_text(result.stdout)
     return result
+
+
+def probe_jail() -> str | None:
+    """Run one trivial program in the jail; None when it worked, else what went wrong."""
+    source = "def program(input_scene):\n    return 'jail ok'\n"
+    limits = SandboxLimits(cpu_seconds=10, wall_seconds=20, memory_mb=1024, startup_seconds=30)
+    try:
+        result = run_program(source, "", 0, _NoTools(), limits, jail_status=_JAILED_STATUS)
+    except OSError as error:
+        return f"{type(error).__name__}: {error}"
+    if result.ok and result.clue_text == "jail ok":
+        return None
+    return result.error or "the probe program returned something else"
+
+
+class _NoTools:
+    def reconstruct(self) -> dict:
+        raise RuntimeError("no tools in the probe")
+
+    describe_camera_motion = synthesize_novel_view = input_image = reconstruct
 
 
 def _converse(
@@ -293,12 +369,18 @@ def _serve(broker: _ToolBroker, message: dict[str, Any]) -> dict[str, Any]:
 
 
 def _collect(message: dict[str, Any], broker: _ToolBroker, limits: SandboxLimits) -> ExecutionResult:
-    stdout = str(message.get("stdout") or "")[: limits.max_output_chars]
+    stdout, error = message.get("stdout") or "", message.get("error")
+    if not isinstance(stdout, str) or (error is not None and not isinstance(error, str)):
+        raise ProtocolError("result stdout and error must be strings")
+    stdout = stdout[: limits.max_output_chars]
     if broker.limit_exceeded:
         error = f"too many tool calls: the limit is {limits.max_tool_calls} per program"
         return _failure(error, "tool_limit", stdout=stdout)
     if not message.get("ok"):
-        return _failure(str(message.get("error")), str(message.get("kind") or "exception"), stdout=stdout)
+        kind = message.get("kind")
+        if kind not in _CHILD_FAILURE_KINDS:
+            raise ProtocolError(f"unknown failure kind {str(kind)[:40]!r}")
+        return _failure(str(error)[: 4 * MAX_TOOL_ERROR_CHARS], kind, stdout=stdout)
     text, handles = message.get("text"), message.get("images") or []
     if text is not None and (not isinstance(text, str) or len(text) > limits.max_output_chars):
         raise ProtocolError("result text is not a bounded string")
@@ -316,22 +398,44 @@ def _collect(message: dict[str, Any], broker: _ToolBroker, limits: SandboxLimits
 
 
 def _death(process: subprocess.Popen, streams: ChildStreams, limits: SandboxLimits) -> ExecutionResult:
-    """Explain why the sandbox process ended without a result."""
+    """Explain why the sandbox process ended without a result, from its exit status and stderr."""
     try:
         code = process.wait(timeout=2)
     except subprocess.TimeoutExpired:
         return _failure("the sandbox stopped talking without exiting", "crash")
+    if code > 128 and process.args and os.path.basename(str(process.args[0])) == "bwrap":
+        code = -(code - 128)  # bubblewrap reports a signalled child as 128 + signal
+    stderr = streams.drain_stderr()
     if code == -signal.SIGXCPU:  # sent only by RLIMIT_CPU
         return _failure(f"CPU time limit exceeded ({limits.cpu_seconds} s)", "cpu")
-    if code == -signal.SIGKILL:  # the parent kills only after the conversation: hard CPU limit or OOM
-        return _failure(f"the sandbox process was killed (CPU limit {limits.cpu_seconds} s or memory)", "cpu")
+    if code == -signal.SIGKILL:  # the parent kills only after the conversation
+        return _failure(
+            f"the sandbox process was killed by SIGKILL: the CPU hard limit ({limits.cpu_seconds} s) "
+            "or the system's out-of-memory killer",
+            "cpu",
+        )
     if code < 0:
-        name = signal.Signals(-code).name
-        hint = "; it may have exceeded the memory limit" if name in ("SIGSEGV", "SIGABRT", "SIGBUS") else ""
-        return _failure(f"the sandbox process was killed by {name}{hint}", "crash")
-    last_line = (streams.drain_stderr().strip().splitlines() or [""])[-1]
-    detail = f": {last_line}" if last_line else ""
+        name = signal.Signals(-code).name if -code in signal.Signals._value2member_map_ else str(-code)
+        return _failure(f"the sandbox process crashed with {name}{_crash_site(stderr)}", "crash")
+    last_line = (stderr.strip().splitlines() or [""])[-1]
+    detail = f": {last_line[:MAX_TOOL_ERROR_CHARS]}" if last_line else ""
     return _failure(f"the sandbox process exited with status {code} without a result{detail}", "crash")
+
+
+_FAULT_LINE = re.compile(r'File "<program>", line (\d+)')
+_FAULT_KIND = re.compile(r"Fatal Python error: ([^\n]+)")
+
+
+def _crash_site(stderr: str) -> str:
+    """What faulthandler wrote: the fatal error and the program line that was running."""
+    kind = _FAULT_KIND.search(stderr)
+    lines = _FAULT_LINE.findall(stderr)
+    parts = []
+    if kind:
+        parts.append(f" ({kind.group(1).strip()[:200]})")
+    if lines:
+        parts.append(f" while running program line {lines[0]}")
+    return "".join(parts)
 
 
 def _kill(process: subprocess.Popen) -> None:

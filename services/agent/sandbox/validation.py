@@ -13,16 +13,22 @@ import ast
 from collections.abc import Iterator
 
 PROGRAM_NAME = "program"
+# Helpers the rewriter calls (bound in the program's globals by builtins.program_globals).
+FSTRING_FUNCTION_NAME = "__sandbox_fstring__"
+PERCENT_FUNCTION_NAME = "__sandbox_percent__"
 MAX_PROGRAM_CHARS = 20_000
 MAX_REPORTED_PROBLEMS = 5
 
 # Modules whose import is a no-op: the sandbox already binds a restricted stand-in under this name.
 ALLOWED_IMPORTS: dict[str, str] = {"numpy": "np", "math": "math"}
+# `from math import atan2` becomes `atan2 = math.atan2` (the stand-in says if a name is missing).
+FROM_IMPORT_MODULES: dict[str, str] = {"math": "math", "numpy": "np"}
+UNUSED_NAME = "_"  # `for _ in range(n)`: the one name starting with '_' that is allowed
 
 FORBIDDEN_NAMES = frozenset(
     {
-        "exec", "eval", "open", "compile", "getattr", "setattr", "delattr", "hasattr", "globals",
-        "locals", "vars", "dir", "input", "breakpoint", "help", "memoryview", "type", "object",
+        "exec", "eval", "open", "compile", "getattr", "setattr", "delattr", "globals",
+        "locals", "vars", "input", "breakpoint", "help", "memoryview", "type", "object",
         "super", "classmethod", "staticmethod", "property", "exit", "quit", "importlib", "builtins",
         "reload", "id",
     }
@@ -35,6 +41,8 @@ FORBIDDEN_ATTRIBUTES = frozenset(
         "savez_compressed", "savetxt", "loadtxt", "genfromtxt", "fromfile", "frombuffer", "memmap",
         "ctypes", "ctypeslib", "lib", "base", "data", "os", "sys", "subprocess", "builtins", "modules",
         "import_module", "system", "popen", "testing", "f2py", "distutils", "setflags",
+        # raw memory of numpy arrays: bytes, reinterpreting views, fields at offsets
+        "tobytes", "tostring", "view", "getfield", "setfield", "itemset", "fromstring", "newbyteorder",
     }
 )  # fmt: skip
 
@@ -77,15 +85,30 @@ def validate_program(source: str, max_chars: int = MAX_PROGRAM_CHARS) -> ast.Mod
         tree = ast.parse(source, filename="<program>", mode="exec")
     except SyntaxError as error:
         raise ProgramRejected(f"syntax error at line {error.lineno}: {error.msg}") from None
-    except (RecursionError, MemoryError, ValueError):
+    except (RecursionError, MemoryError, SystemError):  # CPython 3.11 raises SystemError on deep nesting
         raise ProgramRejected("the program is nested too deeply to parse; simplify it") from None
+    except ValueError as error:
+        raise ProgramRejected(f"the program cannot be parsed: {error}") from None
     problems = list(dict.fromkeys(_top_level_problems(tree))) + _node_problems(tree)
     if problems:
         shown = problems[:MAX_REPORTED_PROBLEMS]
         more = len(problems) - len(shown)
         suffix = f" (and {more} more)" if more else ""
         raise ProgramRejected("; ".join(shown) + suffix)
+    _check_compiles(source)
     return tree
+
+
+def _check_compiles(source: str) -> None:
+    """Errors only the compiler finds ('return' outside a function, too many nested blocks...)."""
+    try:
+        compile(source, "<program>", "exec", dont_inherit=True)
+    except SyntaxError as error:
+        raise ProgramRejected(f"syntax error at line {error.lineno}: {error.msg}") from None
+    except (RecursionError, MemoryError):
+        raise ProgramRejected("the program is nested too deeply to compile; simplify it") from None
+    except ValueError as error:
+        raise ProgramRejected(f"the program cannot be compiled: {error}") from None
 
 
 def _at(node: ast.AST) -> str:
@@ -179,6 +202,14 @@ def _node_problem(node: ast.AST, format_calls: set[int]) -> str | None:
 
 
 def _import_problem(node: ast.Import | ast.ImportFrom) -> str | None:
+    if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module in FROM_IMPORT_MODULES:
+        for alias in node.names:
+            if alias.name == "*":
+                return f"'from {node.module} import *' is not allowed; import the names you use"
+            problem = _name_problem(alias.name) or _name_problem(alias.asname or alias.name)
+            if problem:
+                return problem
+        return None  # rewritten to assignments from the sandbox's stand-in
     if isinstance(node, ast.Import) and all(
         alias.name in ALLOWED_IMPORTS and alias.asname in (None, ALLOWED_IMPORTS[alias.name])
         for alias in node.names
@@ -191,6 +222,8 @@ def _import_problem(node: ast.Import | ast.ImportFrom) -> str | None:
 
 
 def _name_problem(name: str) -> str | None:
+    if name == UNUSED_NAME:
+        return None
     if name.startswith("_"):
         return f"the name '{name}' is not allowed: names may not start with '_'"
     if name in FORBIDDEN_NAMES:
@@ -212,13 +245,58 @@ def _attribute_problem(node: ast.Attribute, format_calls: set[int]) -> str | Non
 
 
 class _ExecutionRewriter(ast.NodeTransformer):
-    """Drop the allowed no-op imports and route `x.format(...)` through the safe formatter."""
+    """Drop the allowed no-op imports, turn `from math import x` into `x = math.x`, and route
+    `x.format(...)`, f-string fields and `a % b` through the sandbox's formatters (which refuse
+    attribute lookups in fields and hide heap addresses)."""
 
     def __init__(self, format_function_name: str) -> None:
         self.format_function_name = format_function_name
 
     def visit_Import(self, node: ast.Import) -> ast.AST:
         return ast.copy_location(ast.Pass(), node)  # validated: only allowed modules get here
+
+    def visit_ImportFrom(self, node: ast.ImportFrom) -> ast.AST:
+        module = FROM_IMPORT_MODULES[node.module or ""]  # validated: only these modules get here
+        assignments = [
+            ast.Assign(
+                targets=[ast.Name(id=alias.asname or alias.name, ctx=ast.Store())],
+                value=ast.Attribute(
+                    value=ast.Name(id=module, ctx=ast.Load()), attr=alias.name, ctx=ast.Load()
+                ),
+            )
+            for alias in node.names
+        ]
+        return [ast.copy_location(assignment, node) for assignment in assignments]
+
+    def visit_FormattedValue(self, node: ast.FormattedValue) -> ast.AST:
+        self.generic_visit(node)
+        spec = node.format_spec if node.format_spec is not None else ast.Constant(value="")
+        call = ast.Call(
+            func=ast.Name(id=FSTRING_FUNCTION_NAME, ctx=ast.Load()),
+            args=[node.value, ast.Constant(value=node.conversion), spec],
+            keywords=[],
+        )
+        return ast.copy_location(ast.FormattedValue(value=call, conversion=-1, format_spec=None), node)
+
+    def visit_AugAssign(self, node: ast.AugAssign) -> ast.AST:
+        self.generic_visit(node)
+        if not isinstance(node.op, ast.Mod) or not isinstance(node.target, ast.Name):
+            return node  # `x[i] %= y` stays arithmetic on containers; only names can hold text
+        call = ast.Call(
+            func=ast.Name(id=PERCENT_FUNCTION_NAME, ctx=ast.Load()),
+            args=[ast.Name(id=node.target.id, ctx=ast.Load()), node.value],
+            keywords=[],
+        )
+        return ast.copy_location(ast.Assign(targets=[node.target], value=call), node)
+
+    def visit_BinOp(self, node: ast.BinOp) -> ast.AST:
+        self.generic_visit(node)
+        if not isinstance(node.op, ast.Mod):
+            return node
+        call = ast.Call(
+            func=ast.Name(id=PERCENT_FUNCTION_NAME, ctx=ast.Load()), args=[node.left, node.right], keywords=[]
+        )
+        return ast.copy_location(call, node)
 
     def visit_Call(self, node: ast.Call) -> ast.AST:
         self.generic_visit(node)

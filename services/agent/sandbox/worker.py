@@ -7,10 +7,16 @@ Started by runner.py as `python -I -c ...`; not meant to be run by hand.
 
 from __future__ import annotations
 
+import builtins
+import ctypes
+import faulthandler
+import math
 import os
 import resource
+import signal
 import sys
 import warnings
+from collections.abc import Callable
 from types import CodeType, TracebackType
 from typing import Any, BinaryIO
 
@@ -22,6 +28,7 @@ from services.agent.sandbox.builtins import (
     FORMAT_FUNCTION_NAME,
     OutputCapture,
     OutputLimitExceeded,
+    hide_addresses,
     program_globals,
 )
 from services.agent.sandbox.output import OutputRejected, OutputTooLarge, render_output
@@ -118,7 +125,13 @@ def take_protocol_streams() -> tuple[BinaryIO, BinaryIO]:
     return reader, writer
 
 
-def apply_resource_limits(cpu_seconds: int, memory_mb: int) -> None:
+def die_with_parent() -> None:
+    """PR_SET_PDEATHSIG(SIGKILL): a killed parent never leaves this process running."""
+    PR_SET_PDEATHSIG = 1
+    ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+
+
+def apply_resource_limits(cpu_seconds: int, memory_mb: int, limit_descriptors: bool = True) -> None:
     used = resource.getrusage(resource.RUSAGE_SELF)
     cpu_soft = int(used.ru_utime + used.ru_stime) + max(int(cpu_seconds), 1)
     resource.setrlimit(resource.RLIMIT_CPU, (cpu_soft, cpu_soft + 1))  # SIGXCPU, then SIGKILL
@@ -126,6 +139,8 @@ def apply_resource_limits(cpu_seconds: int, memory_mb: int) -> None:
     resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
     resource.setrlimit(resource.RLIMIT_FSIZE, (0, 0))
     resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+    if not limit_descriptors:  # test-only unchecked mode: leave files and processes to the OS jail
+        return
     resource.setrlimit(resource.RLIMIT_NOFILE, (0, 0))  # open fds stay usable; no new ones
     try:
         resource.setrlimit(resource.RLIMIT_NPROC, (0, 0))  # no effect for root, hence the audit hook
@@ -134,12 +149,18 @@ def apply_resource_limits(cpu_seconds: int, memory_mb: int) -> None:
 
 
 def arm_audit_hook(program_code: CodeType) -> None:
-    """Refuse file, process, network and code-loading events from here on (hooks cannot be removed)."""
+    """Refuse file, process, network and code-loading events from here on (hooks cannot be removed).
+
+    The block lists are frozen sets bound in this closure when the hook is armed: rebinding the
+    module globals afterwards changes nothing.
+    """
+    blocked_events, blocked_modules = frozenset(BLOCKED_EVENTS), frozenset(BLOCKED_EVENT_MODULES)
+    split = str.split
 
     def refuse(event: str, arguments: tuple[Any, ...]) -> None:
         if event == "exec" and arguments and arguments[0] is program_code:
             return
-        if event in BLOCKED_EVENTS or event.split(".", 1)[0] in BLOCKED_EVENT_MODULES:
+        if event in blocked_events or split(event, ".", 1)[0] in blocked_modules:
             raise RuntimeError(f"operation '{event}' is not allowed in the sandbox")
 
     sys.addaudithook(refuse)
@@ -161,7 +182,7 @@ def describe_exception(error: BaseException) -> str:
         # numpy's C code tried to import a module on the program's behalf; programs have no __import__
         return f"program used a numpy feature that is not available in the sandbox{where}"
     try:
-        message = str(error)
+        message = hide_addresses(str(error))
     except Exception:  # a message that cannot even be printed
         message = "(message unavailable)"
     if len(message) > MAX_ERROR_CHARS:
@@ -174,20 +195,57 @@ def failure(kind: str, error: str) -> dict[str, Any]:
     return {"type": "result", "ok": False, "kind": kind, "error": error}
 
 
-def run_job(job: dict[str, Any], channel: PipeChannel) -> dict[str, Any]:
+def compile_program(source: str, python_checks: bool) -> CodeType:
+    """The program's code object; ProgramRejected says why it cannot be compiled, in plain words."""
+    try:
+        if not python_checks:  # test-only: the OS jail alone stands between the program and the host
+            return compile(source, PROGRAM_FILENAME, "exec")
+        tree = prepare_for_execution(validate_program(source), FORMAT_FUNCTION_NAME)
+        return compile(tree, PROGRAM_FILENAME, "exec")
+    except SyntaxError as error:
+        raise ProgramRejected(f"syntax error at line {error.lineno}: {error.msg}") from None
+    except (RecursionError, MemoryError):
+        raise ProgramRejected("the program is nested too deeply to compile; simplify it") from None
+    except ValueError as error:
+        raise ProgramRejected(f"the program cannot be compiled: {error}") from None
+
+
+def unchecked_globals(channel: PipeChannel, scene: Any) -> dict[str, Any]:
+    """Test-only: real builtins and the real numpy module, as if every Python-level wall had fallen."""
+    return {
+        "__builtins__": builtins,
+        "__name__": "program",
+        "np": numpy,
+        "numpy": numpy,
+        "math": math,
+        "pySpatial": PySpatial(channel, scene),
+    }
+
+
+def run_job(
+    job: dict[str, Any], channel: PipeChannel, install_filter: Callable[[], None] | None
+) -> dict[str, Any]:
+    """Compile, limit, filter, hook, run. `install_filter` (the seccomp filter) is set in the jail."""
+    jailed = install_filter is not None
     limits = job["limits"]
+    python_checks = job.get("python_checks", True) is not False
+    if not python_checks and not jailed:
+        return failure("crash", "the Python-level checks may only be switched off inside the OS jail")
     capture = OutputCapture(int(limits["max_output_chars"]))
     try:
-        tree = prepare_for_execution(validate_program(job["source"]), FORMAT_FUNCTION_NAME)
-        code = compile(tree, PROGRAM_FILENAME, "exec")
+        code = compile_program(job["source"], python_checks)
     except ProgramRejected as error:
         return failure("rejected", f"rejected: {error}")
-    except (RecursionError, MemoryError, SyntaxError, ValueError):
-        return failure("rejected", "rejected: the program is nested too deeply to compile; simplify it")
     scene = build_scene(int(job["num_images"]), str(job["question"]), channel)
-    names = program_globals(capture, {"pySpatial": PySpatial(channel, scene)})
-    apply_resource_limits(int(limits["cpu_seconds"]), int(limits["memory_mb"]))
-    arm_audit_hook(code)
+    if python_checks:
+        names = program_globals(capture, {"pySpatial": PySpatial(channel, scene)})
+    else:
+        names = unchecked_globals(channel, scene)
+    apply_resource_limits(int(limits["cpu_seconds"]), int(limits["memory_mb"]), python_checks)
+    if install_filter is not None:
+        install_filter()
+    if python_checks:
+        arm_audit_hook(code)
     result = execute(code, names, scene, capture, limits)
     result["stdout"] = capture.text()
     return result
@@ -215,16 +273,21 @@ def execute(
     return {"type": "result", "ok": True, "text": rendered.text, "images": rendered.image_ids}
 
 
-def main() -> None:
+def main(jailed: bool = False) -> None:
+    die_with_parent()
+    faulthandler.enable()  # a C-level crash leaves its cause and the program line on stderr
     # Warnings would only reach the discarded stderr, and showing one reads source files (refused).
     numpy.seterr(all="ignore")
     warnings.simplefilter("ignore")
     warm_up_numpy()
+    install_filter = None
+    if jailed:  # loaded now: libseccomp cannot be opened once RLIMIT_NOFILE is 0
+        from services.agent.sandbox.seccomp_filter import install as install_filter
     reader, writer = take_protocol_streams()
     write_message(writer, {"type": "ready"})
     job = decode_message(reader.readline(MAX_INBOUND_BYTES))
     try:
-        result = run_job(job, PipeChannel(reader, writer))
+        result = run_job(job, PipeChannel(reader, writer), install_filter)
     except MemoryError:
         result = failure("memory", "memory limit exceeded")
     except Exception as error:  # a bug of the sandbox itself, not of the program

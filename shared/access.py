@@ -1,0 +1,143 @@
+"""Access control shared by both services: bearer API keys, per-key rate limits, CORS, /docs switch.
+
+Only the API (`/v1/...`) is guarded: `/healthz` and `/readyz` stay open for probes and load
+balancers (they carry no data, only whether the service can work), and so do the docs when
+they are switched on. The rate limit is a token bucket per key in this process: with N replicas
+a key may send up to N times the configured rate (see docs/ARCHITECTURE.md).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import hmac
+import json
+import math
+import threading
+import time
+from collections import OrderedDict
+
+from fastapi import FastAPI
+from starlette.middleware.cors import CORSMiddleware
+from starlette.types import ASGIApp, Receive, Scope, Send
+
+from shared.settings import AccessSettings
+
+GUARDED_PREFIX = "/v1/"
+MAX_TRACKED_CLIENTS = 10_000  # buckets kept in memory; the least recently used are forgotten
+
+
+def docs_urls(settings: AccessSettings) -> dict:
+    """FastAPI(...) keyword arguments that switch /docs, /redoc and /openapi.json on or off."""
+    if settings.docs_enabled:
+        return {}
+    return {"docs_url": None, "redoc_url": None, "openapi_url": None}
+
+
+def parse_keys(settings: AccessSettings) -> list[bytes]:
+    raw = settings.api_keys.get_secret_value() if settings.api_keys else ""
+    return [key.strip().encode() for key in raw.split(",") if key.strip()]
+
+
+def parse_origins(settings: AccessSettings) -> list[str]:
+    return [origin.strip() for origin in settings.cors_origins.split(",") if origin.strip()]
+
+
+class TokenBucket:
+    """`rate` tokens per second up to `burst`, one per request, per client identity (thread-safe)."""
+
+    def __init__(self, per_minute: int, burst: int) -> None:
+        self.rate = per_minute / 60.0
+        self.burst = float(burst)
+        self._buckets: OrderedDict[str, tuple[float, float]] = OrderedDict()  # identity -> (tokens, at)
+        self._lock = threading.Lock()
+
+    def take(self, identity: str) -> float:
+        """0 when the request may go ahead, else the seconds until a token is available."""
+        now = time.monotonic()
+        with self._lock:
+            tokens, at = self._buckets.pop(identity, (self.burst, now))
+            tokens = min(self.burst, tokens + (now - at) * self.rate)
+            wait = 0.0 if tokens >= 1.0 else (1.0 - tokens) / self.rate
+            self._buckets[identity] = (tokens - 1.0 if wait == 0.0 else tokens, now)
+            while len(self._buckets) > MAX_TRACKED_CLIENTS:
+                self._buckets.popitem(last=False)
+        return wait
+
+
+class AccessMiddleware:
+    """401 without a valid bearer key (when keys are configured), 429 + Retry-After over the rate."""
+
+    def __init__(self, app: ASGIApp, keys: list[bytes], limiter: TokenBucket | None) -> None:
+        self.app = app
+        self.keys = keys
+        self.limiter = limiter
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http" or not scope["path"].startswith(GUARDED_PREFIX):
+            await self.app(scope, receive, send)
+            return
+        identity = self._client_identity(scope)
+        if self.keys:
+            key = _bearer_token(scope)
+            if key is None or not any(hmac.compare_digest(key, known) for known in self.keys):
+                reason = "missing bearer API key" if key is None else "invalid API key"
+                await _reply(
+                    send,
+                    401,
+                    f"{reason}: send 'Authorization: Bearer <key>'",
+                    {"www-authenticate": 'Bearer realm="pyspatial"'},
+                )
+                return
+            identity = "key:" + hashlib.sha256(key).hexdigest()[:16]  # never keep the key itself
+        if self.limiter is not None:
+            wait = self.limiter.take(identity)
+            if wait > 0:
+                retry_after = max(1, math.ceil(wait))
+                await _reply(
+                    send,
+                    429,
+                    f"rate limit exceeded; retry in {retry_after} s",
+                    {"retry-after": str(retry_after)},
+                )
+                return
+        await self.app(scope, receive, send)
+
+    @staticmethod
+    def _client_identity(scope: Scope) -> str:
+        client = scope.get("client")
+        return f"address:{client[0] if client else 'unknown'}"
+
+
+def _bearer_token(scope: Scope) -> bytes | None:
+    for name, value in scope.get("headers", []):
+        if name == b"authorization":
+            scheme, _, token = value.partition(b" ")
+            if scheme.lower() == b"bearer" and token.strip():
+                return token.strip()
+            return None
+    return None
+
+
+async def _reply(send: Send, status: int, detail: str, extra_headers: dict[str, str]) -> None:
+    body = json.dumps({"detail": detail}).encode()
+    headers = [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())]
+    headers += [(name.encode(), value.encode()) for name, value in extra_headers.items()]
+    await send({"type": "http.response.start", "status": status, "headers": headers})
+    await send({"type": "http.response.body", "body": body})
+
+
+def install_access_control(app: FastAPI, settings: AccessSettings) -> None:
+    """Keys and rate limit on /v1/, and CORS outside them (so preflight requests need no key)."""
+    limiter = None
+    if settings.rate_limit_per_minute > 0:
+        limiter = TokenBucket(settings.rate_limit_per_minute, settings.rate_limit_burst)
+    app.add_middleware(AccessMiddleware, keys=parse_keys(settings), limiter=limiter)
+    origins = parse_origins(settings)
+    if origins:
+        app.add_middleware(
+            CORSMiddleware,
+            allow_origins=origins,
+            allow_methods=["GET", "POST"],
+            allow_headers=["Authorization", "Content-Type"],
+            max_age=600,
+        )

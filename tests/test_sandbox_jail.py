@@ -1,0 +1,301 @@
+"""The OS jail on its own: programs run with every Python-level check switched off (test-only mode:
+real builtins, the real numpy and os modules, no validator, no audit hook, no descriptor or process
+rlimits) and still cannot kill, fork, connect, read the host's files, write, or start a session.
+
+Through the runner here; through /v1/solve of a real agent in tests/test_sandbox_http.py.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import pytest
+
+from services.agent.sandbox import SandboxLimits, run_program
+from services.agent.sandbox.jail import (
+    SANDBOX_UID,
+    WORKDIR_PREFIX,
+    JailMode,
+    JailStatus,
+    probe,
+    remove_stale_workdirs,
+)
+from services.agent.sandbox.runner import REPO_ROOT
+from tests.test_sandbox_attacks import TinyTools
+
+LIMITS = SandboxLimits(cpu_seconds=5, wall_seconds=10, memory_mb=512)
+EPERM = "PermissionError: [Errno 1] Operation not permitted"
+
+
+def attempt(*lines: str) -> str:
+    """A program that tries `lines` and returns what happened, as text."""
+    body = "".join(f"        {line}\n" for line in lines)
+    return (
+        "import os, socket, subprocess, ctypes, threading, resource\n"
+        "def program(input_scene):\n"
+        "    try:\n"
+        f"{body}"
+        "    except BaseException as error:\n"
+        "        return f'{type(error).__name__}: {error}'\n"
+        "    return 'allowed'\n"
+    )
+
+
+# The issue's list first, then the rest of what the jail must refuse on its own.
+JAIL_ALONE = {
+    "kill_parent": (attempt("os.kill(os.getppid(), 9)"), EPERM),
+    "fork": (attempt("os.fork()"), EPERM),
+    "socket": (attempt("socket.socket()"), EPERM),
+    "read_passwd": (
+        attempt("open('/etc/passwd').read()"),
+        "FileNotFoundError: [Errno 2] No such file or directory: '/etc/passwd'",
+    ),
+    "write_tmp": (attempt("open('/tmp/x', 'w')"), f"{EPERM}: '/tmp/x'"),
+    "setsid": (attempt("os.setsid()"), EPERM),
+    "subprocess": (attempt("subprocess.run(['id'])"), EPERM),
+    # more of the same families
+    "kill_init": (attempt("os.kill(1, signal_number := 9)"), EPERM),
+    "kill_everyone": (attempt("os.kill(-1, 9)"), EPERM),
+    "kill_group": (attempt("os.killpg(0, 9)"), EPERM),
+    "system": (attempt("assert os.system('id') == 0"), "AssertionError: "),
+    "posix_spawn": (attempt("os.posix_spawn('/usr/bin/id', ['id'], {})"), f"{EPERM}: '/usr/bin/id'"),
+    "exec": (attempt("os.execv('/usr/bin/true', ['true'])"), EPERM),
+    "connect_udp": (attempt("socket.create_connection(('127.0.0.1', 80), timeout=1)"), EPERM),
+    "socketpair": (attempt("socket.socketpair()"), EPERM),
+    "setpgid": (attempt("os.setpgid(0, 0)"), EPERM),
+    "setuid_root": (attempt("os.setuid(0)"), EPERM),
+    "raise_cpu_limit": (
+        attempt("resource.setrlimit(resource.RLIMIT_CPU, (resource.RLIM_INFINITY, resource.RLIM_INFINITY))"),
+        "ValueError: not allowed to raise maximum limit",
+    ),
+    "raise_soft_limit": (
+        # soft up to hard needs no privilege: only the seccomp filter refuses it (Python turns the
+        # EPERM into this ValueError)
+        attempt(
+            "soft, hard = resource.getrlimit(resource.RLIMIT_CPU)",
+            "resource.setrlimit(resource.RLIMIT_CPU, (hard, hard))",
+        ),
+        "ValueError: not allowed to raise maximum limit",
+    ),
+    "append_stdlib": (attempt("open(socket.__file__, 'a')"), f"{EPERM}: '{socket.__file__}'"),
+    "create_in_tmp": (attempt("os.open('/tmp/y', os.O_RDONLY | os.O_CREAT)"), f"{EPERM}: '/tmp/y'"),
+    "mkdir_tmp": (attempt("os.mkdir('/tmp/d')"), f"{EPERM}: '/tmp/d'"),
+    "read_repository": (
+        attempt(f"open({str(REPO_ROOT / 'pyproject.toml')!r})"),
+        f"FileNotFoundError: [Errno 2] No such file or directory: '{REPO_ROOT / 'pyproject.toml'}'",
+    ),
+    "read_home": (
+        attempt("os.listdir('/home')"),
+        "FileNotFoundError: [Errno 2] No such file or directory: '/home'",
+    ),
+    "threads_still_work": (
+        attempt("t = threading.Thread(target=print)", "t.start()", "t.join()"),
+        "allowed",
+    ),
+}
+
+
+def run_unchecked(source: str, limits: SandboxLimits = LIMITS):
+    return run_program(source, "q", 2, TinyTools(), limits, python_checks=False)
+
+
+@pytest.mark.parametrize("name", list(JAIL_ALONE))
+def test_the_jail_alone_refuses(name: str) -> None:
+    source, expected = JAIL_ALONE[name]
+    result = run_unchecked(source)
+    assert result.ok, result.error
+    assert result.clue_text == expected
+
+
+def test_the_jail_is_what_the_docs_say() -> None:
+    source = (
+        "import os\n"
+        "def program(input_scene):\n"
+        "    status = dict(line.split(':\\t', 1) for line in open('/proc/self/status').read().splitlines()"
+        " if ':\\t' in line)\n"
+        "    devices = open('/proc/net/dev').read().splitlines()[2:]\n"
+        "    interfaces = [line.split(':')[0].strip() for line in devices]\n"
+        "    return {'uid': os.getuid(), 'gid': os.getgid(), 'pid_small': os.getpid() < 10,\n"
+        "            'caps': [status[k].strip() for k in ('CapInh', 'CapPrm', 'CapEff', 'CapBnd',\n"
+        "                                                 'CapAmb')],\n"
+        "            'no_new_privs': status['NoNewPrivs'].strip(), 'seccomp': status['Seccomp'].strip(),\n"
+        "            'interfaces': interfaces, 'cwd': os.getcwd(), 'tmp': os.listdir('/tmp'),\n"
+        "            'etc': os.path.exists('/etc'), 'root_entries': sorted(os.listdir('/'))}\n"
+    )
+    result = run_unchecked(source)
+    assert result.ok, result.error
+    facts = dict(line.split(": ", 1) for line in result.clue_text.splitlines())
+    expected_uid = SANDBOX_UID if os.geteuid() == 0 else os.geteuid()
+    assert facts["uid"] == str(expected_uid)
+    assert facts["pid_small"] == "True"  # its own PID namespace
+    assert json.loads(facts["caps"]) == ["0000000000000000"] * 5
+    assert facts["no_new_privs"] == "1" and facts["seccomp"] == "2"
+    assert json.loads(facts["interfaces"]) == ["lo"]  # an empty network namespace
+    assert facts["cwd"] == "/tmp" and facts["tmp"] == "[]" and facts["etc"] == "False"
+    assert set(json.loads(facts["root_entries"])) <= {
+        "usr",
+        "lib",
+        "lib64",
+        "lib32",
+        "proc",
+        "dev",
+        "tmp",
+    } | {Path(part).parts[1] for part in (sys.base_prefix, str(REPO_ROOT), json.__file__)}
+
+
+def test_a_crash_is_reported_as_what_it_was() -> None:
+    result = run_unchecked("import ctypes\ndef program(input_scene):\n    return ctypes.string_at(0)\n")
+    assert not result.ok and result.error_kind == "crash"
+    assert result.error == (
+        "the sandbox process crashed with SIGSEGV (Segmentation fault) while running program line 3"
+    )
+
+
+FORGERIES = {
+    "deep_line": ("b'[' * 400000 + b'\\n'", "malformed message: nested more than 64 levels"),
+    "deep_object": ("b'{\"a\":' * 5000 + b'1' + b'}' * 5000 + b'\\n'", "nested more than 64 levels"),
+    "endless_stream": ("b'x' * (8 << 20)", "a message from the sandbox exceeded"),
+    "not_json": ("b'{not json}\\n'", "malformed message: Expecting property name"),
+    "not_an_object": ("b'[1, 2]\\n'", "a message must be a JSON object with a 'type'"),
+    "bad_utf8": ('b\'{"type": "result", "ok": true, "text": "\\xff"}\\n\'', "malformed message"),
+    "unknown_type": ('b\'{"type": "hello"}\\n\'', "unexpected message type 'hello'"),
+    "text_not_string": (
+        'b\'{"type": "result", "ok": true, "text": [1], "images": []}\\n\'',
+        "result text is not a bounded string",
+    ),
+    "stdout_not_string": (
+        'b\'{"type": "result", "ok": false, "kind": "exception", "error": "x", "stdout": [[1]]}\\n\'',
+        "result stdout and error must be strings",
+    ),
+    "unknown_kind": (
+        'b\'{"type": "result", "ok": false, "kind": "jail", "error": "x"}\\n\'',
+        "unknown failure kind 'jail'",
+    ),
+    "forged_image": (
+        'b\'{"type": "result", "ok": true, "text": "t", "images": ["view:99"]}\\n\'',
+        "unknown image handle 'view:99'",
+    ),
+}
+
+
+@pytest.mark.parametrize("name", list(FORGERIES))
+def test_forged_protocol_lines_are_a_clean_program_error(name: str) -> None:
+    payload, reason = FORGERIES[name]
+    # The worker's private protocol writer is the second descriptor it duplicated (fd 4).
+    source = f"import os\ndef program(input_scene):\n    os.write(4, {payload})\n    return 'unreachable'\n"
+    started = time.perf_counter()
+    result = run_unchecked(source)
+    assert not result.ok and result.error_kind == "crash", result.error
+    assert result.error.startswith("the sandbox broke its protocol: ") and reason in result.error
+    assert time.perf_counter() - started < 10  # bounded parent work (generous: a shared 2-core machine)
+
+
+def test_unchecked_mode_is_refused_without_the_jail() -> None:
+    opted_out = JailStatus(JailMode.OFF, False, "off")
+    with pytest.raises(ValueError, match="only be switched off inside the OS jail"):
+        run_program(
+            "def program(input_scene):\n    return 1\n", "q", 1, TinyTools(), LIMITS, opted_out, False
+        )
+
+
+def test_without_a_jail_programs_are_refused_unless_the_operator_opts_out() -> None:
+    unavailable = JailStatus(JailMode.REQUIRED, False, "bubblewrap (bwrap) is not installed")
+    source = "def program(input_scene):\n    return 1\n"
+    refused = run_program(source, "q", 1, TinyTools(), LIMITS, unavailable)
+    assert not refused.ok and refused.error_kind == "jail"
+    assert refused.error.startswith(
+        "refused: the OS sandbox is unavailable (bubblewrap (bwrap) is not installed)"
+    )
+    opted_out = run_program(source, "q", 1, TinyTools(), LIMITS, probe(JailMode.OFF))
+    assert opted_out.ok and opted_out.clue_text == "1"
+    assert probe(JailMode.REQUIRED).jailed, probe(JailMode.REQUIRED).detail
+
+
+KILLED_PARENT_SCRIPT = """
+import json, os, sys, threading, time
+sys.path.insert(0, sys.argv[1])
+from services.agent.sandbox import SandboxLimits, run_program
+from tests.test_sandbox_attacks import TinyTools
+
+source = "def program(input_scene):\\n    while True:\\n        pass\\n"
+limits = SandboxLimits(cpu_seconds=60, wall_seconds=60)
+threading.Thread(target=run_program, args=(source, "q", 1, TinyTools(), limits), daemon=True).start()
+
+def descendants(root):
+    children = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                fields = open(f"/proc/{entry}/stat").read().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            children.setdefault(int(fields[1]), []).append(int(entry))
+    found, queue = [], [root]
+    while queue:
+        for child in children.get(queue.pop(), []):
+            found.append(child)
+            queue.append(child)
+    return found
+
+for _ in range(300):
+    found = descendants(os.getpid())
+    if len(found) >= 3:  # bubblewrap, its namespace init, the worker
+        time.sleep(0.5)  # the program is spinning
+        print(json.dumps(descendants(os.getpid())), flush=True)
+        break
+    time.sleep(0.05)
+time.sleep(60)
+"""
+
+
+def test_a_killed_agent_leaves_no_sandbox_process_behind() -> None:
+    parent = subprocess.Popen(
+        [sys.executable, "-c", KILLED_PARENT_SCRIPT, str(REPO_ROOT)], stdout=subprocess.PIPE, text=True
+    )
+    try:
+        pids = json.loads(parent.stdout.readline())
+        assert len(pids) >= 3
+        assert all(Path(f"/proc/{pid}").exists() for pid in pids)
+    finally:
+        parent.send_signal(signal.SIGKILL)
+        parent.wait()
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and any(_alive(pid) for pid in pids):
+        time.sleep(0.1)
+    assert not any(_alive(pid) for pid in pids), [_describe(pid) for pid in pids]
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+def _describe(pid: int) -> str:
+    try:
+        return f"{pid}: {Path(f'/proc/{pid}/cmdline').read_bytes()[:80]!r}"
+    except OSError:
+        return f"{pid}: gone"
+
+
+def test_stale_workdirs_of_dead_agents_are_removed_and_live_ones_kept() -> None:
+    with tempfile.TemporaryDirectory() as root:
+        dead = Path(root, f"{WORKDIR_PREFIX}999999999-abc")  # no such process
+        legacy = Path(root, f"{WORKDIR_PREFIX}k3j4h5")  # older name without an owner
+        mine = Path(root, f"{WORKDIR_PREFIX}{os.getpid()}-xyz")
+        other = Path(root, "unrelated")
+        for directory in (dead, legacy, mine, other):
+            directory.mkdir()
+        (dead / "leftover.txt").write_text("x")
+        assert remove_stale_workdirs(root) == 2
+        assert sorted(p.name for p in Path(root).iterdir()) == sorted([mine.name, other.name])
