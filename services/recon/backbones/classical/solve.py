@@ -34,6 +34,7 @@ from .verification import (
     observations,
     pair_confidences,
     rejection_reason,
+    rotation_uncertainty_deg,
     view_confidence,
     weakly_tied_views,
 )
@@ -266,9 +267,12 @@ def _verified(
         rejected = {}
         for view in model.extrinsics:
             prior_focal = free[view] and source == "prior"
-            reason = rejection_reason(confidence[view], 1.0, prior_focal) or disagreement_with_pairs(
-                view, model.extrinsics, pairs
+            uncertainty = rotation_uncertainty_deg(
+                view, seen, model.points, model.extrinsics[view], intrinsics[view]
             )
+            reason = rejection_reason(
+                confidence[view], 1.0, prior_focal, uncertainty
+            ) or disagreement_with_pairs(view, model.extrinsics, pairs)
             if reason is not None:
                 rejected[view] = reason
         if not rejected:
