@@ -284,32 +284,3 @@ def test_two_view_tells_pure_rotation_from_translation():
     assert direction_error_deg(moved.translation, step) < 3.0
     assert len(moved.matches) > 250
 
-
-def test_a_view_between_the_inlier_floor_and_fifty_stays_only_if_its_rotation_is_pinned():
-    from services.recon.backbones.classical.verification import (
-        MAX_ROTATION_UNCERTAINTY_DEG,
-        Observations,
-        rejection_reason,
-        rotation_uncertainty_deg,
-    )
-    from shared.reconstruction import ViewConfidence
-
-    # 36 inliers of a 60-degree view: spread over the image, or bunched in a corner. Bunched, the
-    # view's rotation trades off against its translation, so it is far less pinned.
-    rng = np.random.default_rng(0)
-    intrinsic = default_intrinsic(640, 480, 60.0)
-    extrinsic = np.hstack([np.eye(3), np.zeros((3, 1))])
-    depths = rng.uniform(3.0, 5.0, size=36)
-    figures = {}
-    for name, high in (("spread", [600, 450]), ("bunched", [140, 105])):
-        pixels = rng.uniform([40, 30], high, size=(36, 2))
-        rays = np.c_[(pixels - intrinsic[:2, 2]) / intrinsic[0, 0], np.ones(36)]
-        seen = Observations(np.arange(36), np.zeros(36, int), pixels, np.full(36, 0.6), depths)
-        figures[name] = rotation_uncertainty_deg(0, seen, rays * depths[:, None], extrinsic, intrinsic)
-    assert figures["bunched"] > 2 * figures["spread"], figures
-    confident = ViewConfidence(inliers=36, spread=0.5, reprojection_error_px=0.5, positive_depth_fraction=1.0)
-    assert rejection_reason(confident, 1.0, False, MAX_ROTATION_UNCERTAINTY_DEG / 2) is None
-    assert "to fix its rotation" in rejection_reason(confident, 1.0, False, MAX_ROTATION_UNCERTAINTY_DEG * 2)
-    assert "when the focal length is unknown" in rejection_reason(confident, 1.0, True, 0.0)
-    few = ViewConfidence(inliers=20, spread=0.5, reprojection_error_px=0.5, positive_depth_fraction=1.0)
-    assert "too few inliers (20, at least 30 needed)" in rejection_reason(few, 1.0, False, 0.0)

@@ -34,7 +34,6 @@ from .verification import (
     observations,
     pair_confidences,
     rejection_reason,
-    rotation_uncertainty_deg,
     view_confidence,
     weakly_tied_views,
 )
@@ -267,12 +266,9 @@ def _verified(
         rejected = {}
         for view in model.extrinsics:
             prior_focal = free[view] and source == "prior"
-            uncertainty = rotation_uncertainty_deg(
-                view, seen, model.points, model.extrinsics[view], intrinsics[view]
+            reason = rejection_reason(confidence[view], 1.0, prior_focal) or disagreement_with_pairs(
+                view, model.extrinsics, pairs
             )
-            reason = rejection_reason(
-                confidence[view], 1.0, prior_focal, uncertainty
-            ) or disagreement_with_pairs(view, model.extrinsics, pairs)
             if reason is not None:
                 rejected[view] = reason
         if not rejected:

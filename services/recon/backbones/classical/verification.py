@@ -27,14 +27,6 @@ INLIER_PX = 3.0  # working-image pixels
 # focal (28 off with the prior); 80 and more were right.
 MIN_VIEW_INLIERS = 50
 MIN_VIEW_INLIERS_PRIOR_FOCAL = 50  # a prior focal is a second source of error: never fewer
-# Between MIN_VIEW_INLIERS_FLOOR and MIN_VIEW_INLIERS a view (known focal) stays when its inliers
-# fix its rotation: first-order standard deviation (rotation_uncertainty_deg) at most this. The
-# count is a proxy; what matters is how well the inliers' layout (spread, depths) pins the pose.
-# Set from templeRing's tuning subsets (46 degrees, true focal: 36-46 inliers at 0.078-0.124,
-# 2-6 degrees off) and synthetic scene 132 (36 inliers of a 60-degree view at 0.045, 1.4 off).
-# The linearisation holds the points fixed, so it is a relative figure, far below the real error.
-MIN_VIEW_INLIERS_FLOOR = 30
-MAX_ROTATION_UNCERTAINTY_DEG = 0.06
 MIN_PAIR_POINTS = 30  # shared points that tie two views together
 MIN_SPREAD = 2 / 16  # at least two cells of a 4x4 grid
 MAX_MEDIAN_ERROR_PX = 1.5
@@ -42,7 +34,6 @@ MIN_POSITIVE_DEPTH = 0.9
 MAX_PAIR_DISAGREEMENT_DEG = 5.0  # model vs two-view relative rotation of a view's best pair
 MIN_CONFIDENT_ANGLE_DEG = 2.0  # median ray angle below this: the view's position is uncertain
 GRID = 4
-MIN_NOISE_PX = 0.3  # keypoint noise floor: renders reproject too well to say how noisy a view is
 
 
 @dataclass(frozen=True)
@@ -102,22 +93,11 @@ def view_confidence(
     )
 
 
-def rejection_reason(
-    confidence: ViewConfidence,
-    scale: float,
-    prior_focal: bool = False,
-    rotation_uncertainty: float = float("inf"),
-) -> str | None:
-    needed = MIN_VIEW_INLIERS_PRIOR_FOCAL if prior_focal else MIN_VIEW_INLIERS_FLOOR
+def rejection_reason(confidence: ViewConfidence, scale: float, prior_focal: bool = False) -> str | None:
+    needed = MIN_VIEW_INLIERS_PRIOR_FOCAL if prior_focal else MIN_VIEW_INLIERS
     if confidence.inliers < needed:
         reason = f"too few inliers ({confidence.inliers}, at least {needed} needed"
         return reason + (" when the focal length is unknown)" if prior_focal else ")")
-    if confidence.inliers < MIN_VIEW_INLIERS and rotation_uncertainty > MAX_ROTATION_UNCERTAINTY_DEG:
-        return (
-            f"too few inliers to fix its rotation ({confidence.inliers}, rotation uncertain by "
-            f"{rotation_uncertainty:.2f} degrees; {MIN_VIEW_INLIERS} inliers or "
-            f"{MAX_ROTATION_UNCERTAINTY_DEG:g} degrees needed)"
-        )
     if confidence.spread < MIN_SPREAD:
         return f"its inliers cover too little of the image ({confidence.spread:.0%})"
     if confidence.reprojection_error_px * scale > MAX_MEDIAN_ERROR_PX:
@@ -214,40 +194,3 @@ def weakly_tied_views(pairs: list[PairConfidence]) -> dict[int, str]:
             f"at least {MIN_PAIR_POINTS} needed)"
         )
     return result
-
-
-def rotation_uncertainty_deg(
-    view: int, seen: Observations, points: np.ndarray, extrinsic: np.ndarray, intrinsic: np.ndarray
-) -> float:
-    """Standard deviation (degrees, worst axis) of the view's rotation given its inliers.
-
-    First-order: the Jacobian of the inliers' projections with respect to the view's rotation and
-    translation, points held fixed, and the pixel noise the residuals show. Marginalising the
-    translation keeps the rotation-translation ambiguity of inliers bunched in one patch or at one
-    depth in the figure, which a count of inliers alone does not see."""
-    good = (seen.views == view) & (seen.errors < INLIER_PX) & (seen.depths > 0)
-    if good.sum() < 6:
-        return float("inf")
-    world = points[seen.points[good]]
-    rotated = world @ extrinsic[:, :3].T
-    camera = rotated + extrinsic[:, 3]
-    x, y, z = camera[:, 0], camera[:, 1], camera[:, 2]
-    fx, fy = intrinsic[0, 0], intrinsic[1, 1]
-    # d(pixel)/d(camera point), (O, 2, 3)
-    d_pixel = np.zeros((len(z), 2, 3))
-    d_pixel[:, 0, 0] = fx / z
-    d_pixel[:, 0, 2] = -fx * x / z**2
-    d_pixel[:, 1, 1] = fy / z
-    d_pixel[:, 1, 2] = -fy * y / z**2
-    # camera point = exp(w) R X + t: d/dw = -[R X]x, d/dt = I
-    skew = np.zeros((len(z), 3, 3))
-    skew[:, 0, 1], skew[:, 0, 2] = -rotated[:, 2], rotated[:, 1]
-    skew[:, 1, 0], skew[:, 1, 2] = rotated[:, 2], -rotated[:, 0]
-    skew[:, 2, 0], skew[:, 2, 1] = -rotated[:, 1], rotated[:, 0]
-    jacobian = np.concatenate([d_pixel @ -skew, d_pixel], axis=2).reshape(-1, 6)
-    sigma = max(float(np.median(seen.errors[good])) / 1.1774, MIN_NOISE_PX)  # median |2D gaussian|
-    try:
-        covariance = np.linalg.inv(jacobian.T @ jacobian) * sigma**2
-    except np.linalg.LinAlgError:
-        return float("inf")
-    return float(np.degrees(np.sqrt(max(np.linalg.eigvalsh(covariance[:3, :3]).max(), 0.0))))
