@@ -283,4 +283,3 @@ def test_two_view_tells_pure_rotation_from_translation():
     assert rotation_error_deg(moved.rotation, rotation) < 0.5
     assert direction_error_deg(moved.translation, step) < 3.0
     assert len(moved.matches) > 250
-
