@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from shared.client import AgentClient, ReconClient
+from shared.client import AgentClient, ReconClient, ServiceError
 from shared.exif_camera import FILM_DIAGONAL_MM
 from shared.imaging import encode_image
 from shared.local_services import running_service
@@ -98,9 +98,12 @@ def test_uploaded_intrinsics_are_used_per_view(recon, client):
     assert created.status_code == 201 and created.json()["has_cameras"] is False
     multipart = client.upload_scene(pngs, intrinsics=[truth[0], None, truth[2]])
     assert multipart.scene_id == created.json()["scene_id"]
-    partial = client.reconstruct(created.json()["scene_id"])
-    sources = [c.intrinsics_source for c in partial.cameras]
-    assert sources[0] == sources[2] == "uploaded" and sources[1] not in ("uploaded", "exif")
+    # View 1's focal is left to the backbone; only views 0 and 1 can be placed, and two views
+    # cannot fix an unknown focal: a 422 that says so rather than a guessed pose.
+    with pytest.raises(ServiceError) as refused:
+        client.reconstruct(created.json()["scene_id"])
+    assert refused.value.status_code == 422, refused.value.message
+    assert "focal length cannot be determined from two views" in refused.value.message
 
 
 @pytest.mark.parametrize(
