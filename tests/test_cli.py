@@ -33,7 +33,7 @@ def pyspatial(
 ) -> subprocess.CompletedProcess:
     """Run the real command line in a child process; a wide terminal keeps rich from wrapping."""
     env = {**os.environ, "COLUMNS": "200", "PYTHONUNBUFFERED": "1"}
-    for name in ("PYSPATIAL_RECON_URL", "PYSPATIAL_API_KEY", "PYSPATIAL_RECON_API_KEY"):
+    for name in ("PYSPATIAL_RECON_URL", "PYSPATIAL_API_KEY", "PYSPATIAL_API_KEYS", "PYSPATIAL_RECON_API_KEY"):
         env.pop(name, None)
     env.update(extra_env or {})
     return subprocess.run(

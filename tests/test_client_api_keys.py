@@ -127,3 +127,14 @@ def test_python_api_sends_the_recon_key(keyed, monkeypatch):
     from_env = SpatialToolkit(url)  # reads PYSPATIAL_RECON_API_KEY when it first needs the service
     assert from_env.reconstruct(scene).num_views == len(IMAGES)
     from_env.close()
+
+
+def test_demo_with_keys_in_its_environment_keys_both_services_and_still_answers(tmp_path):
+    # Both services demand the key; the agent must get it for recon and the demo must send it.
+    result = pyspatial(
+        "demo", "--out", str(tmp_path / "demo"), cwd=tmp_path, timeout=180.0,
+        extra_env={"PYSPATIAL_API_KEYS": "demo-key"},
+    )  # fmt: skip
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert "both services demand a key" in result.stdout
+    assert f"expected {SPEC['expected_answer']}, got {SPEC['expected_answer']}: correct" in result.stdout
