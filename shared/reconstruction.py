@@ -6,15 +6,46 @@ Cameras follow docs/ARCHITECTURE.md: extrinsics are 3x4 camera-from-world in Ope
 from __future__ import annotations
 
 import io
-from dataclasses import dataclass, field
+import json
+import math
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-FORMAT_VERSION = 1
+# 2: per-view intrinsics source and confidence, per-pair confidence. Version 1 files still read
+# (their confidence is unknown and their intrinsics source follows from the backbone).
+FORMAT_VERSION = 2
+READABLE_VERSIONS = (1, 2)
+
+# Where a view's intrinsics came from, best first for the classical backbone.
+INTRINSICS_SOURCES = ("uploaded", "exif", "self-calibrated", "prior", "given", "predicted")
+_V1_INTRINSICS_SOURCE = {"classical": "prior", "posed-rgbd": "given", "vggt": "predicted"}
 
 
 class ReconstructionFormatError(ValueError):
     """Raised when serialized bytes are not a reconstruction this code can read."""
+
+
+@dataclass
+class ViewConfidence:
+    """How well one view's pose is supported by the data. NaN / 0 where a backbone cannot tell."""
+
+    inliers: int = 0  # observations that agree with the model (reprojection within a few pixels)
+    spread: float = math.nan  # share of the image (4x4 grid cells) its inliers cover, 0..1
+    reprojection_error_px: float = math.nan  # median over its inliers, original-image pixels
+    positive_depth_fraction: float = math.nan  # share of its observed points in front of it
+    unregistered_reason: str | None = None  # why the view has no pose; None when registered
+
+
+@dataclass
+class PairConfidence:
+    """Support of the relative pose of two registered views: the points both see."""
+
+    first: int
+    second: int
+    inliers: int
+    reprojection_error_px: float  # median over both views' observations of the shared points
+    triangulation_angle_deg: float  # median angle between the two rays to a shared point
 
 
 @dataclass
@@ -30,8 +61,9 @@ class Reconstruction:
     depths: list[np.ndarray] | None = None  # per view (h, w) float32 z-depth, None if not given
     depth_confidence: list[np.ndarray] | None = None  # per view (h, w) float32
     warnings: list[str] = field(default_factory=list)
-    # Per view, where the intrinsics came from: "uploaded", "exif", "predicted", "prior", ...
-    intrinsics_source: list[str] | None = None
+    intrinsics_source: list[str] | None = None  # per view, one of INTRINSICS_SOURCES
+    view_confidence: list[ViewConfidence] | None = None  # per view; None = not assessed
+    pair_confidence: list[PairConfidence] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         self.points = np.ascontiguousarray(self.points, dtype=np.float32).reshape(-1, 3)
@@ -50,11 +82,21 @@ class Reconstruction:
             maps = getattr(self, name)
             if maps is not None and len(maps) != views:
                 raise ValueError(f"{name} has {len(maps)} maps for {views} views")
-        if self.intrinsics_source is not None:
-            self.intrinsics_source = [str(source) for source in self.intrinsics_source]
-            if len(self.intrinsics_source) != views:
-                count = len(self.intrinsics_source)
-                raise ValueError(f"intrinsics_source has {count} entries for {views} views")
+        if self.intrinsics_source is None:
+            self.intrinsics_source = [_V1_INTRINSICS_SOURCE.get(self.backbone, "prior")] * views
+        self.intrinsics_source = [str(source) for source in self.intrinsics_source]
+        if len(self.intrinsics_source) != views:
+            raise ValueError(f"intrinsics_source has {len(self.intrinsics_source)} entries for {views} views")
+        unknown = sorted(set(self.intrinsics_source) - set(INTRINSICS_SOURCES))
+        if unknown:
+            raise ValueError(f"unknown intrinsics source(s) {unknown}; expected one of {INTRINSICS_SOURCES}")
+        if self.view_confidence is None:
+            self.view_confidence = [
+                ViewConfidence(unregistered_reason=None if placed else "not placed by the backbone")
+                for placed in self.registered
+            ]
+        if len(self.view_confidence) != views:
+            raise ValueError(f"view_confidence has {len(self.view_confidence)} entries for {views} views")
 
     @property
     def num_views(self) -> int:
@@ -92,9 +134,16 @@ class Reconstruction:
             "backbone": np.array(self.backbone),
             "backbone_version": np.array(self.backbone_version),
             "warnings": np.array(self.warnings, dtype=np.str_),
+            "intrinsics_source": np.array(self.intrinsics_source, dtype=np.str_),
+            "confidence": np.array(
+                json.dumps(
+                    {
+                        "views": [asdict(view) for view in self.view_confidence or []],
+                        "pairs": [asdict(pair) for pair in self.pair_confidence],
+                    }
+                )
+            ),
         }
-        if self.intrinsics_source is not None:
-            arrays["intrinsics_source"] = np.array(self.intrinsics_source, dtype=np.str_)
         for name in ("depths", "depth_confidence"):
             maps = getattr(self, name)
             if maps is not None:
@@ -114,9 +163,10 @@ class Reconstruction:
             if "format_version" not in archive:
                 raise ReconstructionFormatError("missing format_version")
             version = int(archive["format_version"])
-            if version != FORMAT_VERSION:
+            if version not in READABLE_VERSIONS:
                 raise ReconstructionFormatError(
-                    f"reconstruction format {version} is not supported (expected {FORMAT_VERSION})"
+                    f"reconstruction format {version} is not supported (this code reads "
+                    f"{', '.join(map(str, READABLE_VERSIONS))})"
                 )
             views = len(archive["extrinsics"])
 
@@ -125,6 +175,13 @@ class Reconstruction:
                     return None
                 return [archive[f"{name}_{i}"].astype(np.float32) for i in range(views)]
 
+            sources, view_confidence, pair_confidence = None, None, []
+            if "intrinsics_source" in archive:  # some version 1 files have it too
+                sources = [str(source) for source in archive["intrinsics_source"]]
+            if version >= 2:
+                confidence = json.loads(str(archive["confidence"]))
+                view_confidence = [ViewConfidence(**view) for view in confidence["views"]]
+                pair_confidence = [PairConfidence(**pair) for pair in confidence["pairs"]]
             return cls(
                 points=archive["points"],
                 colors=archive["colors"],
@@ -137,11 +194,9 @@ class Reconstruction:
                 depths=maps("depths"),
                 depth_confidence=maps("depth_confidence"),
                 warnings=[str(w) for w in archive["warnings"]],
-                intrinsics_source=(
-                    [str(s) for s in archive["intrinsics_source"]]
-                    if "intrinsics_source" in archive
-                    else None
-                ),
+                intrinsics_source=sources,
+                view_confidence=view_confidence or None,
+                pair_confidence=pair_confidence,
             )
 
     def to_ply(self) -> bytes:

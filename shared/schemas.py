@@ -53,18 +53,42 @@ class ReconstructRequest(_Model):
     )
 
 
+class ViewConfidenceInfo(_Model):
+    """How well the data supports a view's pose; null where the backbone does not measure it."""
+
+    inliers: int = Field(..., description="Observations that agree with the model.")
+    spread: float | None = Field(None, description="Share of the image (4x4 cells) the inliers cover.")
+    reprojection_error_px: float | None = Field(
+        None, description="Median over the inliers after adjustment, pixels."
+    )
+    positive_depth_fraction: float | None = Field(None, description="Share of its points in front of it.")
+    unregistered_reason: str | None = Field(
+        None, description="Why the view has no pose; null if registered."
+    )
+
+
+class PairConfidenceInfo(_Model):
+    first: int
+    second: int
+    inliers: int = Field(..., description="Points both views see.")
+    reprojection_error_px: float | None = None
+    triangulation_angle_deg: float | None = Field(None, description="Median angle between their rays.")
+
+
 class CameraInfo(_Model):
     index: int
     extrinsic: Matrix | None = Field(..., description="3x4 camera-from-world; null when not registered.")
     intrinsic: Matrix | None = Field(..., description="3x3 in pixels; null when the backbone has none.")
     intrinsics_source: str | None = Field(
         None,
-        description="Where the intrinsics came from: uploaded, exif, predicted (vggt), prior (a guessed "
-        "field of view), or what the backbone says (e.g. self-calibrated); null when not reported.",
+        description="Where the intrinsics came from: uploaded, exif, self-calibrated (classical: "
+        "estimated from the views), prior (a guessed field of view), given (posed-rgbd), predicted "
+        "(vggt); null when not reported.",
     )
     width: int
     height: int
     registered: bool
+    confidence: ViewConfidenceInfo | None = None
 
 
 class ReconstructionSummary(_Model):
@@ -77,6 +101,9 @@ class ReconstructionSummary(_Model):
     bounds_max: list[float]
     up: list[float] = Field(..., description="Scene up axis estimated from the cameras (world frame).")
     warnings: list[str]
+    pairs: list[PairConfidenceInfo] = Field(
+        default_factory=list, description="Support of each pair of registered views (classical)."
+    )
     cached: bool = Field(..., description="Served from the cache without reconstructing.")
     joined_in_flight: bool = Field(
         False, description="Waited for an identical reconstruction already running."

@@ -110,3 +110,40 @@ def test_camera_centres_and_bounds():
     low, high = recon.bounds()  # the unregistered (NaN) camera is left out
     assert np.all(np.isfinite(low)) and np.all(np.isfinite(high))
     assert np.all(low <= [1.0, 2.0, 3.0]) and np.all(high >= [1.0, 2.0, 3.0])
+
+
+def test_confidence_and_intrinsics_sources_round_trip():
+    from shared.reconstruction import PairConfidence, ViewConfidence
+
+    original = sample()
+    original.intrinsics_source = ["uploaded", "self-calibrated", "prior"]
+    original.view_confidence = [
+        ViewConfidence(120, 0.5, 0.4, 1.0),
+        ViewConfidence(80, 0.25, 0.7, 0.98),
+        ViewConfidence(unregistered_reason="too few inliers (12, at least 30 needed)"),
+    ]
+    original.pair_confidence = [PairConfidence(0, 1, 60, 0.5, 7.5)]
+    restored = Reconstruction.from_bytes(original.to_bytes())
+    assert restored.intrinsics_source == original.intrinsics_source
+    assert restored.pair_confidence == original.pair_confidence
+    assert restored.view_confidence[:2] == original.view_confidence[:2]
+    assert restored.view_confidence[2].unregistered_reason.startswith("too few inliers")
+    assert np.isnan(restored.view_confidence[2].spread)
+
+
+def test_version_1_files_still_read():
+    recon = sample()
+    with np.load(io.BytesIO(recon.to_bytes())) as archive:
+        arrays = {k: archive[k] for k in archive if k not in ("intrinsics_source", "confidence")}
+    arrays["format_version"] = np.array(1, dtype=np.int32)
+    buffer = io.BytesIO()
+    np.savez(buffer, **arrays)
+    restored = Reconstruction.from_bytes(buffer.getvalue())
+    assert restored.intrinsics_source == ["prior"] * 3  # backbone "test": the classical default
+    assert [c.unregistered_reason is None for c in restored.view_confidence] == [True, True, False]
+    assert restored.pair_confidence == []
+
+
+def test_unknown_intrinsics_source_is_rejected():
+    with pytest.raises(ValueError, match="intrinsics source"):
+        Reconstruction(**{**sample(num_points=4).__dict__, "intrinsics_source": ["guess"] * 3})

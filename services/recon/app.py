@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import logging
+import math
 from contextlib import asynccontextmanager
+from dataclasses import asdict
 
 import numpy as np
 from fastapi import FastAPI, Query, Request
@@ -306,6 +308,11 @@ def create_app(settings: ReconSettings | None = None) -> FastAPI:
     return app
 
 
+def _finite_only(values: dict) -> dict:
+    """NaN (not measured) becomes null: JSON has no NaN."""
+    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in values.items()}
+
+
 def _summary(
     scene_id: str, recon: Reconstruction, cached: bool, joined: bool, timings: dict[str, float]
 ) -> ReconstructionSummary:
@@ -319,6 +326,7 @@ def _summary(
             width=int(recon.image_sizes[i][0]),
             height=int(recon.image_sizes[i][1]),
             registered=bool(recon.registered[i]),
+            confidence=_finite_only(asdict(recon.view_confidence[i])),
         )
         for i in range(recon.num_views)
     ]
@@ -335,6 +343,7 @@ def _summary(
         bounds_max=high.tolist(),
         up=up.tolist(),
         warnings=recon.warnings,
+        pairs=[_finite_only(asdict(pair)) for pair in recon.pair_confidence],
         cached=cached,
         joined_in_flight=joined,
         timings_ms={k: round(v, 2) for k, v in timings.items()},

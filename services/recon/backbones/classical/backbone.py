@@ -2,11 +2,17 @@
 
 Pipeline: downscale (speed) -> SIFT features -> pairwise matches -> per pair an essential-matrix
 or pure-rotation pose -> incremental registration (PnP, else chained pairwise poses) with
-triangulation and refinement -> densified, cross-checked coloured cloud.
+triangulation and refinement -> bundle adjustment with self-calibration of the unknown focal
+(solve.py) -> verification: views the data does not support are unregistered with the reason
+(verification.py) -> densified, cross-checked coloured cloud.
 
 Conventions of the result (docs/ARCHITECTURE.md):
-- Intrinsics are guessed (unknown cameras): focal from `fov_deg` horizontal field of view,
-  principal point at the image centre, in ORIGINAL image pixels.
+- Intrinsics, in ORIGINAL image pixels: given ones (uploaded or EXIF, `intrinsics=`) are used as
+  they are; views without share a focal estimated from the data ("self-calibrated") when the data
+  determines it better than the prior, else the `fov_deg` horizontal field-of-view prior
+  ("prior"); principal point at the image centre. Each view's source is in `intrinsics_source`.
+- Per-view confidence (inliers, their spread, reprojection error after adjustment, share of
+  points in front) and per-pair confidence (shared points, error, triangulation angle).
 - World frame = camera frame of the first registered view (view 0 unless it could not be placed),
   whose extrinsic is therefore the identity.
 - Scale: the median distance of the cloud's points from that first camera is 1. Monocular
@@ -22,21 +28,21 @@ Conventions of the result (docs/ARCHITECTURE.md):
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import cv2
 import numpy as np
 
-from shared.reconstruction import Reconstruction
+from shared.reconstruction import Reconstruction, ViewConfidence
 
 from ..base import Backbone, BackboneError
 from .densify import ViewSamples, densify, grid_size, unit_sphere_cloud
 from .features import ViewFeatures, detect_features, match_features
 from .geometry import project
-from .incremental import IncrementalMapper, SparseModel
+from .incremental import SparseModel
 from .intrinsics import guess_intrinsics, intrinsics_after_resize, intrinsics_before_resize
-from .two_view import TwoViewGeometry, estimate_two_view
+from .solve import solve_with_self_calibration
 
 MIN_FEATURES = 30  # fewer keypoints than this: the image has no usable texture
 
@@ -52,7 +58,7 @@ class _PreparedView:
 
 class ClassicalBackbone(Backbone):
     name = "classical"
-    version = "2"
+    version = "3"
     accepts_intrinsics = True
 
     def __init__(
@@ -75,17 +81,24 @@ class ClassicalBackbone(Backbone):
         self.densify = densify
         self.detector = detector
 
-    def reconstruct(self, images: Sequence[np.ndarray], **options: Any) -> Reconstruction:
+    def reconstruct(
+        self,
+        images: Sequence[np.ndarray],
+        intrinsics: Sequence[np.ndarray | None] | None = None,
+        intrinsics_sources: Sequence[str | None] | None = None,
+        **options: Any,
+    ) -> Reconstruction:
+        """`intrinsics`: per view a 3x3 in the original image's pixels, or None (unknown);
+        `intrinsics_sources`: per view where a given one came from ("uploaded" or "exif")."""
         fov_deg = float(options.pop("fov_deg", self.fov_deg))
         use_densify = bool(options.pop("densify", self.densify))
-        given = list(options.pop("intrinsics", None) or [None] * len(images))
-        given_sources = list(options.pop("intrinsics_sources", None) or [None] * len(images))
-        if len(given) != len(images) or len(given_sources) != len(images):
-            raise BackboneError(f"intrinsics and intrinsics_sources need one entry per image ({len(images)})")
         if options:
             raise BackboneError(f"unknown options for the classical backbone: {', '.join(sorted(options))}")
         if len(images) < 2:
             raise BackboneError(f"the classical backbone needs at least 2 images, got {len(images)}")
+        given, sources = _given_intrinsics(intrinsics, intrinsics_sources, len(images))
+        # Same images, same answer: RANSAC draws from OpenCV's (per-thread) generator.
+        cv2.setRNGSeed(0)
         views = [self._prepare(index, image, fov_deg, given[index]) for index, image in enumerate(images)]
         warnings: list[str] = []
         textured = [index for index, view in enumerate(views) if len(view.features) >= MIN_FEATURES]
@@ -94,36 +107,64 @@ class ClassicalBackbone(Backbone):
                 f"only {len(textured)} of {len(views)} images have enough texture to detect features "
                 f"(at least {MIN_FEATURES} keypoints needed in two images)"
             )
-        pairs = self._relate_pairs(views, textured)
-        if not pairs:
-            raise BackboneError(
-                f"no two of the {len(views)} images share enough matching features to be related"
-            )
-        model = IncrementalMapper(
-            [view.features.keypoints for view in views], [view.intrinsic for view in views], pairs
-        ).run()
-        warnings.extend(model.warnings)
-        if len(model.extrinsics) < 2:
-            raise BackboneError("could not place two views relative to each other")
+        matches = {
+            (first, second): match_features(views[first].features, views[second].features)
+            for position, first in enumerate(textured)
+            for second in textured[position + 1 :]
+        }
+        free = [intrinsic is None for intrinsic in given]
+        solution = solve_with_self_calibration(
+            [view.features.keypoints for view in views],
+            [(view.image.shape[1], view.image.shape[0]) for view in views],
+            [view.intrinsic for view in views],
+            free,
+            matches,
+        )
+        warnings.extend(solution.warnings)
+        views = [replace(view, intrinsic=solution.intrinsics[index]) for index, view in enumerate(views)]
+        for index, intrinsic in enumerate(given):
+            if intrinsic is None:
+                sources[index] = solution.free_focal_source
+        reasons = dict(solution.unregistered_reasons)
         for index in range(len(views)):
-            if index not in model.extrinsics:
-                reason = (
+            if index not in solution.model.extrinsics and index not in reasons:
+                reasons[index] = (
                     "too little texture"
                     if index not in textured
                     else "too few reliable matches to placed views"
                 )
-                warnings.append(f"view {index} could not be registered ({reason}); its extrinsic is NaN")
-        reconstruction = self._assemble(views, model, use_densify, warnings)
-        reconstruction.intrinsics_source = [
-            (source or "given") if intrinsic is not None else "prior"
-            for intrinsic, source in zip(given, given_sources, strict=True)
+        for index, reason in sorted(reasons.items()):
+            warnings.append(f"view {index} could not be registered ({reason}); its extrinsic is NaN")
+        confidence = [
+            solution.view_confidence.get(index, ViewConfidence(unregistered_reason=reasons.get(index)))
+            for index in range(len(views))
         ]
-        return reconstruction
+        for index, reason in reasons.items():
+            confidence[index] = replace(confidence[index], unregistered_reason=reason)
+        # Confidence was measured in working pixels; report original-image pixels.
+        confidence = [
+            replace(item, reprojection_error_px=item.reprojection_error_px / view.scale)
+            for item, view in zip(confidence, views, strict=True)
+        ]
+        pair_confidence = [
+            replace(
+                pair,
+                reprojection_error_px=pair.reprojection_error_px
+                * 2
+                / (views[pair.first].scale + views[pair.second].scale),
+            )
+            for pair in solution.pair_confidence
+        ]
+        recon = self._assemble(views, solution.model, use_densify, warnings)
+        recon.intrinsics_source = sources
+        recon.view_confidence = confidence
+        recon.pair_confidence = pair_confidence
+        return recon
 
     # ---- steps ----------------------------------------------------------------------------
 
     def _prepare(
-        self, index: int, image: np.ndarray, fov_deg: float, given: np.ndarray | None = None
+        self, index: int, image: np.ndarray, fov_deg: float, given: np.ndarray | None
     ) -> _PreparedView:
         image = np.asarray(image)
         if image.dtype != np.uint8 or image.ndim != 3 or image.shape[2] != 3:
@@ -140,29 +181,10 @@ class ClassicalBackbone(Backbone):
         # cv2.resize rounds the size; use the exact ratio so pixel maps stay consistent.
         scale = working.shape[1] / width
         gray = cv2.cvtColor(working, cv2.COLOR_RGB2GRAY)
-        known = guess_intrinsics(width, height, fov_deg) if given is None else np.asarray(given, np.float64)
-        intrinsic = intrinsics_after_resize(known, scale)
+        original = guess_intrinsics(width, height, fov_deg) if given is None else given
+        intrinsic = intrinsics_after_resize(original, scale)
         features = detect_features(gray, self.max_features, self.detector)
         return _PreparedView(working, (width, height), scale, intrinsic, features)
-
-    @staticmethod
-    def _relate_pairs(
-        views: list[_PreparedView], textured: list[int]
-    ) -> dict[tuple[int, int], TwoViewGeometry]:
-        pairs = {}
-        for position, first in enumerate(textured):
-            for second in textured[position + 1 :]:
-                matches = match_features(views[first].features, views[second].features)
-                geometry = estimate_two_view(
-                    views[first].features.keypoints,
-                    views[second].features.keypoints,
-                    views[first].intrinsic,
-                    views[second].intrinsic,
-                    matches,
-                )
-                if geometry is not None:
-                    pairs[(first, second)] = geometry
-        return pairs
 
     def _assemble(
         self, views: list[_PreparedView], model: SparseModel, use_densify: bool, warnings: list[str]
@@ -284,3 +306,39 @@ def _sparse_colors(views: list[_PreparedView], model: SparseModel) -> np.ndarray
         height, width = views[view].image.shape[:2]
         colors[point] = views[view].image[min(int(round(v)), height - 1), min(int(round(u)), width - 1)]
     return colors
+
+
+GIVEN_SOURCES = ("uploaded", "exif")
+
+
+def _given_intrinsics(
+    intrinsics: Sequence[np.ndarray | None] | None, sources: Sequence[str | None] | None, count: int
+) -> tuple[list[np.ndarray | None], list[str]]:
+    """Validated per-view given intrinsics (or None) and the source label of every view so far."""
+    if intrinsics is None:
+        return [None] * count, ["prior"] * count
+    if len(intrinsics) != count:
+        raise BackboneError(f"got intrinsics for {len(intrinsics)} views but {count} images")
+    if sources is not None and len(sources) != count:
+        raise BackboneError(f"got {len(sources)} intrinsics sources for {count} images")
+    given: list[np.ndarray | None] = []
+    labels = []
+    for index, intrinsic in enumerate(intrinsics):
+        if intrinsic is None:
+            given.append(None)
+            labels.append("prior")
+            continue
+        matrix = np.asarray(intrinsic, dtype=np.float64)
+        usable = matrix.shape == (3, 3) and np.all(np.isfinite(matrix))
+        if not usable or matrix[0, 0] <= 0 or matrix[1, 1] <= 0:
+            raise BackboneError(
+                f"intrinsics of view {index} must be a finite 3x3 with positive focal lengths"
+            )
+        label = (sources[index] if sources is not None else None) or "uploaded"
+        if label not in GIVEN_SOURCES:
+            raise BackboneError(
+                f"intrinsics source of view {index} must be one of {GIVEN_SOURCES}, got {label!r}"
+            )
+        given.append(matrix)
+        labels.append(label)
+    return given, labels

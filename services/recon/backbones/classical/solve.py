@@ -1,0 +1,288 @@
+"""Poses, points and the unknown focal length together: self-calibration, adjustment, verification.
+
+Self-calibration by alternation. The two-view poses and the incremental model are built with the
+current focal (the field-of-view prior at first); bundle adjustment then refines the focal shared
+by the views whose camera is unknown. A wrong focal bends the model (rotations come out scaled,
+translations can even flip), but adjustment still moves the focal towards the truth; rebuilding
+the model with the moved focal and adjusting again converges in a few rounds (on templeRing, a
+60 degree prior for a 24 degree lens: 554 -> 1007 -> 1513 -> 1528 px, true 1520). Given
+intrinsics stay fixed throughout.
+
+The estimate must earn its place: the prior is kept when it explains the matches (adjusted, robust
+cost) within 5% as well. That is the case when the focal is not observable (two views, views
+whose optical axes meet at one point) and when the prior is simply right; it stops a focal pulled
+off by a weakly connected view. An implausible estimate (field of view outside
+MIN_FOV_DEG..MAX_FOV_DEG) also falls back to the prior. Either way the views say "prior".
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from shared.reconstruction import PairConfidence, ViewConfidence
+
+from ..base import BackboneError
+from .bundle_adjustment import bundle_adjust, robust_cost
+from .incremental import IncrementalMapper, SparseModel
+from .two_view import TwoViewGeometry, estimate_two_view
+from .verification import (
+    MIN_CONFIDENT_ANGLE_DEG,
+    disagreement_with_pairs,
+    observations,
+    pair_confidences,
+    rejection_reason,
+    view_confidence,
+    weakly_tied_views,
+)
+
+MAX_CALIBRATION_ROUNDS = 5
+CONVERGED_CHANGE = 0.02  # relative focal change that counts as settled
+MIN_FOV_DEG, MAX_FOV_DEG = 5.0, 140.0
+# The estimated focal replaces the prior only when the prior's adjusted cost is this much higher.
+# On templeRing a 1.4x wrong focal costs two views +0.1..0.5%, three or more views +20..150%.
+MAX_PRIOR_COST_RISE = 1.05
+
+
+@dataclass
+class Solution:
+    model: SparseModel  # adjusted and verified; working-image pixels
+    intrinsics: list[np.ndarray]  # per view, working pixels (free views: the self-calibrated focal)
+    free_focal_source: str  # "self-calibrated" or "prior": the label of views without given intrinsics
+    view_confidence: dict[int, ViewConfidence]
+    pair_confidence: list[PairConfidence]
+    unregistered_reasons: dict[int, str] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+
+
+def relate_pairs(
+    keypoints: list[np.ndarray], intrinsics: list[np.ndarray], matches: dict[tuple[int, int], np.ndarray]
+) -> dict[tuple[int, int], TwoViewGeometry]:
+    pairs = {}
+    for (first, second), pair_matches in matches.items():
+        geometry = estimate_two_view(
+            keypoints[first], keypoints[second], intrinsics[first], intrinsics[second], pair_matches
+        )
+        if geometry is not None:
+            pairs[(first, second)] = geometry
+    return pairs
+
+
+def solve_with_self_calibration(
+    keypoints: list[np.ndarray],
+    image_sizes: list[tuple[int, int]],
+    intrinsics: list[np.ndarray],
+    free: list[bool],
+    matches: dict[tuple[int, int], np.ndarray],
+) -> Solution:
+    prior = [intrinsic.copy() for intrinsic in intrinsics]
+    current = [intrinsic.copy() for intrinsic in intrinsics]
+    calibrate = any(free)
+    warnings: list[str] = []
+    source = "prior"
+    adjusted_last = False  # whether `model` is already adjusted with the final intrinsics
+    prior_build = None  # the model the prior focal gives, kept to compare with the calibrated one
+    for round_index in range(MAX_CALIBRATION_ROUNDS if calibrate else 1):
+        pairs, model = _build(keypoints, current, matches)
+        prior_build = prior_build or (pairs, model)
+        if model.pure_rotation or len(model.points) == 0:
+            break  # no triangulated points: nothing for adjustment to refine
+        adjusted = bundle_adjust(
+            keypoints, image_sizes, current, free, model.extrinsics, model.points, model.tracks, calibrate
+        )
+        if not calibrate:
+            model, adjusted_last = _adjusted_model(model, adjusted), True
+            break
+        focal_before = {v: current[v][0, 0] for v in adjusted.intrinsics if free[v]}
+        focal_after = {v: adjusted.intrinsics[v][0, 0] for v in focal_before}
+        if not focal_after:
+            break
+        if not all(_plausible(focal_after[v], image_sizes[v][0]) for v in focal_after):
+            warnings.append(
+                "the focal length estimated from the views is implausible; the views without given "
+                "intrinsics use the field-of-view prior"
+            )
+            current, source = prior, "prior"
+            pairs, model = _build(keypoints, current, matches)
+            break
+        current = _with_focal(current, free, focal_after, image_sizes)
+        model, adjusted_last, source = _adjusted_model(model, adjusted), True, "self-calibrated"
+        settled = max(abs(focal_after[v] - focal_before[v]) / focal_before[v] for v in focal_after) < (
+            CONVERGED_CHANGE
+        )
+        # Two views usually cannot fix the focal: ask at once rather than after every round has
+        # crept along the flat cost.
+        two_views_at_first = len(model.extrinsics) == 2 and round_index == 0
+        last = round_index == MAX_CALIBRATION_ROUNDS - 1
+        if settled or two_views_at_first or last:
+            if _prior_fits_as_well(keypoints, image_sizes, current, prior, free, model, prior_build[1]):
+                source = "undetermined"
+                break
+            if settled or last:
+                break
+    if source == "undetermined":
+        warnings.append(
+            "the focal length cannot be determined from these views: the field-of-view prior fits "
+            "them as well as any estimate (two views, or views whose optical axes meet at one "
+            "point, fit a range of focals), so the prior is used and rotations may be off by "
+            "several degrees if the camera differs; give the intrinsics for accurate poses"
+        )
+        current, source, adjusted_last = prior, "prior", False
+        pairs, model = prior_build
+    if not adjusted_last and not model.pure_rotation and len(model.points):
+        adjusted = bundle_adjust(
+            keypoints, image_sizes, current, free, model.extrinsics, model.points, model.tracks, False
+        )
+        model = _adjusted_model(model, adjusted)
+    return _verified(keypoints, image_sizes, current, free, pairs, model, source, warnings)
+
+
+def _build(
+    keypoints: list[np.ndarray], intrinsics: list[np.ndarray], matches: dict[tuple[int, int], np.ndarray]
+) -> tuple[dict[tuple[int, int], TwoViewGeometry], SparseModel]:
+    pairs = relate_pairs(keypoints, intrinsics, matches)
+    if not pairs:
+        raise BackboneError(
+            f"no two of the {len(keypoints)} images share enough matching features to be related"
+        )
+    model = IncrementalMapper(keypoints, intrinsics, pairs).run()
+    if len(model.extrinsics) < 2:
+        raise BackboneError("could not place two views relative to each other")
+    return pairs, model
+
+
+def _prior_fits_as_well(
+    keypoints: list[np.ndarray],
+    image_sizes: list[tuple[int, int]],
+    calibrated: list[np.ndarray],
+    prior: list[np.ndarray],
+    free: list[bool],
+    model: SparseModel,
+    prior_model: SparseModel,
+) -> bool:
+    """Whether the prior focal explains the matches within MAX_PRIOR_COST_RISE of the estimate.
+
+    `model` is adjusted with the `calibrated` focal, so its cost is the minimum. The prior's cost
+    is the better of re-adjusting that model and the model first built with the prior."""
+    by_view = {view: calibrated[view] for view in model.extrinsics}
+    best = robust_cost(keypoints, by_view, model.extrinsics, model.points, model.tracks)
+    prior_costs = []
+    for start in (model, prior_model):
+        adjusted = bundle_adjust(
+            keypoints, image_sizes, prior, free, start.extrinsics, start.points, start.tracks, False
+        )
+        cost = robust_cost(keypoints, adjusted.intrinsics, adjusted.extrinsics, adjusted.points, start.tracks)
+        # Compare like with like: cost per observation (the two models may hold different points).
+        prior_costs.append(cost / max(_observation_count(start), 1) * _observation_count(model))
+    return min(prior_costs) <= MAX_PRIOR_COST_RISE * max(best, 1e-9)
+
+
+def _observation_count(model: SparseModel) -> int:
+    return sum(sum(view in model.extrinsics for view in track) for track in model.tracks)
+
+
+def _plausible(focal: float, width: int) -> bool:
+    fov = math.degrees(2 * math.atan(width / 2 / focal)) if focal > 0 else 180.0
+    return MIN_FOV_DEG <= fov <= MAX_FOV_DEG
+
+
+def _with_focal(
+    intrinsics: list[np.ndarray],
+    free: list[bool],
+    focal: dict[int, float],
+    image_sizes: list[tuple[int, int]],
+) -> list[np.ndarray]:
+    """Free views take the estimated focal of a placed free view of the same size."""
+    by_size = {image_sizes[v]: f for v, f in focal.items()}
+    result = []
+    for view, intrinsic in enumerate(intrinsics):
+        updated = intrinsic.copy()
+        if free[view] and image_sizes[view] in by_size:
+            updated[0, 0] = updated[1, 1] = by_size[image_sizes[view]]
+        result.append(updated)
+    return result
+
+
+def _adjusted_model(model: SparseModel, adjusted) -> SparseModel:
+    return SparseModel(
+        dict(adjusted.extrinsics),
+        adjusted.points,
+        list(model.tracks),
+        model.pure_rotation,
+        list(model.warnings),
+    )
+
+
+def _verified(
+    keypoints: list[np.ndarray],
+    image_sizes: list[tuple[int, int]],
+    intrinsics: list[np.ndarray],
+    free: list[bool],
+    pairs: dict[tuple[int, int], TwoViewGeometry],
+    model: SparseModel,
+    source: str,
+    warnings: list[str],
+) -> Solution:
+    """Unregister the views the data does not support; report everyone's confidence."""
+    warnings = [*warnings, *model.warnings]
+    if model.pure_rotation:
+        confidence = {
+            view: ViewConfidence(
+                inliers=max((len(p.matches) for k, p in pairs.items() if view in k), default=0)
+            )
+            for view in model.extrinsics
+        }
+        return Solution(model, intrinsics, source, confidence, [], {}, warnings)
+    reasons: dict[int, str] = {}
+    while True:  # a rejected view takes its points along; the rest are checked again
+        by_view = {v: intrinsics[v] for v in model.extrinsics}
+        seen = observations(keypoints, by_view, model.extrinsics, model.points, model.tracks)
+        confidence = {v: view_confidence(v, seen, image_sizes[v], 1.0) for v in model.extrinsics}
+        rejected = {}
+        for view in model.extrinsics:
+            prior_focal = free[view] and source == "prior"
+            reason = rejection_reason(confidence[view], 1.0, prior_focal) or disagreement_with_pairs(
+                view, model.extrinsics, pairs
+            )
+            if reason is not None:
+                rejected[view] = reason
+        if not rejected:
+            rejected = weakly_tied_views(
+                pair_confidences(seen, model.extrinsics, model.points, [1.0] * len(keypoints))
+            )
+        if not rejected:
+            break
+        reasons.update(rejected)
+        model = _without_views(model, set(rejected))
+        if len(model.extrinsics) < 2:
+            details = "; ".join(f"view {v}: {r}" for v, r in sorted(reasons.items()))
+            raise BackboneError(f"no two views could be placed with confidence ({details})")
+        adjusted = bundle_adjust(
+            keypoints, image_sizes, intrinsics, free, model.extrinsics, model.points, model.tracks, False
+        )
+        model = _adjusted_model(model, adjusted)
+    pair_confidence = pair_confidences(seen, model.extrinsics, model.points, [1.0] * len(keypoints))
+    for view in sorted(model.extrinsics):
+        angles = [
+            p.triangulation_angle_deg for p in pair_confidence if view in (p.first, p.second) and p.inliers
+        ]
+        if not angles or max(angles) < MIN_CONFIDENT_ANGLE_DEG:
+            warnings.append(
+                f"view {view}'s position is uncertain: its points are seen at shallow angles "
+                "(its rotation is reliable)"
+            )
+    return Solution(model, intrinsics, source, confidence, pair_confidence, reasons, warnings)
+
+
+def _without_views(model: SparseModel, removed: set[int]) -> SparseModel:
+    extrinsics = {v: e for v, e in model.extrinsics.items() if v not in removed}
+    kept_points, kept_tracks = [], []
+    for point, track in zip(model.points, model.tracks, strict=True):
+        remaining = {v: k for v, k in track.items() if v in extrinsics}
+        if len(remaining) >= 2:
+            kept_points.append(point)
+            kept_tracks.append(remaining)
+    points = np.array(kept_points, dtype=np.float64).reshape(-1, 3)
+    return SparseModel(extrinsics, points, kept_tracks, model.pure_rotation, list(model.warnings))
