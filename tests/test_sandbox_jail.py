@@ -27,6 +27,7 @@ from services.agent.sandbox.jail import (
     JailMode,
     JailStatus,
     probe,
+    python_path,
     remove_stale_workdirs,
 )
 from services.agent.sandbox.runner import REPO_ROOT
@@ -140,7 +141,12 @@ def test_the_jail_is_what_the_docs_say() -> None:
     assert json.loads(facts["caps"]) == ["0000000000000000"] * 5
     assert facts["no_new_privs"] == "1" and facts["seccomp"] == "2"
     assert json.loads(facts["interfaces"]) == ["lo"]  # an empty network namespace
-    assert facts["cwd"] == "/tmp" and facts["tmp"] == "[]" and facts["etc"] == "False"
+    # /tmp is a private, empty tmpfs; only the parents of read-only binds that lie under /tmp (a
+    # checkout or a virtual environment there, as in a CI clone) show up in it.
+    bound = [REPO_ROOT, Path(sys.base_prefix).resolve(), *map(Path, python_path())]
+    under_tmp = {path.relative_to("/tmp").parts[0] for path in bound if path.is_relative_to("/tmp")}
+    assert facts["cwd"] == "/tmp" and set(json.loads(facts["tmp"])) == under_tmp
+    assert facts["etc"] == "False"
     assert set(json.loads(facts["root_entries"])) <= {
         "usr",
         "lib",
