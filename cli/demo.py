@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import typer
 
+from cli.api_keys import sibling_recon_env, started_services_key
 from cli.console import console, fail, service_errors
 from cli.local_stack import (
     ServiceProcess,
@@ -64,7 +65,7 @@ def start_stack(log_dir: Path, data_dir: Path) -> tuple[list[ServiceProcess], di
         services.append(recon)
         with spinner(f"starting the reconstruction service at {recon.url}"):
             recon_ready = wait_ready(recon, timeout=180.0)
-        agent_env = {**env, "PYSPATIAL_RECON_URL": recon.url}
+        agent_env = {**env, "PYSPATIAL_RECON_URL": recon.url, **sibling_recon_env()}
         agent = start_service("agent", free_port(), env=agent_env, log_path=log_dir / "agent.log")
         services.append(agent)
         with spinner(f"starting the agent service at {agent.url}"):
@@ -113,12 +114,15 @@ def demo(
                 f"[dim](logs in {log_dir})[/]"
             )
             agent = services[1]
-            with service_errors(), AgentClient(agent.url, timeout=600.0) as client:
+            key = started_services_key()  # PYSPATIAL_API_KEYS in this environment guard both services
+            if key:
+                console.print("PYSPATIAL_API_KEYS is set, so both services demand a key: the demo sends one")
+            with service_errors(), AgentClient(agent.url, timeout=600.0, api_key=key) as client:
                 with solve_stages() as on_stage:
                     result = client.solve_with_progress(spec["question"], images=images, on_stage=on_stage)
             saved = save_clue_images(result, out / result.scene_id)
             show_solution(result, saved)
-            with service_errors(), ReconClient(services[0].url, timeout=600.0) as recon:
+            with service_errors(), ReconClient(services[0].url, timeout=600.0, api_key=key) as recon:
                 novel = render_turned_view(recon, result.scene_id, out / result.scene_id)
             console.print(f"novel view (view 1 turned 30 degrees right, rendered from the points): {novel}")
             expected = spec["expected_answer"]

@@ -11,6 +11,8 @@ from typing import Annotated
 
 import typer
 
+from cli.api_keys import agent_key_option, recon_key_option
+from cli.console import explain_service_error
 from evaluation.dataset import DatasetError, default_image_root, read_mindcube
 from evaluation.metrics import summarize_mindcube
 from evaluation.mindcube import MINDCUBE_INSTRUCTION, evaluate_mindcube
@@ -19,6 +21,7 @@ from evaluation.report import mindcube_report, omni3d_report, report_console
 from evaluation.runner import read_results
 from evaluation.solvers import BaselineSolver, NoAnswerModel, answer_model_config, pyspatial_solver
 from services.agent.llm import ChatClient
+from shared.client import ServiceError
 from shared.settings import DEFAULT_AGENT_PORT, DEFAULT_RECON_PORT, AgentSettings
 
 eval_app = typer.Typer(help="Run benchmarks against the services and print the paper's tables.")
@@ -64,6 +67,9 @@ BackboneOption = Annotated[
     ),
 ]
 
+AgentKeyOption = Annotated[str | None, agent_key_option(annotated=True)]
+ReconKeyOption = Annotated[str | None, recon_key_option("--recon-api-key", annotated=True)]
+
 DEFAULT_AGENT_URL = f"http://127.0.0.1:{DEFAULT_AGENT_PORT}"
 DEFAULT_RECON_URL = f"http://127.0.0.1:{DEFAULT_RECON_PORT}"
 
@@ -87,6 +93,8 @@ def mindcube(
     backbone: BackboneOption = None,
     recon_url: ReconUrlOption = DEFAULT_RECON_URL,
     progress: ProgressOption = True,
+    api_key: AgentKeyOption = None,
+    recon_api_key: ReconKeyOption = None,
 ) -> None:
     """Answer MindCube questions with pySpatial (POST /v1/solve) and print accuracy by setting.
 
@@ -96,12 +104,14 @@ def mindcube(
     """
     image_root = image_root or default_image_root(jsonl)
     try:
-        with pyspatial_solver(agent_url, image_root, backbone, recon_url) as solver:
+        with pyspatial_solver(agent_url, image_root, backbone, recon_url, api_key, recon_api_key) as solver:
             run = evaluate_mindcube(
                 jsonl, image_root, solver.solve, out, limit, concurrency, resume, console, progress
             )
     except DatasetError as error:
         raise _fail(str(error)) from error
+    except ServiceError as error:
+        raise _fail(explain_service_error(error)) from error
     console.print(mindcube_report([run.summary]))
     if run.skipped:
         console.print(f"{len(run.skipped)} item(s) skipped: their images are missing (warnings above)")
@@ -121,6 +131,7 @@ def omni3d(
     agent_url: AgentUrlOption = DEFAULT_AGENT_URL,
     backbone: BackboneOption = None,
     progress: ProgressOption = True,
+    api_key: AgentKeyOption = None,
 ) -> None:
     """Answer Omni3D-Bench questions with pySpatial: exact match and mean relative accuracy.
 
@@ -128,12 +139,14 @@ def omni3d(
     reasoning are parsed for the value (see evaluation/omni3d.py for what that means for scores).
     """
     try:
-        with pyspatial_solver(agent_url, image_root, backbone) as solver:
+        with pyspatial_solver(agent_url, image_root, backbone, api_key=api_key) as solver:
             run = evaluate_omni3d(
                 jsonl, image_root, solver.solve, out, limit, concurrency, resume, console, progress
             )
     except DatasetError as error:
         raise _fail(str(error)) from error
+    except ServiceError as error:
+        raise _fail(explain_service_error(error)) from error
     console.print(omni3d_report([run.summary]))
     console.print(f"results: {out}")
 

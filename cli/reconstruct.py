@@ -8,6 +8,7 @@ import numpy as np
 import typer
 from rich.table import Table
 
+from cli.api_keys import recon_key_option
 from cli.console import console, fail, service_errors
 from cli.images import collect_images
 from cli.progress import spinner
@@ -53,13 +54,14 @@ def reconstruct(
     ply: Path | None = typer.Option(None, help="Also save the point cloud as a PLY file here."),
     recon_url: str = typer.Option(DEFAULT_RECON_URL, envvar="PYSPATIAL_RECON_URL", help="Recon service."),
     timeout: float = typer.Option(900.0, help="Seconds to wait for the reconstruction."),
+    api_key: str | None = recon_key_option(),
 ) -> None:
     """Reconstruct a scene from images and print its cameras, points and warnings."""
     try:
         paths = collect_images(images)
     except ValueError as error:
         raise fail(str(error)) from None
-    with service_errors(), ReconClient(recon_url, timeout=timeout) as client:
+    with service_errors("--api-key"), ReconClient(recon_url, timeout=timeout, api_key=api_key) as client:
         with spinner(f"uploading {len(paths)} images to {recon_url}"):
             scene = client.upload_scene(paths)
         with spinner(f"reconstructing scene {scene.scene_id}"):

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import typer
 
+from cli.api_keys import recon_key_option
 from cli.console import console, fail, service_errors
 from cli.progress import spinner
 from cli.reconstruct import DEFAULT_RECON_URL
@@ -73,11 +74,12 @@ def render(
     backbone: str | None = typer.Option(None, help="Reconstruction to render (service default)."),
     out: Path = typer.Option(Path("render.png"), help="Where to write the PNG."),
     recon_url: str = typer.Option(DEFAULT_RECON_URL, envvar="PYSPATIAL_RECON_URL", help="Recon service."),
+    api_key: str | None = recon_key_option(),
 ) -> None:
     """Render a novel view. Transforms apply in order: turn around, rotate left/right, move."""
     if (pose is None) == (view is None):
         raise fail("give exactly one of --pose and --view")
-    with service_errors(), ReconClient(recon_url) as client:
+    with service_errors("--api-key"), ReconClient(recon_url, api_key=api_key) as client:
         up = None
         if view is not None:
             with spinner(f"reading the cameras of {scene_id}"):

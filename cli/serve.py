@@ -9,6 +9,7 @@ import time
 
 import typer
 
+from cli.api_keys import sibling_recon_env
 from cli.console import console, fail
 from cli.local_stack import (
     ServiceProcess,
@@ -86,7 +87,8 @@ def _start_and_watch(services: list[ServiceProcess], host: str, recon_port: int,
     recon_url = f"http://{reachable_host(host)}:{recon_port}"
     services.append(start_service("recon", recon_port, host))
     wait_ready(services[0], timeout=600.0, path="/healthz")
-    services.append(start_service("agent", agent_port, host, env={"PYSPATIAL_RECON_URL": recon_url}))
+    agent_env = {"PYSPATIAL_RECON_URL": recon_url, **sibling_recon_env()}
+    services.append(start_service("agent", agent_port, host, env=agent_env))
     wait_ready(services[1], timeout=120.0, path="/healthz")
     console.print(
         f"[bold green]ready[/]: recon {recon_url}, agent http://{reachable_host(host)}:{agent_port}"

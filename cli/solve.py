@@ -6,6 +6,7 @@ from pathlib import Path
 
 import typer
 
+from cli.api_keys import agent_key_option
 from cli.console import fail, service_errors
 from cli.images import collect_images
 from cli.progress import solve_stages
@@ -25,6 +26,7 @@ def solve(
     out: Path | None = typer.Option(None, help="Folder for clue images [default: pyspatial-out/SCENE]."),
     as_json: bool = typer.Option(False, "--json", help="Print only the SolveResponse JSON."),
     timeout: float = typer.Option(900.0, help="Seconds to wait for the answer."),
+    api_key: str | None = agent_key_option(),
 ) -> None:
     """Answer a spatial question: the agent writes a program, runs it, and answers."""
     paths: list[Path] = []
@@ -35,7 +37,7 @@ def solve(
             raise fail(str(error)) from None
     elif not scene_id:
         raise fail("give IMAGES or --scene-id")
-    with service_errors(), AgentClient(agent_url, timeout=timeout) as client:
+    with service_errors(), AgentClient(agent_url, timeout=timeout, api_key=api_key) as client:
         with solve_stages() as on_stage:
             result = client.solve_with_progress(
                 question, images=paths or None, scene_id=scene_id, backbone=backbone, on_stage=on_stage

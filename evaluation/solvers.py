@@ -161,16 +161,39 @@ POSED_RGBD = "posed-rgbd"
 
 @contextmanager
 def pyspatial_solver(
-    agent_url: str, image_root: Path, backbone: str | None = None, recon_url: str | None = None
+    agent_url: str,
+    image_root: Path,
+    backbone: str | None = None,
+    recon_url: str | None = None,
+    api_key: str | None = None,
+    recon_api_key: str | None = None,
 ) -> Iterator[PySpatialSolver]:
     """A solver talking to the agent service; with ``backbone`` posed-rgbd and a ``recon_url``,
-    items that carry exact cameras and depth are uploaded with them first (see exact_scenes.py)."""
+    items that carry exact cameras and depth are uploaded with them first (see exact_scenes.py).
+
+    A key the agent refuses (401) raises ServiceError here, before any item is run."""
     with contextlib.ExitStack() as stack:
-        agent = stack.enter_context(AgentClient(agent_url))
+        agent = stack.enter_context(AgentClient(agent_url, api_key=api_key))
+        _check_key(agent)
         uploader = None
         if backbone == POSED_RGBD and recon_url:
-            uploader = ExactSceneUploader(stack.enter_context(ReconClient(recon_url)), image_root)
+            recon = stack.enter_context(ReconClient(recon_url, api_key=recon_api_key))
+            uploader = ExactSceneUploader(recon, image_root)
         yield PySpatialSolver(agent, backbone, uploader)
+
+
+def _check_key(agent: AgentClient) -> None:
+    """Stop at once on a refused key rather than record it as every item's error.
+
+    Other failures here (recon down, agent unreachable) stay each item's error, as they were.
+    """
+    try:
+        agent.backbones()
+    except ServiceError as error:
+        if error.status_code == 401:
+            raise
+    except ServiceUnreachable:
+        pass
 
 
 def answer_model_config(settings: AgentSettings, model: str | None = None) -> ChatModelConfig:

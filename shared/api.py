@@ -8,9 +8,10 @@
     pose = pySpatial.rotate_left(recon.extrinsics[0], 90)
     pySpatial.synthesize_novel_view(recon, pose).save("left.png")
 
-The service URL comes from PYSPATIAL_RECON_URL (default http://127.0.0.1:8001); a toolkit for
-another URL is `SpatialToolkit("http://host:8001")`. Point clouds stay on the service until
-`Reconstruction.points()` asks for them.
+The service URL comes from PYSPATIAL_RECON_URL (default http://127.0.0.1:8001) and its API key, when
+the service has PYSPATIAL_API_KEYS, from PYSPATIAL_RECON_API_KEY; a toolkit for another URL or key is
+`SpatialToolkit("http://host:8001", api_key="...")`. A refused key raises ServiceError (status 401).
+Point clouds stay on the service until `Reconstruction.points()` asks for them.
 """
 
 from __future__ import annotations
@@ -116,17 +117,24 @@ class SpatialToolkit:
     turn_around = staticmethod(poses.turn_around)
     camera_center = staticmethod(poses.camera_center)
 
-    def __init__(self, recon_url: str | None = None, timeout: float = 600.0) -> None:
+    def __init__(
+        self, recon_url: str | None = None, timeout: float = 600.0, api_key: str | None = None
+    ) -> None:
         self._recon_url = recon_url
         self._timeout = timeout
+        self._api_key = api_key
         self._client: ReconClient | None = None
 
     @property
     def client(self) -> ReconClient:
-        # Created on first use, so PYSPATIAL_RECON_URL set after import still counts.
+        # Created on first use, so PYSPATIAL_RECON_URL / PYSPATIAL_RECON_API_KEY set after import count.
         if self._client is None:
-            url = self._recon_url or AgentSettings().recon_url
-            self._client = ReconClient(url, timeout=self._timeout)
+            settings = AgentSettings()
+            url = self._recon_url or settings.recon_url
+            key = self._api_key
+            if key is None and settings.recon_api_key is not None:
+                key = settings.recon_api_key.get_secret_value()
+            self._client = ReconClient(url, timeout=self._timeout, api_key=key)
         return self._client
 
     def reconstruct(self, scene: Scene, backbone: str | None = None) -> Reconstruction:

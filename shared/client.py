@@ -33,12 +33,33 @@ ImageLike = bytes | np.ndarray | str | Path
 
 
 class ServiceError(RuntimeError):
-    """The service answered with an error status; `message` is its explanation."""
+    """The service answered with an error status; `message` is its explanation.
 
-    def __init__(self, status_code: int, message: str, url: str) -> None:
+    `service` names which service answered ("agent service", ...); `retry_after` is the seconds
+    a 429 or 503 asked to wait (its Retry-After header), None when it did not say.
+    """
+
+    def __init__(
+        self,
+        status_code: int,
+        message: str,
+        url: str,
+        service: str = "service",
+        retry_after: float | None = None,
+    ) -> None:
         super().__init__(f"{url} answered {status_code}: {message}")
         self.status_code = status_code
         self.message = message
+        self.service = service
+        self.retry_after = retry_after
+
+
+def _retry_after(response: httpx.Response) -> float | None:
+    """Retry-After in seconds (the services send whole seconds; an HTTP date is not used by them)."""
+    try:
+        return float(response.headers["retry-after"])
+    except (KeyError, ValueError):
+        return None
 
 
 class ServiceUnreachable(RuntimeError):
@@ -96,8 +117,7 @@ class _ServiceClient:
         self._raise_for_status(response, method, path)
         return response
 
-    @staticmethod
-    def _raise_for_status(response: httpx.Response, method: str, path: str) -> None:
+    def _raise_for_status(self, response: httpx.Response, method: str, path: str) -> None:
         if response.status_code >= 300:  # redirects are not followed: a path we did not mean
             try:
                 detail = response.json().get("detail", response.text)
@@ -107,6 +127,8 @@ class _ServiceClient:
                 response.status_code,
                 detail if isinstance(detail, str) else json.dumps(detail),
                 f"{method} {path}",
+                service=self.service_name,
+                retry_after=_retry_after(response),
             )
 
     def close(self) -> None:
@@ -232,6 +254,10 @@ class ReconClient(_ServiceClient):
 class AgentClient(_ServiceClient):
     service_name = "agent service"
 
+    def backbones(self) -> dict:
+        """{"default": name, "available": [names]} through the agent; a cheap check of the API key."""
+        return self._request("GET", "/v1/backbones").json()
+
     def solve(
         self,
         question: str,
@@ -274,7 +300,9 @@ class AgentClient(_ServiceClient):
                         if on_stage is not None:
                             on_stage(event)
                     elif isinstance(event, ErrorEvent):
-                        raise ServiceError(event.status_code, event.detail, f"POST {path}")
+                        raise ServiceError(
+                            event.status_code, event.detail, f"POST {path}", service=self.service_name
+                        )
                     else:
                         return event.result
         except httpx.TimeoutException as error:

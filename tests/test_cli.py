@@ -28,10 +28,14 @@ EXAMPLE = REPO_ROOT / "examples" / "living_room"
 SPEC = json.loads((EXAMPLE / "example.json").read_text())
 
 
-def pyspatial(*args: str, cwd: Path, timeout: float = 120.0) -> subprocess.CompletedProcess:
+def pyspatial(
+    *args: str, cwd: Path, timeout: float = 120.0, extra_env: dict[str, str] | None = None
+) -> subprocess.CompletedProcess:
     """Run the real command line in a child process; a wide terminal keeps rich from wrapping."""
     env = {**os.environ, "COLUMNS": "200", "PYTHONUNBUFFERED": "1"}
-    env.pop("PYSPATIAL_RECON_URL", None)
+    for name in ("PYSPATIAL_RECON_URL", "PYSPATIAL_API_KEY", "PYSPATIAL_API_KEYS", "PYSPATIAL_RECON_API_KEY"):
+        env.pop(name, None)
+    env.update(extra_env or {})
     return subprocess.run(
         [sys.executable, "-P", "-m", "cli.main", *args],
         cwd=cwd,

@@ -15,7 +15,6 @@ from __future__ import annotations
 import io
 import json
 import re
-import uuid
 from pathlib import Path
 
 import pytest
@@ -35,6 +34,7 @@ from shared.client import AgentClient, ReconClient
 from shared.question_intent import parse_question
 from tests.support.processes import running_service
 from tests.support.scenes import orbit_views
+from tests.support.stack import recon_env
 from tests.test_planner import ColourRoomTools, camera, dominant_wall
 
 DATA = Path(__file__).parent / "data" / "mindcube"
@@ -319,12 +319,7 @@ def _rows(output: str, system: str) -> list[list[str]]:
 
 @pytest.fixture(scope="module")
 def recon(tmp_path_factory, redis_url):
-    env = {
-        "PYSPATIAL_DATA_DIR": str(tmp_path_factory.mktemp("recon")),
-        "REDIS_URL": redis_url,
-        "PYSPATIAL_CACHE_NAMESPACE": f"test-mindcube-{uuid.uuid4().hex[:8]}",
-        "PYSPATIAL_BACKBONE": "posed-rgbd",
-    }
+    env = recon_env(tmp_path_factory.mktemp("recon"), redis_url)
     with running_service("services.recon.app:create_app", env) as service:
         yield service
 

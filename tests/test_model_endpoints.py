@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import threading
 import time
-import uuid
 
 import httpx
 import pytest
@@ -19,6 +18,7 @@ from shared.client import AgentClient, ReconClient
 from shared.local_services import running_service
 from tests.support.model_replies import recorded_replies
 from tests.support.scenes import orbit_views
+from tests.support.stack import recon_env
 from tests.test_model_replies import cleaned
 
 RECON_APP = "services.recon.app:create_app"
@@ -45,12 +45,7 @@ def views():
 
 @pytest.fixture(scope="module")
 def recon(tmp_path_factory, redis_url):
-    env = {
-        "PYSPATIAL_DATA_DIR": str(tmp_path_factory.mktemp("recon")),
-        "REDIS_URL": redis_url,
-        "PYSPATIAL_CACHE_NAMESPACE": f"test-{uuid.uuid4().hex[:8]}",
-        "PYSPATIAL_BACKBONE": "posed-rgbd",
-    }
+    env = recon_env(tmp_path_factory.mktemp("recon"), redis_url)
     with running_service(RECON_APP, env) as service:
         yield service
 

@@ -10,7 +10,6 @@ scripted language model as the only stand-in.
 from __future__ import annotations
 
 import time
-import uuid
 from concurrent.futures import ThreadPoolExecutor
 
 import httpx
@@ -22,6 +21,7 @@ from services.agent.sandbox.text import clean_text
 from shared.client import AgentClient, ReconClient
 from shared.local_services import running_service
 from tests.support.scenes import orbit_views
+from tests.support.stack import recon_env
 from tests.test_sandbox import FALSE_POSITIVES, FALSE_POSITIVES_CLUE
 from tests.test_sandbox_attacks import ATTACKS, LIMITS, Attack
 from tests.test_sandbox_jail import EPERM, attempt
@@ -66,12 +66,7 @@ def agent_env(recon_url: str, llm_url: str, **extra: str) -> dict[str, str]:
 
 @pytest.fixture(scope="module")
 def recon(tmp_path_factory, redis_url):
-    env = {
-        "PYSPATIAL_DATA_DIR": str(tmp_path_factory.mktemp("recon")),
-        "REDIS_URL": redis_url,
-        "PYSPATIAL_CACHE_NAMESPACE": f"test-{uuid.uuid4().hex[:8]}",
-        "PYSPATIAL_BACKBONE": "posed-rgbd",
-    }
+    env = recon_env(tmp_path_factory.mktemp("recon"), redis_url)
     with running_service(RECON_APP, env) as service:
         yield service
 

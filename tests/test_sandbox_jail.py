@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import socket
 import subprocess
@@ -26,6 +27,7 @@ from services.agent.sandbox.jail import (
     JailMode,
     JailStatus,
     probe,
+    python_path,
     remove_stale_workdirs,
 )
 from services.agent.sandbox.runner import REPO_ROOT
@@ -139,7 +141,12 @@ def test_the_jail_is_what_the_docs_say() -> None:
     assert json.loads(facts["caps"]) == ["0000000000000000"] * 5
     assert facts["no_new_privs"] == "1" and facts["seccomp"] == "2"
     assert json.loads(facts["interfaces"]) == ["lo"]  # an empty network namespace
-    assert facts["cwd"] == "/tmp" and facts["tmp"] == "[]" and facts["etc"] == "False"
+    # /tmp is a private, empty tmpfs; only the parents of read-only binds that lie under /tmp (a
+    # checkout or a virtual environment there, as in a CI clone) show up in it.
+    bound = [REPO_ROOT, Path(sys.base_prefix).resolve(), *map(Path, python_path())]
+    under_tmp = {path.relative_to("/tmp").parts[0] for path in bound if path.is_relative_to("/tmp")}
+    assert facts["cwd"] == "/tmp" and set(json.loads(facts["tmp"])) == under_tmp
+    assert facts["etc"] == "False"
     assert set(json.loads(facts["root_entries"])) <= {
         "usr",
         "lib",
@@ -286,6 +293,36 @@ def _describe(pid: int) -> str:
         return f"{pid}: {Path(f'/proc/{pid}/cmdline').read_bytes()[:80]!r}"
     except OSError:
         return f"{pid}: gone"
+
+
+CHECKOUT_UNDER_TMP_SCRIPT = """
+import sys
+sys.path.insert(0, sys.argv[1])
+from services.agent.sandbox import SandboxLimits, run_program
+from services.agent.sandbox.jail import JailMode, probe
+from tests.test_sandbox_attacks import TinyTools
+
+jail = probe(JailMode.REQUIRED)
+assert jail.jailed, jail.detail
+source = "def program(input_scene):\\n    return str(len(input_scene.images))\\n"
+result = run_program(source, "q", 2, TinyTools(), SandboxLimits(), jail)
+print(result.ok, result.clue_text, result.error)
+"""
+
+
+def test_the_jail_works_for_a_checkout_under_tmp() -> None:
+    """The jail's private /tmp must not hide a checkout (or CI's clone) that lies under /tmp."""
+    with tempfile.TemporaryDirectory(dir="/tmp") as root:
+        copy = Path(root) / "checkout"
+        ignore = shutil.ignore_patterns("__pycache__", "data")
+        for part in ("services", "shared", "tests"):
+            shutil.copytree(REPO_ROOT / part, copy / part, ignore=ignore)
+        finished = subprocess.run(
+            [sys.executable, "-c", CHECKOUT_UNDER_TMP_SCRIPT, str(copy)],
+            capture_output=True, text=True, timeout=120, cwd=root,
+        )  # fmt: skip
+        assert finished.returncode == 0, finished.stderr[-2000:]
+        assert finished.stdout.split()[:2] == ["True", "2"], finished.stdout + finished.stderr[-2000:]
 
 
 def test_stale_workdirs_of_dead_agents_are_removed_and_live_ones_kept() -> None:

@@ -9,7 +9,6 @@ from __future__ import annotations
 import base64
 import hashlib
 import json
-import uuid
 
 import httpx
 import numpy as np
@@ -19,6 +18,7 @@ from shared.client import AgentClient, ReconClient, ServiceError
 from shared.local_services import REPO_ROOT, running_service
 from shared.schemas import StageEvent
 from tests.support.scenes import orbit_views
+from tests.support.stack import recon_env
 
 STAGES = ["upload", "reconstruction", "program", "execution", "answer"]
 SSE = {"Accept": "text/event-stream"}
@@ -31,12 +31,7 @@ def views():
 
 @pytest.fixture(scope="module")
 def recon(tmp_path_factory, redis_url):
-    env = {
-        "PYSPATIAL_DATA_DIR": str(tmp_path_factory.mktemp("recon")),
-        "REDIS_URL": redis_url,
-        "PYSPATIAL_CACHE_NAMESPACE": f"test-stream-{uuid.uuid4().hex[:8]}",
-        "PYSPATIAL_BACKBONE": "posed-rgbd",
-    }
+    env = recon_env(tmp_path_factory.mktemp("recon"), redis_url)
     with running_service("services.recon.app:create_app", env) as service:
         yield service
 

@@ -31,6 +31,7 @@ from shared.local_services import REPO_ROOT, running_service
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMEDRIVER = Path("/usr/bin/chromedriver")
 EXAMPLE = REPO_ROOT / "examples" / "living_room"
+PAGE_KEY = "page-test-key"
 
 BROKEN_PROGRAM = "```python\nimport os\ndef program(input_scene):\n    return os.listdir('/')\n```"
 RENDERING_PROGRAM = """```python
@@ -44,24 +45,40 @@ def program(input_scene):
 
 
 @pytest.fixture(scope="module")
-def stack(tmp_path_factory, redis_url, llm):
+def recon(tmp_path_factory, redis_url):
     recon_env = {
         "PYSPATIAL_DATA_DIR": str(tmp_path_factory.mktemp("recon")),
         "REDIS_URL": redis_url,
         "PYSPATIAL_CACHE_NAMESPACE": f"test-web-{uuid.uuid4().hex[:8]}",
         "PYSPATIAL_BACKBONE": "classical",
     }
-    with running_service("services.recon.app:create_app", recon_env) as recon:
-        agent_env = {
-            "PYSPATIAL_RECON_URL": recon.url,
-            "PYSPATIAL_CODE_MODEL": "coder",
-            "PYSPATIAL_CODE_MODEL_BASE_URL": llm.base_url,
-            "PYSPATIAL_ANSWER_MODEL": "",  # the offline answerer reads the motion sentence
-            "PYSPATIAL_MODEL_TIMEOUT_S": "5",
-            "PYSPATIAL_MODEL_MAX_RETRIES": "1",
-        }
-        with running_service("services.agent.app:create_app", agent_env) as agent:
-            yield agent
+    with running_service("services.recon.app:create_app", recon_env) as service:
+        yield service
+
+
+def agent_env(recon_url: str, llm, code_model: str) -> dict[str, str]:
+    return {
+        "PYSPATIAL_RECON_URL": recon_url,
+        "PYSPATIAL_CODE_MODEL": code_model,
+        "PYSPATIAL_CODE_MODEL_BASE_URL": llm.base_url,
+        "PYSPATIAL_ANSWER_MODEL": "",  # the offline answerer reads the motion sentence
+        "PYSPATIAL_MODEL_TIMEOUT_S": "5",
+        "PYSPATIAL_MODEL_MAX_RETRIES": "1",
+    }
+
+
+@pytest.fixture(scope="module")
+def stack(recon, llm):
+    with running_service("services.agent.app:create_app", agent_env(recon.url, llm, "coder")) as agent:
+        yield agent
+
+
+@pytest.fixture(scope="module")
+def keyed_agent(recon, llm):
+    """An agent that demands an API key; its code model fails, so the planner writes the program."""
+    env = {**agent_env(recon.url, llm, "failing-coder"), "PYSPATIAL_API_KEYS": PAGE_KEY}
+    with running_service("services.agent.app:create_app", env) as agent:
+        yield agent
 
 
 @pytest.fixture(scope="module")
@@ -233,3 +250,36 @@ def test_a_file_that_is_no_image_gets_a_readable_message(stack, browser, shots, 
         == "failed"
     )
     browser.save_screenshot(str(shots / "error-not-an-image.png"))
+
+
+def test_a_keyed_agent_asks_for_the_key_then_answers_and_shows_the_fallback(keyed_agent, llm, browser, shots):
+    spec = json.loads((EXAMPLE / "example.json").read_text())
+    llm.reset()
+    llm.script([{"status": 500, "error_message": "upstream down"}] * 4, model="failing-coder")
+    browser.get(keyed_agent.url + "/")
+    browser.find_element(By.ID, "images").send_keys("\n".join(str(EXAMPLE / name) for name in spec["images"]))
+    browser.find_element(By.ID, "question").send_keys(spec["question"])
+    browser.find_element(By.ID, "solve").click()
+    WebDriverWait(browser, 60).until(lambda d: d.find_element(By.ID, "error").text)
+    assert browser.find_element(By.ID, "error").text == "This agent needs an API key: enter it above."
+    browser.save_screenshot(str(shots / "error-api-key-needed.png"))
+
+    browser.find_element(By.ID, "api-key").send_keys(PAGE_KEY)
+    browser.find_element(By.ID, "solve").click()
+    try:
+        WebDriverWait(browser, 240).until(lambda d: d.find_element(By.ID, "answer").text)
+    except TimeoutException:
+        browser.save_screenshot(str(shots / "timeout-keyed.png"))
+        error = browser.find_element(By.ID, "error").text
+        raise AssertionError(f"no answer; page error: {error!r}") from None
+    assert not browser.find_element(By.ID, "error").is_displayed()
+    assert browser.find_element(By.ID, "answer").text == f"Answer: {spec['expected_answer']}"
+    assert browser.execute_script("return sessionStorage.getItem('pyspatial-api-key')") == PAGE_KEY
+    warnings = browser.find_element(By.ID, "warnings").text
+    assert "The code model failed, so the offline planner wrote the program" in warnings, warnings
+    models = browser.find_element(By.ID, "models").text
+    assert "program by offline-planner (fallback: failing-coder" in models, models
+    assert "answer by offline-answerer (offline_text)" in models, models
+    # The points request carries the key too: the 3D view loads.
+    WebDriverWait(browser, 60).until(lambda d: "points" in d.find_element(By.ID, "viewer-status").text)
+    browser.save_screenshot(str(shots / "keyed-answer.png"))

@@ -60,6 +60,7 @@ class ReconstructionJobs:
         self.wait_s = wait_s
         self._slots = asyncio.Semaphore(workers)
         self._jobs: dict[str, _Job] = {}
+        self._held: dict[str, str] = {}  # key -> token of each lease this replica holds now
         self.draining = False
 
     @property
@@ -144,6 +145,7 @@ class ReconstructionJobs:
             if token is None:
                 return None
             job.running = True
+            self._held[key] = token
             heartbeat = asyncio.create_task(self._heartbeat(key, token))
             try:
                 return JobResult(await compute(), computed_here=True)
@@ -151,9 +153,14 @@ class ReconstructionJobs:
                 heartbeat.cancel()
                 with contextlib.suppress(asyncio.CancelledError):
                     await heartbeat
-                await asyncio.shield(self.cache.release_lease(key, token))
+                await asyncio.shield(self._release(key, token))
         finally:
             self._slots.release()
+
+    async def _release(self, key: str, token: str) -> None:
+        if self._held.get(key) == token:
+            del self._held[key]
+            await self.cache.release_lease(key, token)
 
     async def _heartbeat(self, key: str, token: str) -> None:
         interval = max(0.5, self.lease_s / 3)
@@ -176,3 +183,7 @@ class ReconstructionJobs:
                 task.cancel()
             if pending:
                 await asyncio.wait(pending, timeout=2.0)
+        # A loaded machine may not have run every cancelled job's `finally` yet: release what is
+        # still held here, before the cache connection closes, so no other replica waits on it.
+        for key, token in list(self._held.items()):
+            await self._release(key, token)

@@ -137,8 +137,11 @@ def bwrap_command(worker_arguments: list[str]) -> list[str]:
         bwrap,
         "--unshare-pid", "--unshare-net", "--unshare-ipc", "--unshare-uts", "--unshare-cgroup-try",
         "--die-with-parent", "--new-session",
+        # The private /tmp first: binds that follow may lie under /tmp (a checkout or a virtual
+        # environment there) and must be mounted on top of it, not hidden by it.
+        "--proc", "/proc", "--dev", "/dev", "--tmpfs", "/tmp",
         *_read_only_binds(),
-        "--proc", "/proc", "--dev", "/dev", "--tmpfs", "/tmp", "--chdir", "/tmp",
+        "--chdir", "/tmp",
     ]  # fmt: skip
     if os.geteuid() == 0:
         # Privileged bubblewrap keeps only these two capabilities, which setpriv uses to become the

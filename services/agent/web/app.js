@@ -20,10 +20,39 @@ function withFileNames(message) {
   });
 }
 
+// ---- the API key ----------------------------------------------------------------------------
+// Kept in sessionStorage (this tab only, gone when it closes) and sent on every /v1/ request.
+const KEY_STORAGE = "pyspatial-api-key";
+
+function apiKey() {
+  return $("api-key").value.trim();
+}
+
+function apiFetch(url, options = {}) {
+  const headers = new Headers(options.headers || {});
+  if (apiKey()) headers.set("Authorization", `Bearer ${apiKey()}`);
+  return fetch(url, { ...options, headers });
+}
+
+// A refused or rate-limited request as a person can act on it; other errors keep the service's words.
+async function responseProblem(response) {
+  const detail = await errorDetail(response);
+  if (response.status === 401) {
+    return apiKey() ? `The agent refused this API key (${detail.split(":")[0]}): enter the right one above.`
+      : "This agent needs an API key: enter it above.";
+  }
+  if (response.status === 429) {
+    const wait = response.headers.get("Retry-After");
+    return `Too many requests with this key: retry in ${wait ? `${wait} s` : "a moment"}.`;
+  }
+  return withFileNames(detail);
+}
+
 function showError(message) {
   const box = $("error");
   box.textContent = message;
   box.hidden = !message;
+  if (message) box.scrollIntoView({ block: "nearest" });
 }
 
 // ---- choosing photos ------------------------------------------------------------------------
@@ -44,11 +73,13 @@ function sortedByName(files) {
 async function useExample() {
   showError("");
   try {
-    const response = await fetch("/v1/example");
-    if (!response.ok) throw new Error(await errorDetail(response));
+    const response = await apiFetch("/v1/example");
+    if (!response.ok) throw new Error(await responseProblem(response));
     const example = await response.json();
     const files = await Promise.all(example.images.map(async (url) => {
-      const blob = await (await fetch(url)).blob();
+      const image = await apiFetch(url);
+      if (!image.ok) throw new Error(await responseProblem(image));
+      const blob = await image.blob();
       return new File([blob], url.split("/").pop(), { type: blob.type });
     }));
     setFiles(files);
@@ -60,7 +91,7 @@ async function useExample() {
 
 async function loadBackbones() {
   try {
-    const response = await fetch("/v1/backbones");
+    const response = await apiFetch("/v1/backbones");
     if (!response.ok) return;
     const { available, default: fallback } = await response.json();
     const select = $("backbone");
@@ -125,10 +156,10 @@ async function solve(event) {
   $("result").hidden = true;
   let running = "upload";
   try {
-    const response = await fetch("/v1/solve", { method: "POST", body: form, headers: { Accept: "text/event-stream" } });
+    const response = await apiFetch("/v1/solve", { method: "POST", body: form, headers: { Accept: "text/event-stream" } });
     if (!response.ok) {
       setStage(running, "failed", "");
-      return showError(withFileNames(await errorDetail(response)));
+      return showError(await responseProblem(response));
     }
     for await (const item of readEvents(response)) {
       if (item.type === "stage") {
@@ -151,6 +182,20 @@ async function solve(event) {
 }
 
 // ---- the result -----------------------------------------------------------------------------
+
+// What did not go as planned, in words: the images-only answer, the planner standing in for the model.
+function fallbackNotes(result) {
+  const notes = [];
+  if (result.fallback === "images_only") {
+    notes.push(`No program ran, so the answer model answered from the photos alone: ${result.fallback_reason || "no reason given"}.`);
+  }
+  if (result.code_model_fallback) {
+    notes.push(`The code model failed, so the offline planner wrote the program: ${result.code_model_fallback}.`);
+  } else if (result.code_model.includes("fallback")) {
+    notes.push(`The code model could not be reached, so the offline planner wrote the program (${result.code_model}).`);
+  }
+  return notes;
+}
 
 function poseText(extrinsic) {
   if (!extrinsic) return "pose unknown";
@@ -197,13 +242,15 @@ async function showResult(result) {
       element("div", { textContent: label }), element("div", { className: "pose", textContent: poseText(view.extrinsic) }));
   }));
   $("notes").replaceChildren(...result.clue.notes.map((note) => element("li", { textContent: note })));
+  $("warnings").replaceChildren(...fallbackNotes(result).map((text) => element("li", { className: "fallback", textContent: text })));
 
   const t = result.timings;
   const rows = [["reconstruction", t.reconstruction_ms], ["program writing", t.codegen_ms],
     ["execution", t.execution_ms], ["answering", t.answering_ms], ["total", t.total_ms]];
   $("timings").tBodies[0].replaceChildren(...rows.map(([name, ms]) => element("tr", {},
     element("td", { textContent: name }), element("td", { textContent: `${(ms / 1000).toFixed(2)} s` }))));
-  $("models").textContent = `scene ${result.scene_id} · backbone ${result.backbone} · program by ${result.code_model} · answer by ${result.answer_model} · ${rendered} rendered views`;
+  const method = result.answer_method ? ` (${result.answer_method})` : "";
+  $("models").textContent = `scene ${result.scene_id} · backbone ${result.backbone} · program by ${result.code_model} · answer by ${result.answer_model}${method} · ${rendered} rendered views`;
   $("result").focus();
   await showScene(result);
 }
@@ -211,19 +258,15 @@ async function showResult(result) {
 async function showScene(result) {
   const status = $("viewer-status");
   const warnings = $("warnings");
-  warnings.replaceChildren();
-  if (result.code_model.includes("fallback")) {
-    warnings.append(element("li", { textContent: `The code model could not be reached, so the offline planner wrote the program (${result.code_model}).` }));
-  }
   if (!webglAvailable()) {
     status.textContent = "This browser has no WebGL, so the 3D view is off; everything else is shown.";
     return;
   }
   status.textContent = "loading the points …";
   const query = new URLSearchParams({ max_points: "30000", backbone: result.backbone });
-  const response = await fetch(`/v1/scenes/${result.scene_id}/points?${query}`);
+  const response = await apiFetch(`/v1/scenes/${encodeURIComponent(result.scene_id)}/points?${query}`);
   if (!response.ok) {
-    status.textContent = `The 3D view could not be loaded: ${await errorDetail(response)}`;
+    status.textContent = `The 3D view could not be loaded: ${await responseProblem(response)}`;
     return;
   }
   const preview = await response.json();
@@ -278,4 +321,11 @@ drop.addEventListener("drop", (event) => {
 $("use-example").addEventListener("click", useExample);
 $("solve-form").addEventListener("submit", solve);
 $("reset-view").addEventListener("click", () => state.viewer && state.viewer.resetView());
+const keyInput = $("api-key");
+keyInput.value = sessionStorage.getItem(KEY_STORAGE) || "";
+keyInput.addEventListener("input", () => {
+  if (apiKey()) sessionStorage.setItem(KEY_STORAGE, apiKey());
+  else sessionStorage.removeItem(KEY_STORAGE);
+});
+keyInput.addEventListener("change", loadBackbones);  // the menu may have been refused without the key
 loadBackbones();

@@ -16,7 +16,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import pycolmap
+
+from .colmap_import import pycolmap
 
 LOSS_SCALE_PX = 1.0  # Cauchy scale: residuals well beyond this count roughly logarithmically
 MAX_ITERATIONS = 100
