@@ -1,6 +1,6 @@
 """Pose accuracy of the classical backbone on synthetic scenes with exact cameras.
 
-    .venv/bin/python -m bench.classical_accuracy --scenes 8 --seed 0 [--size 640 480]
+    .venv/bin/python -m bench.classical_accuracy --scenes 8 --seed 0 [--size 640 480] [--focal none]
 
 For each setting of shared/synthetic's rigs (rotation: turning in place, around: walking an arc,
 among: four sides of an object), scenes are generated from consecutive seeds until N have a rig.
@@ -8,6 +8,11 @@ The rotation rig turns by --rotation-step degrees (the rig's own default, 90, le
 camera no overlap between views). Per consecutive view pair: relative rotation error and
 translation-direction error (pairs with a baseline only). A pair counts as registered when both
 of its views are; an unregistered pair counts as a failure in the "under" shares. Prints markdown.
+
+--focal exif (default): each render goes through a PNG with the camera's focal in EXIF, as a
+camera writes it (shared/synthetic/photo.py), and the focal read back from it is given to the
+backbone, as the recon service does. --focal none: no focal; the backbone self-calibrates or uses
+its 60-degree prior (right for these renders), and refuses two views on the prior.
 """
 
 from __future__ import annotations
@@ -21,7 +26,9 @@ import numpy as np
 
 from services.recon.backbones.base import BackboneError
 from services.recon.backbones.classical import ClassicalBackbone
+from shared.exif_camera import camera_from_exif
 from shared.synthetic import SETTINGS, default_intrinsic, generate_scene, make_rig, render_view, rotation_rig
+from shared.synthetic.photo import photo_bytes
 
 
 @dataclass
@@ -55,11 +62,16 @@ def angle_between_vectors_deg(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def evaluate_scene(
-    backbone: ClassicalBackbone, images: list[np.ndarray], truth: np.ndarray, figures: SettingFigures
+    backbone: ClassicalBackbone,
+    images: list[np.ndarray],
+    truth: np.ndarray,
+    figures: SettingFigures,
+    intrinsics: list[np.ndarray] | None = None,
 ) -> None:
     start = time.perf_counter()
     try:
-        result = backbone.reconstruct(images)
+        sources = None if intrinsics is None else ["exif"] * len(images)
+        result = backbone.reconstruct(images, intrinsics=intrinsics, intrinsics_sources=sources)
     except BackboneError:
         figures.failures += 1
         registered = np.zeros(len(images), dtype=bool)
@@ -82,6 +94,14 @@ def evaluate_scene(
             figures.direction_errors.append(angle_between_vectors_deg(translation, true_translation))
 
 
+def exif_focal(image: np.ndarray, intrinsic: np.ndarray) -> np.ndarray:
+    """The intrinsics the recon service reads from the render saved as a camera saves it."""
+    found, problem = camera_from_exif(photo_bytes(image, intrinsic))
+    if found is None:
+        raise RuntimeError(f"the render's EXIF focal did not read back: {problem}")
+    return found.intrinsic
+
+
 def share_under(errors: list[float], limit: float, total: int) -> str:
     if total == 0:
         return "-"
@@ -101,6 +121,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--size", type=int, nargs=2, default=(640, 480), metavar=("WIDTH", "HEIGHT"))
     parser.add_argument("--rotation-step", type=float, default=40.0, help="degrees per view, rotation rig")
     parser.add_argument("--settings", nargs="+", default=list(SETTINGS), choices=SETTINGS)
+    parser.add_argument("--focal", choices=("exif", "none"), default="exif", help="EXIF focal or none")
     args = parser.parse_args(argv)
     width, height = args.size
     intrinsic = default_intrinsic(width, height, 60.0)
@@ -124,13 +145,13 @@ def main(argv: list[str] | None = None) -> None:
             images = [
                 render_view(scene, extrinsic, intrinsic, width, height).rgb for extrinsic in rig.extrinsics
             ]
-            evaluate_scene(backbone, images, rig.extrinsics, figures)
+            given = [exif_focal(image, intrinsic) for image in images] if args.focal == "exif" else None
+            evaluate_scene(backbone, images, rig.extrinsics, figures, given)
             used += 1
         results[setting] = figures
 
-    print(
-        f"classical backbone, {width}x{height} renders, true horizontal FOV 60 deg (the backbone's guess)\n"
-    )
+    focal = "focal from EXIF" if args.focal == "exif" else "no focal given (prior: 60 deg)"
+    print(f"classical backbone, {width}x{height} renders, true horizontal FOV 60 deg, {focal}\n")
     print(
         "| setting | scenes | pairs | median rot err (deg) | rot < 5 deg | median dir err (deg) "
         "| dir < 15 deg | views registered | raised | mean s / scene |"

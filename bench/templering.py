@@ -64,6 +64,7 @@ class Outcome:
     worst_rotation: float = float("nan")
     seconds: float = 0.0
     refusal: str = ""
+    focal_source: str = ""  # intrinsics_source of the registered views
 
 
 @dataclass
@@ -85,14 +86,17 @@ def run_subset(
     seconds = time.perf_counter() - start
     errors = pair_errors(result.extrinsics, truth, result.registered)
     registered = int(result.registered.sum())
+    placed = [i for i, flag in enumerate(result.registered) if flag]
+    source = ",".join(sorted({str(result.intrinsics_source[i]) for i in placed}))
     if not errors:
-        return Outcome(registered, seconds=seconds)
+        return Outcome(registered, seconds=seconds, focal_source=source)
     return Outcome(
         registered,
         statistics.median(e[0] for e in errors),
         statistics.median(e[1] for e in errors),
         max(e[0] for e in errors),
         seconds,
+        focal_source=source,
     )
 
 

@@ -16,12 +16,12 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from shared.poses import move_forward, rotate_left  # noqa: E402
 from shared.synthetic import default_intrinsic, generate_scene, look_at, render_view  # noqa: E402
+from shared.synthetic.photo import save_photo  # noqa: E402
 
 SCENE_SEED = 3
 WIDTH, HEIGHT = 480, 360
@@ -72,7 +72,7 @@ def main(argv: list[str] | None = None) -> int:
     for index, extrinsic in enumerate(cameras, start=1):
         view = render_view(scene, extrinsic, intrinsic, WIDTH, HEIGHT)
         name = f"view_{index}.png"
-        Image.fromarray(view.rgb).save(out / name)
+        save_photo(out / name, view.rgb, intrinsic)  # with the EXIF focal, as a camera writes
         names.append(name)
 
     example = {

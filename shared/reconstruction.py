@@ -35,6 +35,7 @@ class ViewConfidence:
     reprojection_error_px: float = math.nan  # median over its inliers, original-image pixels
     positive_depth_fraction: float = math.nan  # share of its observed points in front of it
     unregistered_reason: str | None = None  # why the view has no pose; None when registered
+    uncertain_reason: str | None = None  # a registered view whose pose is only partly supported
 
 
 @dataclass

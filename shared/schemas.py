@@ -65,6 +65,9 @@ class ViewConfidenceInfo(_Model):
     unregistered_reason: str | None = Field(
         None, description="Why the view has no pose; null if registered."
     )
+    uncertain_reason: str | None = Field(
+        None, description="Why a registered view's pose is uncertain (e.g. its position); null if not."
+    )
 
 
 class PairConfidenceInfo(_Model):

@@ -80,8 +80,9 @@ def test_scene_from_arrays_and_the_default_toolkit_url(recon_service, monkeypatc
     monkeypatch.setenv("PYSPATIAL_RECON_URL", recon_service.url)
     kit = SpatialToolkit()  # reads PYSPATIAL_RECON_URL when it first needs the service
     try:
-        from_arrays = kit.reconstruct(Scene(arrays[:2]))
-        assert from_arrays.num_views == 2 and from_arrays.registered.all()
+        # Arrays carry no EXIF focal: three views, from which the backbone can tell the focal.
+        from_arrays = kit.reconstruct(Scene(arrays))
+        assert from_arrays.num_views == 3 and from_arrays.registered.all()
     finally:
         kit.close()
 

@@ -73,11 +73,16 @@ def test_wide_pairs_with_wrong_two_view_geometry_are_refused(backbone, numbers):
         backbone.reconstruct(images)
 
 
-def test_two_views_cannot_fix_the_focal_and_say_so(backbone):
-    images, truth, _ = _scene([1, 2])
-    result = backbone.reconstruct(images)
-    assert result.intrinsics_source == ["prior", "prior"]
-    assert any("focal length cannot be determined" in warning for warning in result.warnings)
+def test_two_views_without_a_focal_are_refused_not_guessed(backbone):
+    # Two views 7.7 degrees apart fit the 60-degree prior as well as the true 23.8 degrees, and
+    # the prior would place them 5 degrees off: no pose rather than a wrong one.
+    images, truth, intrinsics = _scene([1, 2])
+    with pytest.raises(BackboneError, match="focal length cannot be determined from two views"):
+        backbone.reconstruct(images)
+    given = backbone.reconstruct(images, intrinsics=intrinsics, intrinsics_sources=["exif"] * 2)
+    assert given.registered.all() and given.intrinsics_source == ["exif"] * 2
+    [(rotation, direction)] = pair_errors(given.extrinsics, truth, given.registered)
+    assert rotation <= 2.0 and direction <= 3.0
 
 
 def test_confidence_over_http(tmp_path, redis_url):

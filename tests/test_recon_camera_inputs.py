@@ -16,12 +16,13 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from shared.client import AgentClient, ReconClient
+from shared.client import AgentClient, ReconClient, ServiceError
 from shared.exif_camera import FILM_DIAGONAL_MM
 from shared.imaging import encode_image
 from shared.local_services import running_service
 from shared.poses import rotate_left
 from shared.synthetic import default_intrinsic, generate_scene, look_at, render_view
+from shared.synthetic.photo import photo_bytes
 from tests.support.realdata import pose_errors, temple_ring
 
 RECON_APP = "services.recon.app:create_app"
@@ -97,9 +98,12 @@ def test_uploaded_intrinsics_are_used_per_view(recon, client):
     assert created.status_code == 201 and created.json()["has_cameras"] is False
     multipart = client.upload_scene(pngs, intrinsics=[truth[0], None, truth[2]])
     assert multipart.scene_id == created.json()["scene_id"]
-    partial = client.reconstruct(created.json()["scene_id"])
-    sources = [c.intrinsics_source for c in partial.cameras]
-    assert sources[0] == sources[2] == "uploaded" and sources[1] not in ("uploaded", "exif")
+    # View 1's focal is left to the backbone; only views 0 and 1 can be placed, and two views
+    # cannot fix an unknown focal: a 422 that says so rather than a guessed pose.
+    with pytest.raises(ServiceError) as refused:
+        client.reconstruct(created.json()["scene_id"])
+    assert refused.value.status_code == 422, refused.value.message
+    assert "focal length cannot be determined from two views" in refused.value.message
 
 
 @pytest.mark.parametrize(
@@ -261,6 +265,34 @@ def test_partially_registered_scene_gets_per_pair_motion(recon, partial_scene):
         recon.url + "/v1/camera-motion", json={"scene_id": partial_scene, "pairs": [[0, 9]]}, timeout=60
     )
     assert out_of_range.status_code == 422 and "out of range" in out_of_range.json()["detail"]
+
+
+def test_motion_of_a_view_with_an_uncertain_position_is_not_stated(recon, client):
+    """Three photos (focal in EXIF) a few millimetres apart: the middle view's points meet at
+    angles too shallow to fix its position, so verification flags it uncertain and camera motion
+    says so for its pairs instead of stating a step; the outer views are still described."""
+    scene = generate_scene(0)
+    target = np.array([*scene.room_centre[:2], 0.6])
+    intrinsic = default_intrinsic(320, 240)
+    pngs = []
+    for offset in (0.0, 0.01, 0.02):
+        eye = target + np.array([offset, -1.6, 0.8])
+        pngs.append(photo_bytes(render_view(scene, look_at(eye, target), intrinsic, 320, 240).rgb, intrinsic))
+    uploaded = client.upload_scene(pngs)
+    summary = client.reconstruct(uploaded.scene_id)
+    assert [c.registered for c in summary.cameras] == [True, True, True], summary.warnings
+    flags = [c.confidence.uncertain_reason for c in summary.cameras]
+    assert flags[0] is None and flags[2] is None, flags
+    assert flags[1].startswith("its position is uncertain: its points are seen at shallow angles"), flags
+    response = httpx.post(recon.url + "/v1/camera-motion", json={"scene_id": uploaded.scene_id}, timeout=60)
+    assert response.status_code == 200, response.text
+    motions = {(m["from_view"], m["to_view"]): m for m in response.json()["motions"]}
+    assert sorted(motions) == [(0, 1), (0, 2), (1, 2)]
+    for pair in ((0, 1), (1, 2)):
+        assert not motions[pair]["described"]
+        assert motions[pair]["reason"] == f"view 2's pose is not certain ({flags[1]})"
+        assert "the camera motion is unknown: view 2's pose is not certain" in motions[pair]["sentence"]
+    assert motions[(0, 2)]["described"], motions[(0, 2)]
 
 
 MOTION_PROGRAM = """```python

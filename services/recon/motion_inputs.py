@@ -15,7 +15,8 @@ _TINY = 1e-9
 
 
 def view_pose_problems(recon: Reconstruction) -> list[str | None]:
-    """Per view, why its pose cannot be used for motion (not registered, not a valid pose), or None."""
+    """Per view, why its pose cannot be used for motion (not registered, not a valid pose, flagged
+    uncertain by the backbone's verification), or None."""
     problems: list[str | None] = []
     for index in range(recon.num_views):
         if not recon.registered[index]:
@@ -26,7 +27,9 @@ def view_pose_problems(recon: Reconstruction) -> list[str | None]:
         except ValueError as error:
             problems.append(f"view {index + 1} has no valid pose ({error})")
             continue
-        problems.append(None)
+        uncertain = recon.view_confidence[index].uncertain_reason if recon.view_confidence else None
+        # A motion sentence states the step and the turn together: a half-known pose gives none.
+        problems.append(f"view {index + 1}'s pose is not certain ({uncertain})" if uncertain else None)
     return problems
 
 

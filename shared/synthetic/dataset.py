@@ -17,9 +17,9 @@ import json
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
 
 from shared.synthetic.cameras import SETTINGS, CameraRig, make_rig
+from shared.synthetic.photo import save_photo
 from shared.synthetic.questions import Question, questions_for_rig
 from shared.synthetic.render import default_intrinsic, render_view
 from shared.synthetic.scene import SyntheticScene, generate_scene
@@ -83,7 +83,7 @@ def make_dataset(
         image_dir.mkdir(parents=True, exist_ok=True)
         image_paths = []
         for name, view in zip(rig.view_names, views, strict=True):
-            Image.fromarray(view.rgb).save(image_dir / f"{name}.png")
+            save_photo(image_dir / f"{name}.png", view.rgb, intrinsic)
             image_paths.append(f"images/scene_{index:04d}/{name}.png")
 
         scene_file = f"scenes/scene_{index:04d}.npz"

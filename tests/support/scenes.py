@@ -7,8 +7,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from shared.imaging import encode_image
 from shared.synthetic import default_intrinsic, generate_scene, look_at, render_view
+from shared.synthetic.photo import photo_bytes
 
 
 @dataclass
@@ -20,7 +20,8 @@ class PosedViews:
     object_names: list[str]
 
     def pngs(self) -> list[bytes]:
-        return [encode_image(image) for image in self.images]
+        """PNGs as a camera writes them: with the focal length in EXIF."""
+        return [photo_bytes(image, k) for image, k in zip(self.images, self.intrinsics, strict=True)]
 
 
 @lru_cache(maxsize=8)

@@ -58,7 +58,7 @@ class _PreparedView:
 
 class ClassicalBackbone(Backbone):
     name = "classical"
-    version = "3"
+    version = "4"  # 4: two views on the prior focal are refused; uncertain views flagged
     accepts_intrinsics = True
 
     def __init__(

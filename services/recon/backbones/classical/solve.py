@@ -18,7 +18,7 @@ MIN_FOV_DEG..MAX_FOV_DEG) also falls back to the prior. Either way the views say
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -136,7 +136,32 @@ def solve_with_self_calibration(
             keypoints, image_sizes, current, free, model.extrinsics, model.points, model.tracks, False
         )
         model = _adjusted_model(model, adjusted)
-    return _verified(keypoints, image_sizes, current, free, pairs, model, source, warnings)
+    solution = _verified(keypoints, image_sizes, current, free, pairs, model, source, warnings)
+    _refuse_unobservable_focal(solution, free)
+    return solution
+
+
+def _refuse_unobservable_focal(solution: Solution, free: list[bool]) -> None:
+    """Two placed views with an unknown focal: a guessed pose, so no pose.
+
+    Two views whose optical axes meet at the object fit a range of focals almost equally well
+    (templeRing: a 1.4x wrong focal changes the adjusted cost by < 0.5%), and a wrong focal turns
+    the relative rotation: 5-34 degrees off on templeRing's 2-view subsets with the prior. A focal
+    self-calibrated with more views does not help once verification has dropped them to two: the
+    focal then rests on views the data did not support (templeRing 13-19-25-2: 34 degrees off;
+    synthetic "among" scene 109: 36). Three or more placed views pin the focal (every templeRing
+    subset self-calibrated within 1521-1588 px, true 1520). A pure rotation is left as it is."""
+    model = solution.model
+    unknown_focal = [v for v in model.extrinsics if free[v]]
+    if model.pure_rotation or len(model.extrinsics) != 2 or not unknown_focal:
+        return
+    first, second = sorted(model.extrinsics)
+    raise BackboneError(
+        f"the focal length cannot be determined from two views (only views {first} and {second} "
+        "could be placed, and two views fit a range of focal lengths), so their relative pose "
+        "would be a guess; send the intrinsics or photos with an EXIF focal length "
+        "(FocalLengthIn35mmFilm), or more views of the scene"
+    )
 
 
 def _build(
@@ -269,10 +294,13 @@ def _verified(
             p.triangulation_angle_deg for p in pair_confidence if view in (p.first, p.second) and p.inliers
         ]
         if not angles or max(angles) < MIN_CONFIDENT_ANGLE_DEG:
-            warnings.append(
-                f"view {view}'s position is uncertain: its points are seen at shallow angles "
-                "(its rotation is reliable)"
+            widest = f"{max(angles):.1f}" if angles else "no"
+            reason = (
+                f"its position is uncertain: its points are seen at shallow angles ({widest} degrees "
+                f"median at best, {MIN_CONFIDENT_ANGLE_DEG:g} needed); its rotation is reliable"
             )
+            confidence[view] = replace(confidence[view], uncertain_reason=reason)
+            warnings.append(f"view {view}'s {reason.removeprefix('its ')}")
     return Solution(model, intrinsics, source, confidence, pair_confidence, reasons, warnings)
 
 
