@@ -15,10 +15,10 @@ import pytest
 from PIL import Image
 
 from shared.camera_motion import DIRECTIONS
-from shared.client import AgentClient, ReconClient, ServiceError
+from shared.client import AgentClient, ServiceError
 from shared.local_services import running_service
 from tests.support.scenes import orbit_views
-from tests.support.stack import recon_env
+from tests.support.stack import recon_env, upload_posed_views
 
 RECON_APP = "services.recon.app:create_app"
 AGENT_APP = "services.agent.app:create_app"
@@ -74,10 +74,7 @@ def recon(tmp_path_factory, redis_url):
 
 @pytest.fixture(scope="module")
 def scene_id(recon, views) -> str:
-    with ReconClient(recon.url) as client:
-        return client.upload_scene(
-            views.pngs(), depths=views.depths, extrinsics=views.extrinsics, intrinsics=views.intrinsics
-        ).scene_id
+    return upload_posed_views(recon.url, views)
 
 
 @pytest.fixture(scope="module")

@@ -14,11 +14,11 @@ import httpx
 import pytest
 
 from services.agent.program_cleanup import program_fingerprint
-from shared.client import AgentClient, ReconClient
+from shared.client import AgentClient
 from shared.local_services import running_service
 from tests.support.model_replies import recorded_replies
 from tests.support.scenes import orbit_views
-from tests.support.stack import recon_env
+from tests.support.stack import recon_env, upload_posed_views
 from tests.test_model_replies import cleaned
 
 RECON_APP = "services.recon.app:create_app"
@@ -52,10 +52,7 @@ def recon(tmp_path_factory, redis_url):
 
 @pytest.fixture(scope="module")
 def scene_id(recon, views) -> str:
-    with ReconClient(recon.url) as client:
-        return client.upload_scene(
-            views.pngs(), depths=views.depths, extrinsics=views.extrinsics, intrinsics=views.intrinsics
-        ).scene_id
+    return upload_posed_views(recon.url, views)
 
 
 def _agent_env(recon, llm, **extra: str) -> dict[str, str]:

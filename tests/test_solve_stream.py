@@ -14,11 +14,11 @@ import httpx
 import numpy as np
 import pytest
 
-from shared.client import AgentClient, ReconClient, ServiceError
+from shared.client import AgentClient, ServiceError
 from shared.local_services import REPO_ROOT, running_service
 from shared.schemas import StageEvent
 from tests.support.scenes import orbit_views
-from tests.support.stack import recon_env
+from tests.support.stack import recon_env, upload_posed_views
 
 STAGES = ["upload", "reconstruction", "program", "execution", "answer"]
 SSE = {"Accept": "text/event-stream"}
@@ -45,10 +45,7 @@ def agent(recon):
 
 @pytest.fixture(scope="module")
 def scene_id(recon, views) -> str:
-    with ReconClient(recon.url) as client:
-        return client.upload_scene(
-            views.pngs(), depths=views.depths, extrinsics=views.extrinsics, intrinsics=views.intrinsics
-        ).scene_id
+    return upload_posed_views(recon.url, views)
 
 
 def read_events(response: httpx.Response) -> list[tuple[str, dict]]:

@@ -5,6 +5,8 @@ from __future__ import annotations
 import uuid
 from pathlib import Path
 
+from shared.client import ReconClient
+
 
 def recon_env(
     data_dir: Path | str, redis_url: str, backbone: str = "posed-rgbd", **extra: str
@@ -17,3 +19,11 @@ def recon_env(
         "PYSPATIAL_BACKBONE": backbone,
         **extra,
     }
+
+
+def upload_posed_views(recon_url: str, views) -> str:
+    """Upload synthetic views with their exact depths and cameras (posed RGB-D); the scene id."""
+    with ReconClient(recon_url) as client:
+        return client.upload_scene(
+            views.pngs(), depths=views.depths, extrinsics=views.extrinsics, intrinsics=views.intrinsics
+        ).scene_id
