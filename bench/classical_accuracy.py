@@ -26,7 +26,7 @@ import numpy as np
 
 from services.recon.backbones.base import BackboneError
 from services.recon.backbones.classical import ClassicalBackbone
-from shared.exif_camera import camera_from_exif
+from shared.imaging.exif import camera_from_exif
 from shared.synthetic import SETTINGS, default_intrinsic, generate_scene, make_rig, render_view, rotation_rig
 from shared.synthetic.photo import photo_bytes
 

@@ -31,7 +31,7 @@ from evaluation.metrics import summarize_mindcube
 from evaluation.mindcube import evaluate_mindcube
 from evaluation.report import mindcube_report, report_console
 from evaluation.solvers import pyspatial_solver
-from shared.local_services import running_service
+from shared.local.services import running_service
 from shared.synthetic import make_dataset
 
 MOTION_FAMILIES = ("motion", "turn")

@@ -26,10 +26,10 @@ import numpy as np
 import psutil
 from PIL import Image
 
-from shared.client import AgentClient
-from shared.imaging import encode_image
-from shared.local_nginx import running_nginx
-from shared.local_services import redis_answers, running_service, start_redis
+from shared.imaging.codecs import encode_image
+from shared.local.nginx import running_nginx
+from shared.local.services import redis_answers, running_service, start_redis
+from shared.wire.client import AgentClient
 from tests.support.scenes import orbit_views
 
 RECON_APP = "services.recon.app:create_app"

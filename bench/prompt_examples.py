@@ -25,7 +25,7 @@ from rich.table import Table
 
 from services.agent.codegen import MAX_EXAMPLES, build_codegen_messages
 from services.agent.example_choice import choose_examples, program_kind
-from shared.question_intent import QuestionIntent, parse_question
+from shared.questions.intent import QuestionIntent, parse_question
 from shared.synthetic import make_dataset
 
 TOKENS_PER_CHAR = 0.25  # a rough English/code average; the figures say "about"

@@ -32,12 +32,12 @@ from pathlib import Path
 
 from evaluation.dataset import BenchmarkItem, read_mindcube
 from evaluation.exact_scenes import ExactSceneUploader
-from shared.choices import extract_letter
-from shared.client import AgentClient, ReconClient, ServiceError, ServiceUnreachable
-from shared.local_services import running_service
-from shared.schemas import SolveResponse
-from shared.settings import AgentSettings
+from shared.local.services import running_service
+from shared.questions.choices import extract_letter
 from shared.synthetic import make_dataset
+from shared.wire.client import AgentClient, ReconClient, ServiceError, ServiceUnreachable
+from shared.wire.schemas import SolveResponse
+from shared.wire.settings import AgentSettings
 
 QUESTIONS_PER_SCENE = 4
 STAGES = ("codegen_ms", "execution_ms", "answering_ms", "total_ms")

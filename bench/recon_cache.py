@@ -16,10 +16,10 @@ import uuid
 
 import numpy as np
 
-from shared.client import ReconClient
-from shared.imaging import encode_image
-from shared.local_services import redis_answers, running_service, start_redis
+from shared.imaging.codecs import encode_image
+from shared.local.services import redis_answers, running_service, start_redis
 from shared.synthetic import default_intrinsic, generate_scene, look_at, render_view
+from shared.wire.client import ReconClient
 
 
 def four_views(width: int, height: int, seed: int = 11):

@@ -27,7 +27,7 @@ from collections.abc import Callable  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from shared.rendering import render_point_cloud  # noqa: E402
+from shared.geometry.rendering import render_point_cloud  # noqa: E402
 
 SIZE = 512
 INTRINSIC = np.array([[400.0, 0.0, SIZE / 2], [0.0, 400.0, SIZE / 2], [0.0, 0.0, 1.0]])

@@ -17,8 +17,8 @@ import uuid
 
 import httpx
 
-from shared.client import ReconClient
-from shared.local_services import redis_answers, running_service, start_redis
+from shared.local.services import redis_answers, running_service, start_redis
+from shared.wire.client import ReconClient
 from tests.support.scenes import orbit_views
 from tests.support.scripted_llm import start_scripted_llm
 

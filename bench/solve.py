@@ -19,9 +19,9 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from bench.recon_cache import four_views
-from shared.client import AgentClient
-from shared.imaging import encode_image
-from shared.local_services import redis_answers, running_service, start_redis
+from shared.imaging.codecs import encode_image
+from shared.local.services import redis_answers, running_service, start_redis
+from shared.wire.client import AgentClient
 from tests.support.scripted_llm import start_scripted_llm
 
 PROGRAM_REPLY = """The question asks for the camera motion, so describe it.

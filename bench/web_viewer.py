@@ -19,8 +19,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from shared.client import ReconClient
-from shared.local_services import REPO_ROOT, running_service
+from shared.local.services import REPO_ROOT, running_service
+from shared.wire.client import ReconClient
 
 EXAMPLE = REPO_ROOT / "examples" / "living_room"
 TIME_ORBIT = """
@@ -86,9 +86,10 @@ def main(argv: list[str] | None = None) -> None:
         env["PYSPATIAL_DATA_DIR"] = data_dir
         with running_service("services.recon.app:create_app", env) as recon:
             agent_env = {**env, "PYSPATIAL_RECON_URL": recon.url}
-            with running_service("services.agent.app:create_app", agent_env) as agent, ReconClient(
-                recon.url
-            ) as client:
+            with (
+                running_service("services.agent.app:create_app", agent_env) as agent,
+                ReconClient(recon.url) as client,
+            ):
                 scene = client.upload_scene([Path(p) for p in images]).scene_id
                 summary = client.reconstruct(scene)
                 pose = summary.cameras[0].extrinsic

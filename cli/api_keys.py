@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import typer
 
-from shared.access import parse_keys
-from shared.settings import AccessSettings, AgentSettings
+from shared.wire.access import parse_keys
+from shared.wire.settings import AccessSettings, AgentSettings
 
 AGENT_KEY_ENV = "PYSPATIAL_API_KEY"
 RECON_KEY_ENV = "PYSPATIAL_RECON_API_KEY"

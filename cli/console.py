@@ -9,7 +9,7 @@ import typer
 from rich.console import Console
 
 from cli.api_keys import AGENT_KEY_ENV, RECON_KEY_ENV
-from shared.client import AgentClient, ServiceError, ServiceUnreachable
+from shared.wire.client import AgentClient, ServiceError, ServiceUnreachable
 
 console = Console(highlight=False)
 errors = Console(stderr=True, highlight=False)

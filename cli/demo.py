@@ -23,8 +23,8 @@ from cli.local_stack import (
 )
 from cli.progress import solve_stages, spinner
 from cli.results import save_clue_images, show_solution
-from shared.client import AgentClient, ReconClient
-from shared.poses import rotate_right
+from shared.geometry.poses import rotate_right
+from shared.wire.client import AgentClient, ReconClient
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_EXAMPLE = REPO_ROOT / "examples" / "living_room"

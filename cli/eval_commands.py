@@ -21,8 +21,8 @@ from evaluation.report import mindcube_report, omni3d_report, report_console
 from evaluation.runner import read_results
 from evaluation.solvers import BaselineSolver, NoAnswerModel, answer_model_config, pyspatial_solver
 from services.agent.llm import ChatClient
-from shared.client import ServiceError
-from shared.settings import DEFAULT_AGENT_PORT, DEFAULT_RECON_PORT, AgentSettings
+from shared.wire.client import ServiceError
+from shared.wire.settings import DEFAULT_AGENT_PORT, DEFAULT_RECON_PORT, AgentSettings
 
 eval_app = typer.Typer(help="Run benchmarks against the services and print the paper's tables.")
 console = report_console()

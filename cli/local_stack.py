@@ -15,7 +15,7 @@ from typing import IO, Literal
 
 import httpx
 
-from shared.local_services import free_port  # noqa: F401  (re-exported for cli.demo)
+from shared.local.services import free_port  # noqa: F401  (re-exported for cli.demo)
 
 ServiceName = Literal["recon", "agent"]
 

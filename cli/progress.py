@@ -8,7 +8,7 @@ from collections.abc import Callable, Iterator
 from rich.progress import Progress, SpinnerColumn, TaskID, TextColumn, TimeElapsedColumn
 
 from cli.console import errors
-from shared.schemas import StageEvent
+from shared.wire.schemas import StageEvent
 
 MARKS = {"done": "[green]✓[/]", "failed": "[red]✗[/]"}
 

@@ -12,9 +12,9 @@ from cli.api_keys import recon_key_option
 from cli.console import console, fail, service_errors
 from cli.images import collect_images
 from cli.progress import spinner
-from shared.client import ReconClient
-from shared.schemas import ReconstructionSummary
-from shared.settings import DEFAULT_RECON_PORT
+from shared.wire.client import ReconClient
+from shared.wire.schemas import ReconstructionSummary
+from shared.wire.settings import DEFAULT_RECON_PORT
 
 DEFAULT_RECON_URL = f"http://127.0.0.1:{DEFAULT_RECON_PORT}"
 

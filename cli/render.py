@@ -13,8 +13,8 @@ from cli.api_keys import recon_key_option
 from cli.console import console, fail, service_errors
 from cli.progress import spinner
 from cli.reconstruct import DEFAULT_RECON_URL
-from shared import poses
-from shared.client import ReconClient
+from shared.geometry import poses
+from shared.wire.client import ReconClient
 
 
 def parse_pose(text: str) -> np.ndarray:

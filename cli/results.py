@@ -11,7 +11,7 @@ from rich.syntax import Syntax
 from rich.table import Table
 
 from cli.console import console
-from shared.schemas import ClueView, SolveResponse
+from shared.wire.schemas import ClueView, SolveResponse
 
 
 def default_output_dir(scene_id: str) -> Path:

@@ -20,7 +20,7 @@ from cli.local_stack import (
     stop_all,
     wait_ready,
 )
-from shared.settings import DEFAULT_AGENT_PORT, DEFAULT_RECON_PORT, AgentSettings, ReconSettings
+from shared.wire.settings import DEFAULT_AGENT_PORT, DEFAULT_RECON_PORT, AgentSettings, ReconSettings
 
 APP_FACTORIES = {
     "recon": "services.recon.app:create_app",

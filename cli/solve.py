@@ -11,8 +11,8 @@ from cli.console import fail, service_errors
 from cli.images import collect_images
 from cli.progress import solve_stages
 from cli.results import default_output_dir, save_clue_images, show_solution
-from shared.client import AgentClient
-from shared.settings import DEFAULT_AGENT_PORT
+from shared.wire.client import AgentClient
+from shared.wire.settings import DEFAULT_AGENT_PORT
 
 DEFAULT_AGENT_URL = f"http://127.0.0.1:{DEFAULT_AGENT_PORT}"
 

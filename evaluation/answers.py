@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import re
 
-from shared.choices import extract_letter, parse_options
+from shared.questions.choices import extract_letter, parse_options
 
 _NUMBER_WORDS = {
     word: value

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from shared.question_intent import setting_from_id
+from shared.questions.intent import setting_from_id
 
 MINDCUBE_SETTINGS = ("rotation", "among", "around")
 UNKNOWN_SETTING = "other"

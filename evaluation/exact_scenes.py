@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from evaluation.dataset import BenchmarkItem
-from shared.client import ReconClient
+from shared.wire.client import ReconClient
 
 
 @dataclass

@@ -16,9 +16,9 @@ from typing import Any
 from evaluation.dataset import BenchmarkItem
 from evaluation.exact_scenes import ExactSceneUploader
 from services.agent.llm import ChatClient, ChatModelConfig, LLMError, image_part, text_part
-from shared.client import AgentClient, ReconClient, ServiceError, ServiceUnreachable
-from shared.imaging import decode_image, encode_image
-from shared.settings import AgentSettings
+from shared.imaging.codecs import decode_image, encode_image
+from shared.wire.client import AgentClient, ReconClient, ServiceError, ServiceUnreachable
+from shared.wire.settings import AgentSettings
 
 PYSPATIAL_SUFFIX = " + pySpatial"
 

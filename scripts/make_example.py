@@ -19,7 +19,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from shared.poses import move_forward, rotate_left  # noqa: E402
+from shared.geometry.poses import move_forward, rotate_left  # noqa: E402
 from shared.synthetic import default_intrinsic, generate_scene, look_at, render_view  # noqa: E402
 from shared.synthetic.photo import save_photo  # noqa: E402
 

@@ -13,7 +13,7 @@ from pydantic.fields import FieldInfo
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from shared.settings import AgentSettings, ReconSettings  # noqa: E402
+from shared.wire.settings import AgentSettings, ReconSettings  # noqa: E402
 
 
 def env_names(name: str, field: FieldInfo) -> str:

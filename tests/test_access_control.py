@@ -10,8 +10,8 @@ import uuid
 import httpx
 import pytest
 
-from shared.client import ReconClient
-from shared.local_services import running_service
+from shared.local.services import running_service
+from shared.wire.client import ReconClient
 from tests.support.scenes import orbit_views
 from tests.test_agent_service import motion_question
 

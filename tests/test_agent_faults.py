@@ -17,8 +17,8 @@ import uuid
 import httpx
 import pytest
 
-from shared.client import ReconClient, ServiceError
-from shared.local_services import running_service, start_service
+from shared.local.services import running_service, start_service
+from shared.wire.client import ReconClient, ServiceError
 from tests.support.scenes import orbit_views
 from tests.test_agent_service import MOTION_PROGRAM, motion_question
 

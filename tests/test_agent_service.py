@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from shared.camera_motion import DIRECTIONS
-from shared.client import AgentClient, ServiceError
-from shared.local_services import running_service
+from shared.geometry.camera_motion import DIRECTIONS
+from shared.local.services import running_service
+from shared.wire.client import AgentClient, ServiceError
 from tests.support.scenes import orbit_views
 from tests.support.stack import recon_env, upload_posed_views
 
@@ -249,7 +249,7 @@ def test_recon_errors_pass_through_with_their_message(offline_agent, scene_id):
 
 def test_coverage_notes_flag_blank_views_only():
     from services.agent.pipeline import coverage_notes
-    from shared.imaging import encode_image
+    from shared.imaging.codecs import encode_image
 
     blank = np.full((64, 64, 3), 255, np.uint8)
     drawn = blank.copy()

@@ -9,7 +9,7 @@ import pytest
 
 from services.agent.answering import answer_offline, answer_with_model, read_model_answer
 from services.agent.llm import ChatClient, ChatModelConfig
-from shared.choices import DIRECTIONS, parse_options
+from shared.questions.choices import DIRECTIONS, parse_options
 from tests.support.scripted_llm import ScriptedLLM
 
 QUESTION = "From image 2, what is behind me? A. A door B. A window C. A bookshelf"

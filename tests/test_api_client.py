@@ -1,4 +1,4 @@
-"""shared.api, the paper's Python API, against a real reconstruction service."""
+"""shared.wire.api, the paper's Python API, against a real reconstruction service."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from shared.api import Reconstruction, Scene, SpatialToolkit, pySpatial
+from shared.wire.api import Reconstruction, Scene, SpatialToolkit, pySpatial
 from tests.support.processes import REPO_ROOT, ServiceProcess, start_service
 
 EXAMPLE = REPO_ROOT / "examples" / "living_room"

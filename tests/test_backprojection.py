@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from services.recon.backbones.base import BackboneError, create_backbone
-from shared.backprojection import backproject_depth, reconstruction_from_rgbd
-from shared.poses import rotate_left
+from shared.geometry.backprojection import backproject_depth, reconstruction_from_rgbd
+from shared.geometry.poses import rotate_left
 
 WIDTH, HEIGHT = 64, 48
 INTRINSIC = np.array([[50.0, 0.0, 32.0], [0.0, 50.0, 24.0], [0.0, 0.0, 1.0]])

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from shared.camera_motion import (
+from shared.geometry.camera_motion import (
     DIRECTIONS,
     NO_MOVEMENT,
     NO_ROTATION,
@@ -18,7 +18,7 @@ from shared.camera_motion import (
     robust_extent,
     round_turn,
 )
-from shared.poses import as_4x4, move_forward, rotate_left, rotate_right
+from shared.geometry.poses import as_4x4, move_forward, rotate_left, rotate_right
 
 WORLD_UP = np.array([0.0, 0.0, 1.0])
 
@@ -228,7 +228,7 @@ def test_pairs_with_an_unusable_view_say_why_and_the_rest_are_described() -> Non
 
 def test_view_problems_and_scale_of_a_reconstruction() -> None:
     from services.recon.motion_inputs import motion_scene_scale, view_pose_problems
-    from shared.reconstruction import Reconstruction
+    from shared.geometry.reconstruction import Reconstruction
 
     cameras = np.concatenate([step(0.0, 90.0), step(0.0, 180.0)[1:], step(0.0, 0.0)[1:]])
     cameras[2, :, :3] *= 1.5  # "registered", but not a rotation

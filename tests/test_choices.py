@@ -1,10 +1,10 @@
-"""shared.choices: options, answer letters, direction and turn wording."""
+"""shared.questions.choices: options, answer letters, direction and turn wording."""
 
 from __future__ import annotations
 
 import pytest
 
-from shared.choices import (
+from shared.questions.choices import (
     DIRECTIONS,
     extract_letter,
     normalize_direction,

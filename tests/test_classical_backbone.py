@@ -15,7 +15,7 @@ from services.recon.backbones.classical.intrinsics import (
     intrinsics_before_resize,
 )
 from services.recon.backbones.classical.two_view import estimate_two_view
-from shared.reconstruction import Reconstruction
+from shared.geometry.reconstruction import Reconstruction
 from shared.synthetic import among_rig, default_intrinsic, generate_scene, look_at, render_view
 
 WIDTH, HEIGHT = 480, 360

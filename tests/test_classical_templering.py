@@ -15,8 +15,8 @@ import pytest
 from bench.templering_data import load_cameras, load_image, pair_errors, realdata_dir
 from services.recon.backbones.base import BackboneError
 from services.recon.backbones.classical import ClassicalBackbone
-from shared.client import ReconClient
-from shared.imaging import encode_image
+from shared.imaging.codecs import encode_image
+from shared.wire.client import ReconClient
 from tests.support.processes import running_service
 
 ROOT = realdata_dir()
@@ -109,7 +109,7 @@ def test_confidence_over_http(tmp_path, redis_url):
 
 def test_two_groups_tied_by_a_few_points_keep_only_the_larger():
     from services.recon.backbones.classical.verification import weakly_tied_views
-    from shared.reconstruction import PairConfidence
+    from shared.geometry.reconstruction import PairConfidence
 
     pairs = [
         PairConfidence(0, 1, 120, 0.3, 20.0),

@@ -21,7 +21,7 @@ from PIL import Image
 
 from cli.images import collect_images
 from cli.render import parse_pose
-from shared.schemas import SolveResponse
+from shared.wire.schemas import SolveResponse
 from tests.support.processes import REPO_ROOT, ServiceProcess, free_port, start_service
 
 EXAMPLE = REPO_ROOT / "examples" / "living_room"

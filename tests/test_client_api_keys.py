@@ -11,10 +11,10 @@ import uuid
 import httpx
 import pytest
 
-from shared.api import Scene, SpatialToolkit
-from shared.client import ServiceError
-from shared.local_services import running_service
-from shared.schemas import SolveResponse
+from shared.local.services import running_service
+from shared.wire.api import Scene, SpatialToolkit
+from shared.wire.client import ServiceError
+from shared.wire.schemas import SolveResponse
 from tests.test_cli import EXAMPLE, SPEC, pyspatial, scene_id_of
 
 IMAGES = [str(EXAMPLE / name) for name in SPEC["images"]]

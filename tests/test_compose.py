@@ -13,7 +13,7 @@ from urllib.parse import urlparse
 import pytest
 import yaml
 
-from shared.settings import DEFAULT_AGENT_PORT, DEFAULT_RECON_PORT, AgentSettings, ReconSettings
+from shared.wire.settings import DEFAULT_AGENT_PORT, DEFAULT_RECON_PORT, AgentSettings, ReconSettings
 from tests.support.processes import REPO_ROOT
 
 COMPOSE = yaml.safe_load((REPO_ROOT / "docker-compose.yml").read_text())

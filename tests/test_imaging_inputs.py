@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from shared.exif_camera import camera_from_exif
-from shared.imaging import ImageError, decode_image
+from shared.imaging.codecs import ImageError, decode_image
+from shared.imaging.exif import camera_from_exif
 
 LIMITS = {"max_bytes": 2**26, "max_pixels": 2**24}
 EXIF_IFD = 0x8769

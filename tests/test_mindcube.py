@@ -29,9 +29,9 @@ from services.agent.answering import answer_offline
 from services.agent.example_choice import choose_examples, program_kind
 from services.agent.planner import UnplannableQuestion, plan_intent
 from services.agent.sandbox import run_program, validate_program
-from shared.choices import extract_letter, parse_options
-from shared.client import AgentClient, ReconClient
-from shared.question_intent import parse_question
+from shared.questions.choices import extract_letter, parse_options
+from shared.questions.intent import parse_question
+from shared.wire.client import AgentClient, ReconClient
 from tests.support.processes import running_service
 from tests.support.scenes import orbit_views
 from tests.support.stack import recon_env
@@ -186,10 +186,11 @@ def test_closer_or_farther_renders_before_and_after_the_move() -> None:
     record = RECORDS["among_group012_q4_1_2"]
     plan = plan_intent(parse_question(record["question"], 4), 4)
     lines = [line.strip() for line in plan.source.splitlines()]
-    assert lines.index("pose = pySpatial.rotate_left(pose, angle=90)") < lines.index(
-        "before = pySpatial.synthesize_novel_view(recon, pose)"
-    ) < lines.index("pose = pySpatial.move_forward(pose)") < lines.index(
-        "after = pySpatial.synthesize_novel_view(recon, pose)"
+    assert (
+        lines.index("pose = pySpatial.rotate_left(pose, angle=90)")
+        < lines.index("before = pySpatial.synthesize_novel_view(recon, pose)")
+        < lines.index("pose = pySpatial.move_forward(pose)")
+        < lines.index("after = pySpatial.synthesize_novel_view(recon, pose)")
     )
     result = run_program(plan.source, record["question"], 4, tools_for(record))
     assert result.ok and len(result.clue_images) == 2
@@ -359,8 +360,9 @@ def test_eval_on_real_schema_without_an_answer_model(recon, tmp_path, monkeypatc
     assert len(records) == len(RECORDS) - 1
     for record in records:
         assert record["error"] is None and record["answer"] is None and record["fallback"] is None
-        assert "could not reconstruct" in record["answer_reason"] and "PYSPATIAL_ANSWER_MODEL" in (
-            record["answer_reason"]
+        assert (
+            "could not reconstruct" in record["answer_reason"]
+            and "PYSPATIAL_ANSWER_MODEL" in (record["answer_reason"])
         )
         assert record["code_model"] == "offline-planner" and record["answer_model"] == "offline-answerer"
     system = records[0]["system"]

@@ -14,8 +14,8 @@ import httpx
 import pytest
 
 from services.agent.program_cleanup import program_fingerprint
-from shared.client import AgentClient
-from shared.local_services import running_service
+from shared.local.services import running_service
+from shared.wire.client import AgentClient
 from tests.support.model_replies import recorded_replies
 from tests.support.scenes import orbit_views
 from tests.support.stack import recon_env, upload_posed_views

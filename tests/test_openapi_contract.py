@@ -22,9 +22,9 @@ import httpx
 import numpy as np
 import pytest
 
-from shared.imaging import encode_image
-from shared.local_services import ServiceProcess, start_service
-from shared.schemas import ErrorBody
+from shared.imaging.codecs import encode_image
+from shared.local.services import ServiceProcess, start_service
+from shared.wire.schemas import ErrorBody
 from tests.support.scenes import orbit_views
 from tests.test_agent_service import motion_question
 

@@ -3,9 +3,9 @@
 The sandbox runs are served by `ColourRoomTools`, a scene of known geometry: four coloured walls of
 points around the origin (world z up): red to the north (+y), green to the east, blue to the south,
 yellow to the west. Facing north, behind a camera is blue, on its left yellow, on its right green.
-Camera-motion sentences come from shared.camera_motion and renders from shared.rendering, the code the
-recon service runs; only the reconstruction is given (exact cameras and points, as a posed-RGB-D
-backbone would produce), so no recon service is needed.
+Camera-motion sentences come from shared.geometry.camera_motion and renders from
+shared.geometry.rendering, the code the recon service runs; only the reconstruction is given (exact
+cameras and points, as a posed-RGB-D backbone would produce), so no recon service is needed.
 """
 
 from __future__ import annotations
@@ -18,10 +18,10 @@ import pytest
 from services.agent.answering import answer_offline
 from services.agent.planner import PlanningError, plan_program, view_references
 from services.agent.sandbox import run_program, validate_program
-from shared.camera_motion import describe_camera_motion
-from shared.imaging import decode_image, encode_image
-from shared.reconstruction import Reconstruction
-from shared.rendering import synthesize_novel_view
+from shared.geometry.camera_motion import describe_camera_motion
+from shared.geometry.reconstruction import Reconstruction
+from shared.geometry.rendering import synthesize_novel_view
+from shared.imaging.codecs import decode_image, encode_image
 from shared.synthetic.render import default_intrinsic, look_at
 
 WORLD_UP = np.array([0.0, 0.0, 1.0])

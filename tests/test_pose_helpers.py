@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from services.agent.sandbox import SandboxLimits, run_program
-from shared import poses
+from shared.geometry import poses
 
 LIMITS = SandboxLimits(cpu_seconds=10, wall_seconds=20, memory_mb=1024)
 WORLD_UP = np.array([0.0, -1.0, 0.0])  # the cameras below are level, world y pointing down

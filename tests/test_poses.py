@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from shared.poses import (
+from shared.geometry.poses import (
     as_4x4,
     camera_center,
     estimate_up_axis,

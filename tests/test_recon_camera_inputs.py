@@ -16,13 +16,13 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from shared.client import AgentClient, ReconClient, ServiceError
-from shared.exif_camera import FILM_DIAGONAL_MM
-from shared.imaging import encode_image
-from shared.local_services import running_service
-from shared.poses import rotate_left
+from shared.geometry.poses import rotate_left
+from shared.imaging.codecs import encode_image
+from shared.imaging.exif import FILM_DIAGONAL_MM
+from shared.local.services import running_service
 from shared.synthetic import default_intrinsic, generate_scene, look_at, render_view
 from shared.synthetic.photo import photo_bytes
+from shared.wire.client import AgentClient, ReconClient, ServiceError
 from tests.support.realdata import pose_errors, temple_ring
 
 RECON_APP = "services.recon.app:create_app"

@@ -21,8 +21,8 @@ import pytest
 import redis
 from PIL import Image
 
-from shared.client import ReconClient
-from shared.settings import AgentSettings, ReconSettings
+from shared.wire.client import ReconClient
+from shared.wire.settings import AgentSettings, ReconSettings
 from tests.support.processes import running_service
 from tests.support.scenes import orbit_views
 

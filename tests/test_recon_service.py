@@ -14,9 +14,9 @@ import pytest
 import redis
 from PIL import Image
 
-from shared.client import ReconClient, ServiceError
-from shared.reconstruction import Reconstruction
-from shared.schemas import ReconstructionSummary
+from shared.geometry.reconstruction import Reconstruction
+from shared.wire.client import ReconClient, ServiceError
+from shared.wire.schemas import ReconstructionSummary
 from tests.support.processes import running_service
 from tests.support.scenes import orbit_views, psnr
 

@@ -8,8 +8,8 @@ from pathlib import Path
 import httpx
 import numpy as np
 
-from shared.client import ReconClient
-from shared.local_services import running_service
+from shared.local.services import running_service
+from shared.wire.client import ReconClient
 from tests.support.scenes import orbit_views
 
 DATA = Path(__file__).parent / "data" / "vggt"

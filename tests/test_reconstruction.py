@@ -8,7 +8,7 @@ import struct
 import numpy as np
 import pytest
 
-from shared.reconstruction import FORMAT_VERSION, Reconstruction, ReconstructionFormatError
+from shared.geometry.reconstruction import FORMAT_VERSION, Reconstruction, ReconstructionFormatError
 
 
 def sample(num_points: int = 500, views: int = 3, with_depth: bool = True) -> Reconstruction:
@@ -113,7 +113,7 @@ def test_camera_centres_and_bounds():
 
 
 def test_confidence_and_intrinsics_sources_round_trip():
-    from shared.reconstruction import PairConfidence, ViewConfidence
+    from shared.geometry.reconstruction import PairConfidence, ViewConfidence
 
     original = sample()
     original.intrinsics_source = ["uploaded", "self-calibrated", "prior"]

@@ -10,11 +10,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from shared import rendering
-from shared.backprojection import reconstruction_from_rgbd
-from shared.poses import move_forward, rotate_left
-from shared.reconstruction import Reconstruction
-from shared.rendering import (
+from shared.geometry import rendering
+from shared.geometry.backprojection import reconstruction_from_rgbd
+from shared.geometry.poses import move_forward, rotate_left
+from shared.geometry.reconstruction import Reconstruction
+from shared.geometry.rendering import (
     novel_view_intrinsic,
     rasterize_points,
     render_point_cloud,

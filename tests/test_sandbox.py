@@ -17,7 +17,7 @@ import pytest
 from PIL import Image
 
 from services.agent.sandbox import ProgramRejected, SandboxLimits, run_program, validate_program
-from shared import poses
+from shared.geometry import poses
 
 LIMITS = SandboxLimits(cpu_seconds=10, wall_seconds=20, memory_mb=1024)
 

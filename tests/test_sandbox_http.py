@@ -18,8 +18,8 @@ import pytest
 from services.agent.codegen import extract_program
 from services.agent.program_cleanup import clean_program
 from services.agent.sandbox.text import clean_text
-from shared.client import AgentClient, ReconClient
-from shared.local_services import running_service
+from shared.local.services import running_service
+from shared.wire.client import AgentClient, ReconClient
 from tests.support.scenes import orbit_views
 from tests.support.stack import recon_env
 from tests.test_sandbox import FALSE_POSITIVES, FALSE_POSITIVES_CLUE

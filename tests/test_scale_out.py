@@ -17,9 +17,9 @@ import httpx
 import pytest
 import redis
 
-from shared.client import AgentClient, ReconClient
-from shared.local_nginx import running_nginx
-from shared.schemas import ReconstructionSummary
+from shared.local.nginx import running_nginx
+from shared.wire.client import AgentClient, ReconClient
+from shared.wire.schemas import ReconstructionSummary
 from tests.support.processes import running_service
 from tests.support.scenes import orbit_views
 from tests.test_agent_service import motion_question
@@ -27,7 +27,7 @@ from tests.test_recon_runtime import jittered
 
 RECON_APP = "services.recon.app:create_app"
 AGENT_APP = "services.agent.app:create_app"
-LEASE_S = 3  # short, so the crash test is quick; production default in shared/settings.py
+LEASE_S = 3  # short, so the crash test is quick; production default in shared/wire/settings.py
 
 
 def replica_env(data_dir, redis_url: str, namespace: str) -> dict[str, str]:

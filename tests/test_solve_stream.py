@@ -14,9 +14,9 @@ import httpx
 import numpy as np
 import pytest
 
-from shared.client import AgentClient, ServiceError
-from shared.local_services import REPO_ROOT, running_service
-from shared.schemas import StageEvent
+from shared.local.services import REPO_ROOT, running_service
+from shared.wire.client import AgentClient, ServiceError
+from shared.wire.schemas import StageEvent
 from tests.support.scenes import orbit_views
 from tests.support.stack import recon_env, upload_posed_views
 

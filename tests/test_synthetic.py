@@ -12,7 +12,7 @@ import cv2
 import numpy as np
 import pytest
 
-from shared.camera_motion import DIRECTIONS as CAMERA_MOTION_DIRECTIONS
+from shared.geometry.camera_motion import DIRECTIONS as CAMERA_MOTION_DIRECTIONS
 from shared.synthetic import (
     ROOM_OBJECT_ID,
     default_intrinsic,

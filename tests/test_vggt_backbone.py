@@ -13,7 +13,7 @@ from services.recon.backbones.base import BackboneError, create_backbone
 from services.recon.backbones.vggt.backbone import VGGTBackbone
 from services.recon.backbones.vggt.geometry import unproject_depth_maps
 from services.recon.backbones.vggt.preprocessing import ViewPlacement, preprocess_images
-from shared.reconstruction import Reconstruction
+from shared.geometry.reconstruction import Reconstruction
 
 DATA = Path(__file__).parent / "data" / "vggt"
 TINY = {"checkpoint": str(DATA / "tiny_vggt.safetensors"), "config": str(DATA / "tiny_vggt_config.json")}

@@ -19,9 +19,9 @@ from safetensors.torch import load_file, save_file
 
 from services.recon.backbones.base import BackboneError
 from services.recon.backbones.vggt.backbone import VGGTBackbone
-from shared.client import ReconClient
-from shared.imaging import decode_image, encode_image
-from shared.local_services import running_service
+from shared.imaging.codecs import decode_image, encode_image
+from shared.local.services import running_service
+from shared.wire.client import ReconClient
 from tests.test_vggt_backbone import TINY, drawn_image
 
 APP = "services.recon.app:create_app"

@@ -2,12 +2,12 @@
 
 With a model: the answer prompt (question, the photos, the program and its output) goes out with a
 JSON schema that constrains the answer to the option letters; servers that refuse structured output
-are asked again without it, and a free-text reply is read for a letter (shared.choices) or, failing
+are asked again without it, and a free-text reply is read for a letter (shared.questions.choices) or, failing
 that, for the text of exactly one option.
 
 Offline: a camera-motion sentence ("From view 1 to view 2 the camera moved diagonally forward and
 right and turned left by about 45 degrees.") is compared with the options, wording normalized by
-shared.choices. Rendered images cannot be read without a vision model: the answer is then None with
+shared.questions.choices. Rendered images cannot be read without a vision model: the answer is then None with
 the reason, never a guess.
 """
 
@@ -28,8 +28,14 @@ from services.agent.llm import (
     text_part,
 )
 from services.agent.prompts import load_template
-from shared.choices import extract_letter, normalize_direction, normalize_turn, parse_options, turn_degrees
-from shared.question_intent import QuestionIntent, parse_question
+from shared.questions.choices import (
+    extract_letter,
+    normalize_direction,
+    normalize_turn,
+    parse_options,
+    turn_degrees,
+)
+from shared.questions.intent import QuestionIntent, parse_question
 
 AnswerMethod = Literal["model_json", "model_text", "model_option_text", "offline_text", "text_model", "none"]
 DEFAULT_TEMPLATE = "answer_v1"

@@ -18,13 +18,13 @@ from services.agent.pipeline import SolveError, SolvePipeline
 from services.agent.sandbox.jail import announce, remove_stale_workdirs
 from services.agent.solve_stream import event_stream, wants_event_stream
 from services.agent.web_routes import install_web_routes
-from shared.access import docs_urls, install_access_control
-from shared.client import ReconClient, ServiceError, ServiceUnreachable
-from shared.http_bodies import install_input_error_handlers, read_body_limited
-from shared.http_errors import error_responses, first_validation_message, install_error_shape
-from shared.imaging import decode_base64
-from shared.schemas import AgentReadiness, Readiness, SandboxStatus, SolveRequest, SolveResponse
-from shared.settings import AgentSettings
+from shared.imaging.codecs import decode_base64
+from shared.wire.access import docs_urls, install_access_control
+from shared.wire.bodies import install_input_error_handlers, read_body_limited
+from shared.wire.client import ReconClient, ServiceError, ServiceUnreachable
+from shared.wire.errors import error_responses, first_validation_message, install_error_shape
+from shared.wire.schemas import AgentReadiness, Readiness, SandboxStatus, SolveRequest, SolveResponse
+from shared.wire.settings import AgentSettings
 
 log = logging.getLogger("pyspatial.agent")
 

@@ -7,7 +7,7 @@ import io
 from PIL import Image
 
 from services.agent.recon_tools import ReconToolProvider
-from shared.schemas import ClueView, ReconstructionSummary
+from shared.wire.schemas import ClueView, ReconstructionSummary
 
 
 def clue_views(

@@ -35,7 +35,7 @@ from services.agent.llm import ChatClient, ChatReply, LLMError, image_part, text
 from services.agent.program_cleanup import UNPARSABLE_ERRORS, clean_program, program_fingerprint
 from services.agent.prompts import load_template
 from services.agent.reply_blocks import CodeBlock, code_blocks, defines_function, unfenced_function
-from shared.question_intent import QuestionIntent
+from shared.questions.intent import QuestionIntent
 
 DEFAULT_TEMPLATE = "codegen_v2"
 REPAIR_TEMPLATE = "repair_v2"
@@ -329,9 +329,7 @@ def generate_program(
             follow_up = _repair_message(
                 "Your reply was far too long and was not read.",
                 f"It had {len(reply.text)} characters; the limit is {max_reply_chars}.",
-                [
-                    "Send only the program: one short ```python block defining `def program(input_scene):`."
-                ],
+                ["Send only the program: one short ```python block defining `def program(input_scene):`."],
             )
             reply_for_history = attempt.reply
         else:

@@ -26,7 +26,7 @@ import ast
 import re
 
 from services.agent.program_cleanup import UNPARSABLE_ERRORS
-from shared.choices import normalize_direction, normalize_turn, parse_options
+from shared.questions.choices import normalize_direction, normalize_turn, parse_options
 
 _MIN_LITERAL_CHARS = 2
 _ONLY_NUMBERS_AND_PUNCTUATION = re.compile(r"^[\W\d_]*$")

@@ -1,6 +1,6 @@
 """Which in-context examples the code prompt shows: the ones most like the question, first.
 
-Each example's question is parsed with the same parser as the user's (shared.question_intent), so
+Each example's question is parsed with the same parser as the user's (shared.questions.intent), so
 an example's family (self-movement, relative direction, what-if) and program kind (motion, left,
 turn_and_move, ...) are read, not hand-labelled. Examples of the question's program kind come first,
 then those of its family, then the rest in file order; the prompt shows the first `count`.
@@ -12,7 +12,7 @@ from functools import lru_cache
 
 from services.agent.planner import PlanningError, UnplannableQuestion, plan_intent
 from services.agent.prompts import PromptExample, load_examples
-from shared.question_intent import QuestionIntent, parse_question
+from shared.questions.intent import QuestionIntent, parse_question
 
 EXAMPLES_NAME = "codegen_examples"  # the latest codegen_examples_v<N>.md
 MAX_VIEWS = 10

@@ -7,8 +7,8 @@ with `answer: null`.
 
 from __future__ import annotations
 
-from shared.client import ServiceError, ServiceTimeout, ServiceUnreachable
-from shared.schemas import AttemptRecord
+from shared.wire.client import ServiceError, ServiceTimeout, ServiceUnreachable
+from shared.wire.schemas import AttemptRecord
 
 
 class InfrastructureFailure(Exception):

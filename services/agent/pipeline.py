@@ -30,17 +30,17 @@ from services.agent.recon_tools import ReconToolProvider
 from services.agent.sandbox import ExecutionResult, SandboxLimits, run_program
 from services.agent.sandbox.jail import JailMode, JailStatus, probe
 from services.agent.sandbox.text import clean_text
-from shared.client import ReconClient, ServiceError
-from shared.imaging import decode_image, encode_image
-from shared.question_intent import QuestionIntent, parse_question
-from shared.schemas import AttemptRecord, Clue, SolveResponse, SolveTimings, TokenCounts
-from shared.settings import AgentSettings
+from shared.imaging.codecs import decode_image, encode_image
+from shared.questions.intent import QuestionIntent, parse_question
+from shared.wire.client import ReconClient, ServiceError
+from shared.wire.schemas import AttemptRecord, Clue, SolveResponse, SolveTimings, TokenCounts
+from shared.wire.settings import AgentSettings
 
 log = logging.getLogger("pyspatial.agent")
 
 OFFLINE_PLANNER = "offline-planner"
 OFFLINE_ANSWERER = "offline-answerer"
-# progress(stage, state, detail): stage in shared.schemas.SolveStage, state started | done | failed.
+# progress(stage, state, detail): stage in shared.wire.schemas.SolveStage, state started | done | failed.
 ProgressCallback = Callable[[str, str, str], None]
 ANSWER_IMAGE_SIDE = 1024  # images shown to the answer model are downscaled to this longest side
 

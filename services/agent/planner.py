@@ -1,11 +1,11 @@
 """The offline planner: writes a real pySpatial program for a question without any language model.
 
-It takes the question's intent (shared.question_intent: parsed once) and writes the program a careful
+It takes the question's intent (shared.questions.intent: parsed once) and writes the program a careful
 person would write; the program then runs under the same sandbox as model-written ones. Kinds:
 
 - "motion" (self-movement): how the camera moved from view i to view j. Consecutive pairs come from
   describe_camera_motion; any other pair is computed in the program from the two extrinsics, with the
-  conventions of shared/camera_motion.py (scene up = mean of the cameras' -y axes, turn positive =
+  conventions of shared/geometry/camera_motion.py (scene up = mean of the cameras' -y axes, turn positive =
   left), and printed as the same kind of sentence.
 - "behind", "left", "right", "front" (relative direction, rotation setting included): what lies in
   that direction from view k, or of the object seen from view k: turn that camera in place and render.
@@ -24,7 +24,7 @@ from typing import Literal
 
 from pydantic import BaseModel
 
-from shared.question_intent import PoseStep, QuestionIntent, parse_question, view_references
+from shared.questions.intent import PoseStep, QuestionIntent, parse_question, view_references
 
 ProgramKind = Literal["motion", "behind", "left", "right", "front", "turn_and_move", "around"]
 # Kept under its old name: the kind of program the planner wrote.
@@ -65,7 +65,7 @@ def program(input_scene):
     return pySpatial.describe_camera_motion(recon)
 """
 
-# For other pairs the program works out the motion itself, with shared/camera_motion.py's rules.
+# For other pairs the program works out the motion itself, with shared/geometry/camera_motion.py's rules.
 _MOTION_PAIR = """\
 def program(input_scene):
     recon = pySpatial.reconstruct(input_scene)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from shared.client import ReconClient
+from shared.wire.client import ReconClient
 
 
 class ReconToolProvider:

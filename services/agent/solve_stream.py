@@ -23,10 +23,10 @@ from starlette.responses import StreamingResponse
 from services.agent.infrastructure import InfrastructureFailure, recon_error_status
 from services.agent.llm import LLMError
 from services.agent.pipeline import ProgressCallback, SolveError
-from shared.client import ServiceError, ServiceUnreachable
-from shared.http_bodies import BodyTooLarge
-from shared.imaging import ImageError
-from shared.schemas import ErrorEvent, ResultEvent, SolveResponse, StageEvent
+from shared.imaging.codecs import ImageError
+from shared.wire.bodies import BodyTooLarge
+from shared.wire.client import ServiceError, ServiceUnreachable
+from shared.wire.schemas import ErrorEvent, ResultEvent, SolveResponse, StageEvent
 
 log = logging.getLogger("pyspatial.agent")
 

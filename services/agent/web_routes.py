@@ -16,8 +16,8 @@ from fastapi.responses import FileResponse
 from fastapi.staticfiles import StaticFiles
 
 from services.agent.pipeline import SolvePipeline
-from shared.http_errors import error_responses
-from shared.schemas import SCENE_ID_PATTERN, PointCloudPreview
+from shared.wire.errors import error_responses
+from shared.wire.schemas import SCENE_ID_PATTERN, PointCloudPreview
 
 WEB_DIR = FilePath(__file__).resolve().parent / "web"
 EXAMPLE_DIR = FilePath(__file__).resolve().parents[2] / "examples" / "living_room"

@@ -19,13 +19,13 @@ from services.recon.preview import MAX_PREVIEW_POINTS, point_cloud_preview
 from services.recon.scene_store import has_all_intrinsics
 from services.recon.service import ReconService
 from services.recon.uploads import SceneUploads
-from shared.access import docs_urls, install_access_control
-from shared.http_bodies import install_input_error_handlers
-from shared.http_errors import error_responses, install_error_shape
-from shared.imaging import media_type
-from shared.poses import estimate_up_axis
-from shared.reconstruction import Reconstruction
-from shared.schemas import (
+from shared.geometry.poses import estimate_up_axis
+from shared.geometry.reconstruction import Reconstruction
+from shared.imaging.codecs import media_type
+from shared.wire.access import docs_urls, install_access_control
+from shared.wire.bodies import install_input_error_handlers
+from shared.wire.errors import error_responses, install_error_shape
+from shared.wire.schemas import (
     CameraInfo,
     CameraMotionItem,
     CameraMotionRequest,
@@ -39,7 +39,7 @@ from shared.schemas import (
     SceneInfo,
     SceneUpload,
 )
-from shared.settings import ReconSettings
+from shared.wire.settings import ReconSettings
 
 log = logging.getLogger("pyspatial.recon")
 

@@ -1,7 +1,7 @@
 """What the service knows about each view's camera before reconstructing: uploaded, else EXIF.
 
 Per view, the best source available wins: intrinsics uploaded with the scene, else the focal
-length in the photo's EXIF (`shared.exif_camera`). Views with neither are left to the backbone
+length in the photo's EXIF (`shared.imaging.exif`). Views with neither are left to the backbone
 (self-calibration or its prior). Everything is in pixels of the upright image, the one the
 backbone gets.
 """
@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from services.recon.scene_store import SceneInput
-from shared.exif_camera import camera_from_exif
+from shared.imaging.exif import camera_from_exif
 
 UPLOADED = "uploaded"
 EXIF = "exif"
@@ -54,4 +54,3 @@ def view_intrinsics(scene: SceneInput) -> ViewIntrinsics:
             intrinsics.append(None)
             sources.append(None)
     return ViewIntrinsics(intrinsics, sources, warnings)
-

@@ -1,9 +1,9 @@
 """The function the image-decoding processes run; a module of its own so that a worker process
-imports only Pillow and numpy (through shared.imaging), not the web stack."""
+imports only Pillow and numpy (through shared.imaging.codecs), not the web stack."""
 
 from __future__ import annotations
 
-from shared.imaging import ImageError, decode_image
+from shared.imaging.codecs import ImageError, decode_image
 
 
 def validate_image(

@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from shared.camera_motion import robust_extent
-from shared.poses import validate_extrinsic
-from shared.reconstruction import Reconstruction
+from shared.geometry.camera_motion import robust_extent
+from shared.geometry.poses import validate_extrinsic
+from shared.geometry.reconstruction import Reconstruction
 
 _TINY = 1e-9
 

@@ -6,8 +6,8 @@ import base64
 
 import numpy as np
 
-from shared.reconstruction import Reconstruction
-from shared.schemas import CameraInfo, PointCloudPreview
+from shared.geometry.reconstruction import Reconstruction
+from shared.wire.schemas import CameraInfo, PointCloudPreview
 
 MAX_PREVIEW_POINTS = 200_000
 

@@ -20,14 +20,15 @@ from services.recon.motion_inputs import motion_scene_scale, view_pose_problems
 from services.recon.offload import run_cpu, run_in_daemon_thread
 from services.recon.scene_store import SceneInput, SceneStore, check_scene_id, validate_geometry
 from services.recon.shared_scenes import SharedScenes
-from shared.camera_motion import CameraMotion, UnknownMotion, describe_pairs
-from shared.imaging import decode_image, encode_image
-from shared.poses import estimate_up_axis, validate_extrinsic
-from shared.reconstruction import Reconstruction
-from shared.rendering import synthesize_novel_view
-from shared.settings import ReconSettings
+from shared.geometry.camera_motion import CameraMotion, UnknownMotion, describe_pairs
+from shared.geometry.poses import estimate_up_axis, validate_extrinsic
+from shared.geometry.reconstruction import Reconstruction
+from shared.geometry.rendering import synthesize_novel_view
+from shared.imaging.codecs import decode_image, encode_image
+from shared.wire.settings import ReconSettings
 
 log = logging.getLogger("pyspatial.recon")
+
 
 @dataclass
 class StorageStatus:

@@ -27,10 +27,10 @@ from services.recon.decode_worker import validate_image
 from services.recon.errors import InvalidInput, Overloaded, PayloadTooLarge, ReconServiceError
 from services.recon.offload import run_cpu
 from services.recon.scene_store import SceneInput
-from shared.http_bodies import check_declared_length, limited_stream, read_body_limited
-from shared.imaging import ImageError, decode_base64, decode_image
-from shared.schemas import SceneUpload
-from shared.settings import ReconSettings
+from shared.imaging.codecs import ImageError, decode_base64, decode_image
+from shared.wire.bodies import check_declared_length, limited_stream, read_body_limited
+from shared.wire.schemas import SceneUpload
+from shared.wire.settings import ReconSettings
 
 MAX_CAMERA_FIELD_BYTES = 1 << 20  # a JSON list of 3x4 matrices for 256 views is ~40 KB
 

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from shared.camera_motion import DIRECTIONS
+from shared.geometry.camera_motion import DIRECTIONS
 
-MOTION_DIRECTIONS: tuple[str, ...] = DIRECTIONS  # the wording shared.camera_motion uses
+MOTION_DIRECTIONS: tuple[str, ...] = DIRECTIONS  # the wording shared.geometry.camera_motion uses
 SECTOR_DEG = 45.0
 
 

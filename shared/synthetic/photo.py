@@ -3,7 +3,7 @@
 A real camera states its focal length (`FocalLengthIn35mmFilm`); without it, two views cannot
 fix the focal and the classical backbone refuses to guess their relative pose. The renderer knows
 its camera exactly, so it says so the same way, and the recon service reads it like any photo's
-(shared/exif_camera.py). The tag is a whole number of millimetres: a 60-degree camera is written
+(shared/imaging/exif.py). The tag is a whole number of millimetres: a 60-degree camera is written
 as 30 mm, read back within 0.1% of the true focal.
 """
 
@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 from PIL import ExifTags, Image
 
-from shared.exif_camera import FILM_DIAGONAL_MM, FOCAL_LENGTH_35MM
+from shared.imaging.exif import FILM_DIAGONAL_MM, FOCAL_LENGTH_35MM
 
 
 def focal_35mm(intrinsic: np.ndarray, width: int, height: int) -> int:

@@ -1,4 +1,4 @@
-"""A tiny app with a route that fails unexpectedly, dressed like our services (shared.http_errors).
+"""A tiny app with a route that fails unexpectedly, dressed like our services (shared.wire.errors).
 
 Our services have no known route that raises an unhandled error; this is how the catch-all's
 behaviour is tested under a real uvicorn: a JSON 500 without a traceback, the connection kept.
@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from fastapi import FastAPI
 
-from shared.http_errors import install_error_shape
+from shared.wire.errors import install_error_shape
 
 
 def create_app() -> FastAPI:

@@ -1,6 +1,6 @@
-"""Real processes for tests: re-exported from shared.local_services (the CLI and benches use it too)."""
+"""Real processes for tests: re-exported from shared.local.services (the CLI and benches use it too)."""
 
-from shared.local_services import (  # noqa: F401
+from shared.local.services import (  # noqa: F401
     REPO_ROOT,
     RedisServer,
     ServiceProcess,

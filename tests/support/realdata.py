@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from shared.local_services import REPO_ROOT
+from shared.local.services import REPO_ROOT
 
 
 def realdata_dir() -> Path:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import uuid
 from pathlib import Path
 
-from shared.client import ReconClient
+from shared.wire.client import ReconClient
 
 
 def recon_env(

@@ -30,7 +30,7 @@ hold each of them to account):
 
 The program never sees files or the network: reconstruction, camera-motion sentences, rendering and
 input images are requests to the parent (runner.py), which serves them through a `ToolProvider`
-and keeps every pixel; the program holds opaque `Image` handles. Pose tools (shared.poses) run
+and keeps every pixel; the program holds opaque `Image` handles. Pose tools (shared.geometry.poses) run
 locally in the child. Time spent in the parent's tools does not count against `wall_seconds`.
 """
 

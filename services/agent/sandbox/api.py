@@ -2,7 +2,7 @@
 
 Reconstruction, camera motion and rendering are requests to the parent over the tool channel; the
 parent owns every pixel, so an `Image` here is only a handle (id, width, height). The pose tools
-are pure numpy and run locally from `shared.poses`.
+are pure numpy and run locally from `shared.geometry.poses`.
 
 Extrinsics reach programs as 4x4 homogeneous camera-from-world matrices `[[R, t], [0, 0, 0, 1]]`
 (the paper's API): `np.linalg.inv(E)` and `E1 @ np.linalg.inv(E2)` then just work, which is what
@@ -16,7 +16,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from shared import poses
+from shared.geometry import poses
 
 MIN_RENDER_SIZE = 16
 MAX_RENDER_SIZE = 2048
@@ -233,7 +233,7 @@ class PySpatial(_Frozen):
     """The `pySpatial` object of a program.
 
     Pose tools turn about the scene up of the latest reconstruction when there is one (so turns keep
-    the horizon level), else about the camera's own up (see shared.poses).
+    the horizon level), else about the camera's own up (see shared.geometry.poses).
     """
 
     __slots__ = ("_channel", "_scene", "_up")

@@ -90,7 +90,7 @@ export class SceneViewer {
     clueViews.forEach((view) => {
       if (!reference) return;
       // The renderer's intrinsics: the first placed view's focal scaled to the output, zoom_out 0.5
-      // (shared/rendering.py novel_view_intrinsic), principal point at the centre.
+      // (shared/geometry/rendering.py novel_view_intrinsic), principal point at the centre.
       const scale = Math.min(view.width / reference.width, view.height / reference.height) * 0.5;
       const intrinsic = [[reference.intrinsic[0][0] * scale, 0, view.width / 2],
         [0, reference.intrinsic[1][1] * scale, view.height / 2], [0, 0, 1]];

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from shared.reconstruction import Reconstruction
+from shared.geometry.reconstruction import Reconstruction
 
 
 class BackboneError(RuntimeError):

@@ -12,8 +12,8 @@ from typing import Any
 import numpy as np
 
 from services.recon.backbones.base import Backbone, BackboneError
-from shared.backprojection import reconstruction_from_rgbd
-from shared.reconstruction import Reconstruction
+from shared.geometry.backprojection import reconstruction_from_rgbd
+from shared.geometry.reconstruction import Reconstruction
 
 REQUIRED_OPTIONS = ("depths", "extrinsics", "intrinsics")
 OPTIONAL_OPTIONS = ("stride",)

@@ -34,7 +34,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from shared.reconstruction import Reconstruction, ViewConfidence
+from shared.geometry.reconstruction import Reconstruction, ViewConfidence
 
 from ..base import Backbone, BackboneError
 from .densify import ViewSamples, densify, grid_size, unit_sphere_cloud

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from shared.reconstruction import PairConfidence, ViewConfidence
+from shared.geometry.reconstruction import PairConfidence, ViewConfidence
 
 from ..base import BackboneError
 from .bundle_adjustment import bundle_adjust, robust_cost

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from shared.reconstruction import PairConfidence, ViewConfidence
+from shared.geometry.reconstruction import PairConfidence, ViewConfidence
 
 from .geometry import camera_center, project, rotation_angle_deg
 from .two_view import TwoViewGeometry

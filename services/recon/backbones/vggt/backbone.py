@@ -27,7 +27,7 @@ from services.recon.backbones.vggt.config import VGGTConfig, VGGTConfigError
 from services.recon.backbones.vggt.geometry import pose_encoding_to_cameras, unproject_depth_maps
 from services.recon.backbones.vggt.model import VGGT
 from services.recon.backbones.vggt.preprocessing import PreprocessMode, ViewPlacement, preprocess_images
-from shared.reconstruction import Reconstruction
+from shared.geometry.reconstruction import Reconstruction
 
 PointSource = Literal["depth", "points"]
 MIN_CONFIDENCE = 1e-5  # confidences are 1 + exp(x) >= 1; anything below is padding or garbage

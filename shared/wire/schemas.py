@@ -6,7 +6,7 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from shared.question_intent import QuestionIntent
+from shared.questions.intent import QuestionIntent
 
 Matrix = list[list[float]]
 ImageFormat = Literal["png", "jpeg"]
@@ -62,9 +62,7 @@ class ViewConfidenceInfo(_Model):
         None, description="Median over the inliers after adjustment, pixels."
     )
     positive_depth_fraction: float | None = Field(None, description="Share of its points in front of it.")
-    unregistered_reason: str | None = Field(
-        None, description="Why the view has no pose; null if registered."
-    )
+    unregistered_reason: str | None = Field(None, description="Why the view has no pose; null if registered.")
     uncertain_reason: str | None = Field(
         None, description="Why a registered view's pose is uncertain (e.g. its position); null if not."
     )

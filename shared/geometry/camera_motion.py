@@ -32,7 +32,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from shared.poses import estimate_up_axis, horizontal_forward, validate_extrinsic
+from shared.geometry.poses import estimate_up_axis, horizontal_forward, validate_extrinsic
 
 DIRECTIONS = (
     "forward",

@@ -25,8 +25,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from shared.poses import validate_extrinsic
-from shared.reconstruction import Reconstruction
+from shared.geometry.poses import validate_extrinsic
+from shared.geometry.reconstruction import Reconstruction
 
 NEAR_PLANE = 1e-4  # points closer than this to the camera plane are dropped
 MAX_SPLAT_SIDE = 15  # caps the cost of points right in front of the camera

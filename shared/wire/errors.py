@@ -16,7 +16,7 @@ from fastapi.responses import JSONResponse
 from starlette.requests import Request
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from shared.schemas import ErrorBody
+from shared.wire.schemas import ErrorBody
 
 log = logging.getLogger("pyspatial.errors")
 

@@ -20,7 +20,7 @@ from fastapi import FastAPI
 from starlette.middleware.cors import CORSMiddleware
 from starlette.types import ASGIApp, Receive, Scope, Send
 
-from shared.settings import AccessSettings
+from shared.wire.settings import AccessSettings
 
 GUARDED_PREFIX = "/v1/"
 MAX_TRACKED_CLIENTS = 10_000  # buckets kept in memory; the least recently used are forgotten

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import httpx
 
-from shared.local_services import free_port
+from shared.local.services import free_port
 
 CONFIG = """worker_processes 1;
 pid {prefix}/nginx.pid;

@@ -29,7 +29,7 @@ from typing import Literal
 
 from pydantic import BaseModel, Field
 
-from shared.choices import split_options
+from shared.questions.choices import split_options
 
 Setting = Literal["among", "around", "rotation", "translation", "unknown"]
 Family = Literal[

@@ -1,6 +1,6 @@
 """The paper's pySpatial API for Python callers, backed by the reconstruction service.
 
-    from shared.api import Scene, pySpatial
+    from shared.wire.api import Scene, pySpatial
 
     scene = Scene("examples/living_room", question="Which way did the camera move?")
     recon = pySpatial.reconstruct(scene)
@@ -23,11 +23,11 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from shared import poses
-from shared.client import ImageLike, ReconClient, image_bytes
-from shared.reconstruction import Reconstruction as ReconstructionData
-from shared.schemas import ReconstructionSummary
-from shared.settings import AgentSettings
+from shared.geometry import poses
+from shared.geometry.reconstruction import Reconstruction as ReconstructionData
+from shared.wire.client import ImageLike, ReconClient, image_bytes
+from shared.wire.schemas import ReconstructionSummary
+from shared.wire.settings import AgentSettings
 
 IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".webp", ".tif", ".tiff"}
 

@@ -14,9 +14,9 @@ import numpy as np
 from httpx_sse import connect_sse
 from pydantic import TypeAdapter
 
-from shared.imaging import encode_image
-from shared.reconstruction import Reconstruction
-from shared.schemas import (
+from shared.geometry.reconstruction import Reconstruction
+from shared.imaging.codecs import encode_image
+from shared.wire.schemas import (
     CameraMotionResponse,
     ErrorEvent,
     PointCloudPreview,

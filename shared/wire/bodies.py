@@ -8,7 +8,7 @@ from fastapi import FastAPI
 from fastapi.responses import JSONResponse
 from starlette.requests import Request
 
-from shared.imaging import ImageError
+from shared.imaging.codecs import ImageError
 
 
 class BodyTooLarge(ValueError):

@@ -25,7 +25,7 @@ class _Settings(BaseSettings):
 
 
 class AccessSettings(_Settings):
-    """Access control of one service (both have these; shared/access.py applies them to /v1/)."""
+    """Access control of one service (both have these; shared/wire/access.py applies them to /v1/)."""
 
     api_keys: SecretStr | None = Field(
         None, description="Comma-separated bearer keys accepted on /v1/; no authentication when unset."

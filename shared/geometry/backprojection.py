@@ -10,8 +10,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from shared.poses import validate_extrinsic
-from shared.reconstruction import Reconstruction
+from shared.geometry.poses import validate_extrinsic
+from shared.geometry.reconstruction import Reconstruction
 
 
 def scale_intrinsic(intrinsic: np.ndarray, scale_x: float, scale_y: float) -> np.ndarray:

@@ -3,7 +3,7 @@
 MindCube questions inline their options ("... A. Left B. Right C. Behind") or put one per line,
 sometimes as "(A) Left". Models answer "C", "(C) the sofa", "Answer: C" or "**C**". Directions
 come in many spellings ("front left", "forward-left", "diagonally forward and left"); this module
-maps them onto the eight canonical names that shared/camera_motion.py prints, and keeps turns
+maps them onto the eight canonical names that shared/geometry/camera_motion.py prints, and keeps turns
 ("turned left") apart from movements ("moved left") because they answer different questions.
 """
 
@@ -14,7 +14,7 @@ import re
 import string
 from collections.abc import Iterable
 
-from shared.camera_motion import DIRECTIONS
+from shared.geometry.camera_motion import DIRECTIONS
 
 TURNS = ("turn left", "turn right", "turn around", "no turn")
 
