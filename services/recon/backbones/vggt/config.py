@@ -8,6 +8,8 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from services.recon.backbones.transformer.dinov2 import DinoV2Sizes
+
 
 class VGGTConfigError(ValueError):
     """A configuration file or mapping does not describe a VGGT model this code can build."""
@@ -101,6 +103,22 @@ class VGGTConfig:
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
+
+    def patch_embed_sizes(self) -> DinoV2Sizes:
+        """The patch embedder as the shared DINOv2 module takes it (with the mask token VGGT keeps)."""
+        embed = self.patch_embed
+        return DinoV2Sizes(
+            embed_dim=embed.embed_dim,
+            depth=embed.depth,
+            num_heads=embed.num_heads,
+            mlp_ratio=embed.mlp_ratio,
+            init_values=embed.init_values,
+            img_size=self.img_size,
+            patch_size=self.patch_size,
+            num_register_tokens=self.num_register_tokens,
+            interpolate_antialias=embed.interpolate_antialias,
+            interpolate_offset=embed.interpolate_offset,
+        )
 
     def fingerprint(self) -> str:
         """A short hash of every size, so that versions change when the architecture does."""
