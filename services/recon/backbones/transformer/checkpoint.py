@@ -96,17 +96,28 @@ def load_strictly(
     device: torch.device | str = "cpu",
     ignored_prefixes: tuple[str, ...] = (),
 ) -> ModelT:
-    """Build the model on the meta device (no random weights) and fill it from the checkpoint.
-
-    Every tensor the model has must come from the checkpoint with its shape; tensors are float32
-    on `device` and the model is in eval mode.
-    """
+    """Read the checkpoint and `fill_strictly` a model from it."""
     state = read_state_dict(checkpoint, what)
+    return fill_strictly(build, state, f"{what} {checkpoint}", device, ignored_prefixes)
+
+
+def fill_strictly(
+    build: Callable[[], ModelT],
+    state: Mapping[str, torch.Tensor],
+    source: str,
+    device: torch.device | str = "cpu",
+    ignored_prefixes: tuple[str, ...] = (),
+) -> ModelT:
+    """Build the model on the meta device (no random weights) and fill it from a state dict.
+
+    Every tensor the model has must come from the state with its shape; tensors are float32 on
+    `device` and the model is in eval mode. `source` names the checkpoint in the error.
+    """
     with torch.device("meta"):
         model = build()
     problems = state_dict_problems(model, state, ignored_prefixes)
     if problems:
-        raise BackboneError(f"{what} {checkpoint} does not fit the model: " + "; ".join(problems))
+        raise BackboneError(f"{source} does not fit the model: " + "; ".join(problems))
     wanted = set(model.state_dict())
     weights = {
         name: tensor.to(device=device, dtype=torch.float32)
