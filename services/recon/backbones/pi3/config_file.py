@@ -9,7 +9,6 @@ silently describes a model other than the one that is built. Descriptions (free 
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -17,12 +16,11 @@ from services.recon.backbones.pi3.config import (
     IMAGENET_MEAN,
     IMAGENET_STD,
     ConvHeadSizes,
-    HeadDecoderSizes,
-    MetricDecoderSizes,
     Pi3Config,
     Pi3ConfigError,
 )
-from services.recon.backbones.transformer.dinov2 import DinoV2Sizes
+from services.recon.backbones.transformer.checkpoint import read_json_object
+from services.recon.backbones.transformer.sizes import DinoV2Config, TransformerSizes
 
 DESCRIPTIONS = {"output", "alternation", "rotation", "res_block_norm", "depth_encoder", "full_size_values"}
 
@@ -67,19 +65,27 @@ class _Reader:
         return sorted(found)
 
 
-def _encoder(read: _Reader) -> DinoV2Sizes:
+def _encoder(read: _Reader) -> dict[str, Any]:
     read.expect("encoder.kind", "dinov2_with_registers")
     for path, value in (("qkv_bias", True), ("layer_norm_eps", 1e-6), ("ffn", "mlp_gelu")):
         read.expect(f"encoder.{path}", value)
     read.expect("encoder.has_mask_token", False)
-    names = ("img_size", "patch_size", "embed_dim", "depth", "num_heads", "mlp_ratio", "num_register_tokens")
-    sizes = {name: read.get(f"encoder.{name}") for name in names}
-    return DinoV2Sizes(
-        **sizes,
-        init_values=read.get("encoder.init_values"),
-        interpolate_antialias=read.get("encoder.interpolate_antialias"),
+    read.expect("encoder.patch_size", read.get("patch_size"))
+    names = ("embed_dim", "depth", "num_heads", "mlp_ratio", "init_values", "interpolate_antialias")
+    encoder = DinoV2Config(
+        **{name: read.get(f"encoder.{name}") for name in names},
         interpolate_offset=read.get("encoder.interpolate_offset"),
-        mask_token=False,
+    )
+    return {
+        "encoder": encoder,
+        "encoder_img_size": read.get("encoder.img_size"),
+        "encoder_registers": read.get("encoder.num_register_tokens"),
+    }
+
+
+def _sizes(read: _Reader, part: str) -> TransformerSizes:
+    return TransformerSizes(
+        *(read.get(f"{part}.{n}") for n in ("embed_dim", "depth", "num_heads", "mlp_ratio"))
     )
 
 
@@ -99,16 +105,11 @@ def _decoder(read: _Reader) -> dict[str, Any]:
     read.expect("camera_head.dim", read.get("camera_decoder_out_dim"))
     read.expect("camera_head.num_res_blocks", 2)
     return {
-        "decoder_dim": dim,
-        "decoder_depth": read.get("decoder.depth"),
-        "decoder_heads": read.get("decoder.num_heads"),
-        "decoder_mlp_ratio": read.get("decoder.mlp_ratio"),
+        "decoder": _sizes(read, "decoder"),
         "decoder_init_values": read.get("decoder.init_values"),
         "rope_freq": read.get("decoder.rope_freq"),
         "num_register_tokens": read.get("decoder.num_register_tokens"),
-        "head_decoder": HeadDecoderSizes(
-            **{n: read.get(f"head_decoder.{n}") for n in ("embed_dim", "depth", "num_heads", "mlp_ratio")}
-        ),
+        "head_decoder": _sizes(read, "head_decoder"),
         "point_decoder_out_dim": read.get("point_decoder_out_dim"),
         "conf_decoder_out_dim": read.get("conf_decoder_out_dim"),
         "camera_decoder_out_dim": read.get("camera_decoder_out_dim"),
@@ -148,8 +149,6 @@ def _metric_and_conditions(read: _Reader, dim: int, patch: int) -> dict[str, Any
     read.expect("metric_decoder.kind", "cross-attention only (metric token queries all tokens of all views)")
     read.expect("metric_decoder.in_dim", 2 * dim)
     read.expect("metric_token_dim", 2 * dim)
-    names = ("embed_dim", "depth", "num_heads", "mlp_ratio", "out_dim")
-    metric = MetricDecoderSizes(**{n: read.get(f"metric_decoder.{n}") for n in names})
     read.expect("multimodal.ray_embed.in_chans", 2)
     read.expect("multimodal.ray_embed.patch_size", patch)
     read.expect("multimodal.ray_embed.embed_dim", dim)
@@ -157,7 +156,8 @@ def _metric_and_conditions(read: _Reader, dim: int, patch: int) -> dict[str, Any
     after = tuple(read.get("multimodal.pose_inject_after_decoder_blocks"))
     read.expect("multimodal.pose_inject_blocks", len(after))
     return {
-        "metric_decoder": metric,
+        "metric_decoder": _sizes(read, "metric_decoder"),
+        "metric_out_dim": read.get("metric_decoder.out_dim"),
         "pose_inject_after": after,
         "pose_inject_heads": read.get("multimodal.pose_inject_num_heads"),
     }
@@ -172,12 +172,12 @@ def config_from_fixture_format(values: dict[str, Any]) -> Pi3Config:
     arguments: dict[str, Any] = {
         "arch": arch,
         "patch_size": patch,
-        "encoder": _encoder(read),
+        **_encoder(read),
         **_decoder(read),
     }
     if arch == "pi3x":
         arguments["conv_head"] = _conv_heads(read)
-        arguments.update(_metric_and_conditions(read, arguments["decoder_dim"], patch))
+        arguments.update(_metric_and_conditions(read, arguments["decoder"].embed_dim, patch))
     else:
         _linear_heads(read, patch)
     unknown = read.leftovers()
@@ -191,10 +191,5 @@ def config_from_fixture_format(values: dict[str, Any]) -> Pi3Config:
 
 def read_pi3_config(path: str | Path) -> Pi3Config:
     """A `Pi3Config` from a JSON file in the fixtures' format; Pi3ConfigError says what is wrong."""
-    try:
-        values = json.loads(Path(path).read_text())
-    except (OSError, json.JSONDecodeError) as error:
-        raise Pi3ConfigError(f"cannot read Pi3 config {path}: {error}") from error
-    if not isinstance(values, dict):
-        raise Pi3ConfigError(f"Pi3 config {path} is not a JSON object")
+    values = read_json_object(path, "Pi3 config", Pi3ConfigError)
     return config_from_fixture_format(values)

@@ -6,8 +6,8 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from services.recon.backbones.pi3.config import MetricDecoderSizes
 from services.recon.backbones.transformer.layers import Mlp, RotaryEmbedding2D, attend
+from services.recon.backbones.transformer.sizes import TransformerSizes
 
 
 class CrossAttention(nn.Module):
@@ -54,7 +54,7 @@ class CrossOnlyBlock(nn.Module):
 
 
 class MetricDecoder(nn.Module):
-    def __init__(self, in_dim: int, sizes: MetricDecoderSizes, rope: RotaryEmbedding2D) -> None:
+    def __init__(self, in_dim: int, sizes: TransformerSizes, out_dim: int, rope: RotaryEmbedding2D) -> None:
         super().__init__()
         dim = sizes.embed_dim
         self.projects_x = nn.Linear(in_dim, dim)
@@ -62,7 +62,7 @@ class MetricDecoder(nn.Module):
         self.blocks = nn.ModuleList(
             CrossOnlyBlock(dim, sizes.num_heads, sizes.mlp_ratio, rope) for _ in range(sizes.depth)
         )
-        self.linear_out = nn.Linear(dim, sizes.out_dim)
+        self.linear_out = nn.Linear(dim, out_dim)
 
     def forward(
         self, query: torch.Tensor, context: torch.Tensor, query_pos: torch.Tensor, context_pos: torch.Tensor

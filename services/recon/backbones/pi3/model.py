@@ -47,18 +47,18 @@ class Pi3Trunk(nn.Module):
         self.patch_size = patch
         self.patch_start_idx = config.num_register_tokens
         self.rope = RotaryEmbedding2D(config.rope_freq)
-        self.encoder = DinoV2WithRegisters(config.encoder)
+        self.encoder = self._encoder(in_chans=3)
         self.decoder = nn.ModuleList(
             Block(
                 dim,
-                config.decoder_heads,
-                config.decoder_mlp_ratio,
+                config.decoder.num_heads,
+                config.decoder.mlp_ratio,
                 config.decoder_init_values,
                 qk_norm=True,
                 rope=self.rope,
                 norm_eps=1e-6,
             )
-            for _ in range(config.decoder_depth)
+            for _ in range(config.decoder.depth)
         )
         self.register_token = nn.Parameter(torch.zeros(1, 1, config.num_register_tokens, dim))
         self.register_buffer("image_mean", torch.tensor(IMAGENET_MEAN).view(1, 3, 1, 1))
@@ -67,6 +67,17 @@ class Pi3Trunk(nn.Module):
         self.conf_decoder = self._head_decoder(config.conf_decoder_out_dim)
         self.camera_decoder = self._head_decoder(config.camera_decoder_out_dim)
         self.camera_head = CameraHead(config.camera_decoder_out_dim)
+
+    def _encoder(self, in_chans: int) -> DinoV2WithRegisters:
+        config = self.config
+        return DinoV2WithRegisters(
+            config.encoder,
+            config.encoder_img_size,
+            config.patch_size,
+            config.encoder_registers,
+            in_chans,
+            False,
+        )
 
     def _head_decoder(self, out_dim: int) -> HeadDecoder:
         head = self.config.head_decoder
@@ -167,15 +178,15 @@ class Pi3X(Pi3Trunk):
         self.point_head = ConvHead(config.point_decoder_out_dim, config.conv_head, (2, 1), config.patch_size)
         self.conf_head = ConvHead(config.conf_decoder_out_dim, config.conv_head, (1,), config.patch_size)
         self.metric_token = nn.Parameter(torch.zeros(1, 1, 2 * dim))
-        self.metric_decoder = MetricDecoder(2 * dim, config.metric_decoder, self.rope)
-        self.metric_head = nn.Linear(config.metric_decoder.out_dim, 1)
+        self.metric_decoder = MetricDecoder(2 * dim, config.metric_decoder, config.metric_out_dim, self.rope)
+        self.metric_head = nn.Linear(config.metric_out_dim, 1)
         if multimodal:
-            self.depth_encoder = DinoV2WithRegisters(replace(config.encoder, in_chans=2))
+            self.depth_encoder = self._encoder(in_chans=2)
             self.depth_emb = nn.Parameter(torch.zeros(1, 1, dim))
             self.ray_embed = RayEmbedding(config.patch_size, dim, in_chans=2)
             self.pose_inject_blk = nn.ModuleList(
                 PoseInjectBlock(
-                    dim, config.pose_inject_heads, config.decoder_mlp_ratio, config.decoder_init_values
+                    dim, config.pose_inject_heads, config.decoder.mlp_ratio, config.decoder_init_values
                 )
                 for _ in config.pose_inject_after
             )

@@ -1,4 +1,5 @@
-"""Read a checkpoint (.pt state dict or .safetensors) and load it strictly into a model.
+"""Read a checkpoint (.pt state dict or .safetensors) and load it strictly into a model; read a
+model's JSON configuration file.
 
 A missing, unexpected or mis-shaped tensor is an error that lists what is wrong; only tensors
 under the prefixes a model declares optional may be absent (or present without a place).
@@ -7,6 +8,7 @@ under the prefixes a model declares optional may be absent (or present without a
 from __future__ import annotations
 
 import hashlib
+import json
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TypeVar
@@ -135,3 +137,14 @@ def file_digest(path: str | Path, chunk_bytes: int = 16 << 20) -> str:
         while chunk := handle.read(chunk_bytes):
             digest.update(chunk)
     return digest.hexdigest()
+
+
+def read_json_object(path: str | Path, what: str, error: type[Exception]) -> dict:
+    """A JSON object from a model configuration file; `error` (with the reason) when it is not one."""
+    try:
+        values = json.loads(Path(path).read_text())
+    except (OSError, json.JSONDecodeError) as problem:
+        raise error(f"cannot read {what} {path}: {problem}") from problem
+    if not isinstance(values, dict):
+        raise error(f"{what} {path} is not a JSON object")
+    return values

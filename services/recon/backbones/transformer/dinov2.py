@@ -2,31 +2,12 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import torch
 import torch.nn.functional as F
 from torch import nn
 
 from services.recon.backbones.transformer.layers import Block
-
-
-@dataclass(frozen=True)
-class DinoV2Sizes:
-    """The numbers that make one DINOv2-with-registers encoder (defaults: ViT-L/14 with 4 registers)."""
-
-    embed_dim: int = 1024
-    depth: int = 24
-    num_heads: int = 16
-    mlp_ratio: float = 4.0
-    init_values: float = 1.0
-    img_size: int = 518  # the position table covers (img_size / patch_size)^2 patches
-    patch_size: int = 14
-    num_register_tokens: int = 4
-    interpolate_antialias: bool = True
-    interpolate_offset: float = 0.0
-    in_chans: int = 3  # Pi3X's depth encoder reads 2 channels (depth, validity)
-    mask_token: bool = True  # VGGT's checkpoint keeps DINOv2's training-only mask token; Pi3's does not
+from services.recon.backbones.transformer.sizes import DinoV2Config
 
 
 class PatchProjection(nn.Module):
@@ -41,25 +22,36 @@ class PatchProjection(nn.Module):
 
 
 class DinoV2WithRegisters(nn.Module):
-    def __init__(self, sizes: DinoV2Sizes) -> None:
+    """`in_chans`: 3 for images, 2 for Pi3X's depth encoder (depth, validity). `mask_token`: VGGT's
+    checkpoint keeps DINOv2's training-only mask token, Pi3's do not."""
+
+    def __init__(
+        self,
+        config: DinoV2Config,
+        img_size: int,
+        patch_size: int,
+        num_register_tokens: int,
+        in_chans: int = 3,
+        mask_token: bool = True,
+    ) -> None:
         super().__init__()
-        dim = sizes.embed_dim
-        self.sizes = sizes
-        self.patch_size = sizes.patch_size
-        self.grid_side = sizes.img_size // sizes.patch_size
-        self.patch_embed = PatchProjection(sizes.patch_size, dim, sizes.in_chans)
+        dim = config.embed_dim
+        self.config = config
+        self.patch_size = patch_size
+        self.grid_side = img_size // patch_size  # the position table covers this square grid
+        self.patch_embed = PatchProjection(patch_size, dim, in_chans)
         self.cls_token = nn.Parameter(torch.zeros(1, 1, dim))
         self.pos_embed = nn.Parameter(torch.zeros(1, self.grid_side**2 + 1, dim))
-        self.register_tokens = nn.Parameter(torch.zeros(1, sizes.num_register_tokens, dim))
-        if sizes.mask_token:
+        self.register_tokens = nn.Parameter(torch.zeros(1, num_register_tokens, dim))
+        if mask_token:
             # Used by DINOv2 only for masked-image training; kept so the checkpoint loads unchanged.
             self.mask_token = nn.Parameter(torch.zeros(1, dim), requires_grad=False)
         self.blocks = nn.ModuleList(
-            Block(dim, sizes.num_heads, sizes.mlp_ratio, sizes.init_values, norm_eps=1e-6)
-            for _ in range(sizes.depth)
+            Block(dim, config.num_heads, config.mlp_ratio, config.init_values, norm_eps=1e-6)
+            for _ in range(config.depth)
         )
         self.norm = nn.LayerNorm(dim, eps=1e-6)
-        self.num_register_tokens = sizes.num_register_tokens
+        self.num_register_tokens = num_register_tokens
 
     def position_embedding(self, rows: int, columns: int) -> torch.Tensor:
         """The class token's embedding and the patch grid's, resampled to rows x columns (bicubic)."""
@@ -68,12 +60,12 @@ class DinoV2WithRegisters(nn.Module):
             return self.pos_embed
         table = self.pos_embed.float()
         grid = table[:, 1:].reshape(1, side, side, -1).permute(0, 3, 1, 2)
-        offset = self.sizes.interpolate_offset
+        offset = self.config.interpolate_offset
         if offset:
             resize = {"scale_factor": ((rows + offset) / side, (columns + offset) / side)}
         else:
             resize = {"size": (rows, columns)}
-        grid = F.interpolate(grid, mode="bicubic", antialias=self.sizes.interpolate_antialias, **resize)
+        grid = F.interpolate(grid, mode="bicubic", antialias=self.config.interpolate_antialias, **resize)
         grid = grid.permute(0, 2, 3, 1).reshape(1, rows * columns, -1)
         return torch.cat((table[:, :1], grid), dim=1).to(self.pos_embed.dtype)
 

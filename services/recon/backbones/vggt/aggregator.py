@@ -26,7 +26,9 @@ class Aggregator(nn.Module):
         super().__init__()
         dim = config.embed_dim
         self.patch_size = config.patch_size
-        self.patch_embed = DinoV2WithRegisters(config.patch_embed_sizes())
+        self.patch_embed = DinoV2WithRegisters(
+            config.patch_embed, config.img_size, config.patch_size, config.num_register_tokens
+        )
         self.rope = RotaryEmbedding2D(config.rope_freq) if config.rope_freq > 0 else None
 
         def make_block() -> Block:

@@ -8,25 +8,16 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from services.recon.backbones.transformer.dinov2 import DinoV2Sizes
+from services.recon.backbones.transformer.checkpoint import read_json_object
+from services.recon.backbones.transformer.sizes import DinoV2Config
 
 
 class VGGTConfigError(ValueError):
     """A configuration file or mapping does not describe a VGGT model this code can build."""
 
 
-@dataclass(frozen=True)
-class PatchEmbedConfig:
-    """The DINOv2-with-registers vision transformer that turns each image into patch tokens."""
-
-    kind: str = "dinov2_reg"
-    embed_dim: int = 1024
-    depth: int = 24
-    num_heads: int = 16
-    mlp_ratio: float = 4.0
-    init_values: float = 1.0
-    interpolate_antialias: bool = True
-    interpolate_offset: float = 0.0
+# The patch embedder is the shared DINOv2 encoder; its JSON keys are that description's fields.
+PatchEmbedConfig = DinoV2Config
 
 
 @dataclass(frozen=True)
@@ -93,32 +84,11 @@ class VGGTConfig:
 
     @classmethod
     def from_json(cls, path: str | Path) -> VGGTConfig:
-        try:
-            values = json.loads(Path(path).read_text())
-        except (OSError, json.JSONDecodeError) as error:
-            raise VGGTConfigError(f"cannot read VGGT config {path}: {error}") from error
-        if not isinstance(values, dict):
-            raise VGGTConfigError(f"VGGT config {path} is not a JSON object")
+        values = read_json_object(path, "VGGT config", VGGTConfigError)
         return cls.from_dict(values)
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
-
-    def patch_embed_sizes(self) -> DinoV2Sizes:
-        """The patch embedder as the shared DINOv2 module takes it (with the mask token VGGT keeps)."""
-        embed = self.patch_embed
-        return DinoV2Sizes(
-            embed_dim=embed.embed_dim,
-            depth=embed.depth,
-            num_heads=embed.num_heads,
-            mlp_ratio=embed.mlp_ratio,
-            init_values=embed.init_values,
-            img_size=self.img_size,
-            patch_size=self.patch_size,
-            num_register_tokens=self.num_register_tokens,
-            interpolate_antialias=embed.interpolate_antialias,
-            interpolate_offset=embed.interpolate_offset,
-        )
 
     def fingerprint(self) -> str:
         """A short hash of every size, so that versions change when the architecture does."""
