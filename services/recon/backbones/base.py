@@ -28,6 +28,9 @@ class Backbone(ABC):
     # True when `reconstruct` takes `intrinsics` (per view a 3x3 in the image's pixels, or None)
     # and `intrinsics_sources` (per view "uploaded" / "exif", or None) and uses them.
     accepts_intrinsics: bool = False
+    # True when `reconstruct` also takes a posed RGB-D upload's `depths` (per view (h, w) z-depth)
+    # and `extrinsics` ((V, 3, 4) camera-from-world) as conditions.
+    accepts_posed_depth: bool = False
 
     @abstractmethod
     def reconstruct(self, images: Sequence[np.ndarray], **options: Any) -> Reconstruction: ...
@@ -42,6 +45,8 @@ _REGISTRY: dict[str, str] = {
     "classical": "services.recon.backbones.classical:ClassicalBackbone",
     "posed-rgbd": "services.recon.backbones.posed_rgbd:PosedRGBDBackbone",
     "vggt": "services.recon.backbones.vggt.backbone:VGGTBackbone",
+    "pi3": "services.recon.backbones.pi3.backbone:Pi3Backbone",
+    "pi3x": "services.recon.backbones.pi3.backbone:Pi3XBackbone",
 }
 
 
