@@ -134,3 +134,56 @@ def architecture_problems(name: str, given: Shapes, config_path: str | None = No
 def verify(name: str, path: str | os.PathLike, config_path: str | None = None) -> list[str]:
     """`architecture_problems` of the file at `path` (reads names and shapes only)."""
     return architecture_problems(name, checkpoint_shapes(path), config_path)
+
+
+def pull(name: str, revision: str = "main") -> Path:
+    """Download a backbone's published file into the hub cache (progress on stderr) and return it.
+
+    huggingface_hub resumes a download whose connection drops (HTTP range requests) and keeps
+    the cache consistent; a file already in the cache at that revision is not fetched again.
+    """
+    from huggingface_hub import constants, hf_hub_download
+    from huggingface_hub.errors import (
+        HfHubHTTPError,
+        LocalEntryNotFoundError,
+        OfflineModeIsEnabled,
+        RemoteEntryNotFoundError,
+        RepositoryNotFoundError,
+        RevisionNotFoundError,
+    )
+
+    entry = published(name)
+    where = f"{entry.repo_id}/{entry.filename}@{revision}"
+    try:
+        return Path(hf_hub_download(entry.repo_id, entry.filename, revision=revision))
+    except (RepositoryNotFoundError, RevisionNotFoundError, RemoteEntryNotFoundError) as error:
+        raise WeightsError(
+            f"the model hub at {constants.ENDPOINT} has no {where}: {_first_line(error)}"
+        ) from error
+    except (OfflineModeIsEnabled, LocalEntryNotFoundError) as error:
+        if constants.is_offline_mode():
+            raise WeightsError(f"HF_HUB_OFFLINE is set and {where} is not in the hub cache") from error
+        raise WeightsError(
+            f"cannot reach the model hub at {constants.ENDPOINT} to download {where} (no network? "
+            "set HF_ENDPOINT to a reachable hub or mirror)"
+        ) from error
+    except HfHubHTTPError as error:
+        raise WeightsError(
+            f"the model hub at {constants.ENDPOINT} refused {where}: {_first_line(error)}"
+        ) from error
+    except OSError as error:
+        raise WeightsError(
+            f"cannot store {where} in the hub cache {constants.HF_HUB_CACHE}: {error}"
+        ) from error
+
+
+def remove_from_cache(path: Path) -> None:
+    """Delete a pulled file (the snapshot link and the blob it points to), so nothing finds it again."""
+    blob = path.resolve()
+    path.unlink(missing_ok=True)
+    if blob != path:
+        blob.unlink(missing_ok=True)
+
+
+def _first_line(error: Exception) -> str:
+    return str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
