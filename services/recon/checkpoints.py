@@ -43,6 +43,9 @@ CATALOGUE: dict[str, PublishedCheckpoint] = {
 }
 
 
+WEIGHTS_ABSENT = "weights not present"
+
+
 class WeightsError(RuntimeError):
     """A checkpoint cannot be pulled, found or verified; the message says what to do."""
 
@@ -77,11 +80,11 @@ def locate(name: str, explicit: str | os.PathLike | None, revision: str = "main"
         path = Path(explicit)
         if path.is_file():
             return path, f"set path {path}"
-        return None, f"weights not present: the configured checkpoint {path} does not exist"
+        return None, f"{WEIGHTS_ABSENT}: the configured checkpoint {path} does not exist"
     found = cached_path(name, revision)
     if found is not None:
         return found, f"hub cache ({published(name).repo_id}@{revision})"
-    return None, f"weights not present: run `{published(name).pull_command}`"
+    return None, f"{WEIGHTS_ABSENT}: run `{published(name).pull_command}`"
 
 
 def checkpoint_shapes(path: str | os.PathLike) -> Shapes:

@@ -10,6 +10,11 @@ from shared.questions.intent import QuestionIntent
 
 Matrix = list[list[float]]
 ImageFormat = Literal["png", "jpeg"]
+Units = Literal["metres", "relative"]
+UNITS_DESCRIPTION = (
+    "What one unit of the world frame is: metres (pi3x's metric head; posed-rgbd, whose depths are "
+    "metres) or relative (classical, vggt, pi3: an arbitrary scale, only ratios of lengths mean anything)."
+)
 SCENE_ID_PATTERN = r"^[0-9a-f]{24}$"  # content hash prefix, see services/recon/scene_store.py
 
 
@@ -84,7 +89,7 @@ class CameraInfo(_Model):
         None,
         description="Where the intrinsics came from: uploaded, exif, self-calibrated (classical: "
         "estimated from the views), prior (a guessed field of view), given (posed-rgbd), predicted "
-        "(vggt); null when not reported.",
+        "(vggt; pi3 and pi3x: fitted to the predicted points); null when not reported.",
     )
     width: int
     height: int
@@ -101,6 +106,7 @@ class ReconstructionSummary(_Model):
     bounds_min: list[float]
     bounds_max: list[float]
     up: list[float] = Field(..., description="Scene up axis estimated from the cameras (world frame).")
+    units: Units = Field("relative", description=UNITS_DESCRIPTION)
     warnings: list[str]
     pairs: list[PairConfidenceInfo] = Field(
         default_factory=list, description="Support of each pair of registered views (classical)."
@@ -144,6 +150,7 @@ class CameraMotionItem(_Model):
     yaw_deg: float | None = Field(None, description="Turn about the up axis between the views; + = left.")
     turn: str | None = Field(None, description="The turn in words, e.g. 'turned left by about 90 degrees'.")
     sentence: str = Field(..., description="The motion in one sentence, or that it is unknown and why.")
+    units: Units | None = Field(None, description="Units of distance and vertical (null when unknown).")
 
 
 class CameraMotionResponse(_Model):

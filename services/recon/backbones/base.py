@@ -16,6 +16,10 @@ class BackboneError(RuntimeError):
     """A backbone cannot run (bad configuration, missing checkpoint) or cannot use the input."""
 
 
+class BackboneLoadError(BackboneError):
+    """A backbone's weights could not be loaded when it first ran (an installation fault, not the input's)."""
+
+
 class Backbone(ABC):
     """Turns RGB images of one scene into a `Reconstruction`.
 

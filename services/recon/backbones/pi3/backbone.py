@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from services.recon.backbones.base import Backbone, BackboneError
+from services.recon.backbones.base import Backbone, BackboneError, BackboneLoadError
 from services.recon.backbones.pi3.cameras import extrinsics_from_poses, fit_focal
 from services.recon.backbones.pi3.checkpoint import load_pi3
 from services.recon.backbones.pi3.config import Arch, Pi3Config, Pi3ConfigError
@@ -29,7 +29,7 @@ from services.recon.backbones.pi3.config_file import read_pi3_config
 from services.recon.backbones.pi3.inputs import Pi3XInputs, conditioning_inputs
 from services.recon.backbones.pi3.preprocessing import ViewScale, preprocess
 from services.recon.backbones.transformer.checkpoint import file_digest
-from services.recon.checkpoints import CATALOGUE, locate
+from services.recon.checkpoints import CATALOGUE, WeightsError, locate, verify
 from shared.geometry.reconstruction import Reconstruction
 
 DEFAULT_CONFIDENCE = 0.1  # points kept where sigmoid(confidence) reaches this (as the published demo)
@@ -66,8 +66,22 @@ class Pi3FamilyBackbone(Backbone):
         self._model: Any = None
         self._load_lock = threading.Lock()
         self._run_lock = threading.Lock()  # one forward pass at a time: each can take gigabytes
+        self._check_header(config)
         weights = "absent" if self.checkpoint is None else f"w{_weights_id(self.checkpoint)}"
         self.version = f"cfg{self.config.fingerprint()}-{weights}"
+
+    def _check_header(self, config: str | None) -> None:
+        """Refuse a safetensors checkpoint whose tensors do not fit, before anything loads it."""
+        if self.checkpoint is None or self.checkpoint.suffix.lower() != ".safetensors":
+            return
+        try:
+            problems = verify(self.name, self.checkpoint, config)  # reads the header only
+        except WeightsError as error:
+            raise BackboneError(str(error)) from error
+        if problems:
+            raise BackboneError(
+                f"checkpoint {self.checkpoint} does not fit {self.name}: " + "; ".join(problems)
+            )
 
     def ready(self) -> tuple[bool, str]:
         if self.checkpoint is None:
@@ -81,7 +95,10 @@ class Pi3FamilyBackbone(Backbone):
             raise BackboneError(self.found)
         with self._load_lock:
             if self._model is None:
-                self._model = load_pi3(self.checkpoint, self.config, self.device)
+                try:
+                    self._model = load_pi3(self.checkpoint, self.config, self.device)
+                except BackboneError as error:
+                    raise BackboneLoadError(str(error)) from error
             return self._model
 
     def _autocast(self) -> Any:
