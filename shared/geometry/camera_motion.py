@@ -309,19 +309,9 @@ def describe_pairs(
             units=units,
         )
         for (i, j), motion in zip(good_pairs, motions, strict=True):
-            described[(i, j)] = replace(
-                motion,
-                from_view=i,
-                to_view=j,
-                sentence=_sentence(
-                    i,
-                    j,
-                    motion.direction,
-                    motion.turn,
-                    motion.vertical_direction,
-                    _lengths(units, motion.distance, motion.vertical),
-                ),
-            )
+            lengths = _lengths(units, motion.distance, motion.vertical)
+            sentence = _sentence(i, j, motion.direction, motion.turn, motion.vertical_direction, lengths)
+            described[(i, j)] = replace(motion, from_view=i, to_view=j, sentence=sentence)
     for i, j in pairs:
         i, j = int(i), int(j)
         if (i, j) in described:

@@ -44,6 +44,22 @@ class Backbone(ABC):
         return True, "ok"
 
 
+def check_rgb_images(images: Sequence[np.ndarray], backbone: str) -> None:
+    """At least one image, each a uint8 (H, W, 3) RGB array at least 2 pixels on a side."""
+    if len(images) == 0:
+        raise BackboneError(f"{backbone} needs at least one image")
+    for index, image in enumerate(images):
+        if (
+            not isinstance(image, np.ndarray)
+            or image.dtype != np.uint8
+            or image.ndim != 3
+            or image.shape[2] != 3
+        ):
+            raise BackboneError(f"image {index} is not a uint8 (H, W, 3) RGB array")
+        if min(image.shape[:2]) < 2:
+            raise BackboneError(f"image {index} is too small: {image.shape[1]}x{image.shape[0]}")
+
+
 # name -> "module:factory"; imported lazily so that e.g. torch loads only for backbones that need it.
 _REGISTRY: dict[str, str] = {
     "classical": "services.recon.backbones.classical:ClassicalBackbone",

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from services.recon.backbones.base import Backbone, BackboneError, BackboneLoadError
+from services.recon.backbones.base import Backbone, BackboneError, BackboneLoadError, check_rgb_images
 from services.recon.backbones.pi3.cameras import extrinsics_from_poses, fit_focal
 from services.recon.backbones.pi3.checkpoint import load_pi3
 from services.recon.backbones.pi3.config import Arch, Pi3Config, Pi3ConfigError
@@ -41,9 +41,9 @@ class Pi3FamilyBackbone(Backbone):
     def __init__(
         self,
         checkpoint: str | None = None,
+        revision: str = "main",  # of the hub cache, when no checkpoint path is given
         config: str | None = None,
         device: str | None = None,
-        revision: str = "main",
         confidence_threshold: float = DEFAULT_CONFIDENCE,
         pixel_limit: int = 255_000,
         max_views: int = 64,
@@ -109,23 +109,12 @@ class Pi3FamilyBackbone(Backbone):
         return torch.autocast(device_type="cuda", dtype=dtype)
 
     def check_views(self, images: Sequence[np.ndarray]) -> None:
-        if len(images) == 0:
-            raise BackboneError(f"{self.name} needs at least one image")
+        check_rgb_images(images, self.name)
         if len(images) > self.max_views:
             raise BackboneError(
                 f"{self.name} takes at most {self.max_views} views here (PYSPATIAL_PI3_MAX_VIEWS); "
                 f"got {len(images)}"
             )
-        for index, image in enumerate(images):
-            if (
-                not isinstance(image, np.ndarray)
-                or image.dtype != np.uint8
-                or image.ndim != 3
-                or image.shape[2] != 3
-            ):
-                raise BackboneError(f"image {index} is not a uint8 (H, W, 3) RGB array")
-            if min(image.shape[:2]) < 2:
-                raise BackboneError(f"image {index} is too small: {image.shape[1]}x{image.shape[0]}")
 
     def forward(self, batch: torch.Tensor, conditions: Pi3XInputs | None) -> dict[str, np.ndarray]:
         model = self.model()
