@@ -12,9 +12,10 @@ from fastapi.responses import JSONResponse
 from pydantic import ValidationError
 from starlette.datastructures import UploadFile
 
+from services.agent.errors import SolveError
 from services.agent.infrastructure import InfrastructureFailure, recon_error_status
 from services.agent.llm import LLMError
-from services.agent.pipeline import SolveError, SolvePipeline
+from services.agent.pipeline import SolvePipeline
 from services.agent.sandbox.jail import announce, remove_stale_workdirs
 from services.agent.solve_stream import event_stream, wants_event_stream
 from services.agent.web_routes import install_web_routes

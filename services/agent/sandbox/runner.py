@@ -31,8 +31,7 @@ _BOOT = (
 )
 # In the jail: -S as well (no site-packages scan, no .pth files); sys.path is exactly what is mounted.
 _JAILED_BOOT = (
-    "import sys; sys.path[:0] = {paths!r}; "
-    "from services.agent.sandbox.worker import main; main(jailed=True)"
+    "import sys; sys.path[:0] = {paths!r}; from services.agent.sandbox.worker import main; main(jailed=True)"
 )
 _JAILED_STATUS = JailStatus(JailMode.REQUIRED, True, "")
 MIN_RENDER_SIZE = 16
