@@ -115,7 +115,7 @@ class SolvePipeline:
         if written.run is None and self.answer_client is not None:
             why = f"no program ran successfully: {written.failure}"
             return self._from_photos(log, intent, scene, recon, written, why)
-        reading = read_clue(written, intent, runs.tools, recon.summary)
+        reading = read_clue(written, intent, runs.tools, recon.cameras)
         with log.record(AnswerStep(answerer=self.answer_model_name)) as answer:
             from_clue(answer, self.answerers, intent, scene.input_pngs, written, reading)
         return respond(log, intent, scene, recon, written, answer, reading)

@@ -314,7 +314,7 @@ class ReconstructionStep(StepRecord):
     num_views: int = 0
     num_points: int = 0
     cached: bool = False
-    summary: ReconstructionSummary | None = Field(None, exclude=True, repr=False)
+    cameras: list[CameraInfo] = Field(default_factory=list, exclude=True, repr=False)
 
 
 class ProgramStep(StepRecord):

@@ -14,7 +14,7 @@ from services.agent.evidence import typed_in_lines
 from services.agent.recon_tools import ReconToolProvider
 from services.agent.stages.program import WrittenProgram
 from shared.questions.intent import QuestionIntent
-from shared.wire.schemas import Clue, ReconstructionSummary
+from shared.wire.schemas import CameraInfo, Clue
 
 EMPTY_VIEW_COVERAGE = 0.05  # a rendered view with less of its area drawn than this "shows nothing"
 
@@ -46,7 +46,7 @@ class ClueReading:
 
 
 def read_clue(
-    written: WrittenProgram, intent: QuestionIntent, tools: ReconToolProvider, summary: ReconstructionSummary
+    written: WrittenProgram, intent: QuestionIntent, tools: ReconToolProvider, cameras: list[CameraInfo]
 ) -> ClueReading:
     """The clue of `written.run` (a successful run) with notes on empty views and typed-in lines."""
     run, program = written.run, written.program
@@ -60,7 +60,7 @@ def read_clue(
     clue = Clue(
         text=run.clue_text,
         images=[base64.b64encode(png).decode("ascii") for png in run.clue_pngs],
-        views=clue_views(run.clue_pngs, tools, summary),
+        views=clue_views(run.clue_pngs, tools, cameras),
         notes=notes,
     )
     return ClueReading(clue, text, notes)

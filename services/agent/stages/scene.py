@@ -61,7 +61,7 @@ def reconstruct(step: ReconstructionStep, scene_id: str, recon: ReconClient) -> 
         step.backbone = used
         step.error = f"the {used} backbone could not reconstruct the scene: {error.message}"
         return step
-    step.summary = summary
+    step.cameras = summary.cameras
     step.backbone = summary.backbone
     step.views_placed = sum(camera.registered for camera in summary.cameras)
     step.num_views = len(summary.cameras)
