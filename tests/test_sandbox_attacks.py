@@ -23,7 +23,7 @@ from PIL import Image
 
 from services.agent.sandbox import SandboxLimits, run_program
 from services.agent.sandbox.builtins import OutputCapture, program_globals
-from services.agent.sandbox.runner import REPO_ROOT
+from services.agent.sandbox.worker_process import REPO_ROOT
 
 # The agent's own output, image and tool-call limits, so that the corpus ends the same way through
 # the runner and through /v1/solve (tests/test_sandbox_http.py sets the same CPU, wall and memory).

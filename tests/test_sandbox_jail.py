@@ -30,7 +30,7 @@ from services.agent.sandbox.jail import (
     python_path,
     remove_stale_workdirs,
 )
-from services.agent.sandbox.runner import REPO_ROOT
+from services.agent.sandbox.worker_process import REPO_ROOT
 from tests.test_sandbox_attacks import TinyTools
 
 LIMITS = SandboxLimits(cpu_seconds=5, wall_seconds=10, memory_mb=512)

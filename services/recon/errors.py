@@ -1,4 +1,4 @@
-"""Errors the reconstruction service maps to HTTP statuses (see app.py)."""
+"""Errors the reconstruction service maps to HTTP statuses (the handler: services/recon/app.py)."""
 
 
 class ReconServiceError(Exception):

@@ -34,6 +34,37 @@ from shared.wire.settings import ReconSettings
 
 MAX_CAMERA_FIELD_BYTES = 1 << 20  # a JSON list of 3x4 matrices for 256 views is ~40 KB
 
+# The request body of `POST /v1/scenes` in OpenAPI: the route reads the raw request (streamed and
+# counted here), so FastAPI cannot derive it from a parameter.
+UPLOAD_OPENAPI = {
+    "requestBody": {
+        "required": True,
+        "content": {
+            "multipart/form-data": {
+                "schema": {
+                    "type": "object",
+                    "properties": {
+                        "images": {"type": "array", "items": {"type": "string", "format": "binary"}},
+                        "depths": {
+                            "type": "array",
+                            "items": {"type": "string", "format": "binary"},
+                            "description": "optional float32 .npy z-depth per image",
+                        },
+                        "extrinsics": {"type": "string", "description": "optional JSON list of 3x4"},
+                        "intrinsics": {
+                            "type": "string",
+                            "description": "optional JSON list of 3x3 (upright image pixels), null per "
+                            "view for unknown cameras",
+                        },
+                    },
+                    "required": ["images"],
+                }
+            },
+            "application/json": {"schema": SceneUpload.model_json_schema()},
+        },
+    }
+}
+
 
 class PixelBudget:
     """Pixels being decoded right now across all uploads; a request that would exceed it waits

@@ -7,6 +7,7 @@ whole image and the intrinsics scale by (w / width, h / height) (docs/ARCHITECTU
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -64,6 +65,42 @@ def backproject_depth(
     return points
 
 
+@dataclass
+class _PosedRGBDView:
+    """One view's contribution to the fused cloud, checked and back-projected."""
+
+    points: np.ndarray  # (N, 3) world
+    colors: np.ndarray  # (N, 3) uint8
+    pose: np.ndarray  # 3x4 camera-from-world
+    intrinsic: np.ndarray  # 3x3, image pixels
+    size: tuple[int, int]  # (width, height) of the image
+    depth_map: np.ndarray
+
+
+def _fuse_view(
+    view: int, image: np.ndarray, depth: np.ndarray, extrinsic: np.ndarray, intrinsic: np.ndarray, stride: int
+) -> _PosedRGBDView:
+    """Check one posed RGB-D view and back-project it, each point coloured by the pixel under it."""
+    image = np.asarray(image)
+    if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
+        raise ValueError(f"image {view} must be uint8 (H, W, 3), got {image.dtype} {image.shape}")
+    depth_map = _check_depth(depth)
+    height, width = image.shape[:2]
+    if depth_map.shape[0] > height or depth_map.shape[1] > width:
+        raise ValueError(f"depth {view} {depth_map.shape} is larger than its image {image.shape[:2]}")
+    pose = validate_extrinsic(extrinsic)[:3]
+    intrinsic = _check_intrinsic(intrinsic)
+    scale_x, scale_y = depth_map.shape[1] / width, depth_map.shape[0] / height
+    points, rows, columns = _backproject(
+        depth_map, scale_intrinsic(intrinsic, scale_x, scale_y), pose, stride
+    )
+    # Image pixel under each depth sample: the grids share their extent, so index scales.
+    image_rows = np.minimum((rows * (height / depth_map.shape[0])).astype(np.int64), height - 1)
+    image_columns = np.minimum((columns * (width / depth_map.shape[1])).astype(np.int64), width - 1)
+    colors = image[image_rows, image_columns]
+    return _PosedRGBDView(points, colors, pose, intrinsic, (width, height), depth_map)
+
+
 def reconstruction_from_rgbd(
     images: Sequence[np.ndarray],
     depths: Sequence[np.ndarray],
@@ -75,7 +112,9 @@ def reconstruction_from_rgbd(
 ) -> Reconstruction:
     """Fuse posed RGB-D views into one coloured cloud; intrinsics are in image pixels.
 
-    Colours come from the image pixel under each depth sample (nearest, via the grid scaling).
+    Extrinsics are 3x4 (or 4x4) camera-from-world [R|t] with OpenCV axes (x right, y down, z
+    forward). Colours come from the image pixel under each depth sample (nearest, via the grid
+    scaling).
     """
     views = len(images)
     if views == 0:
@@ -85,44 +124,23 @@ def reconstruction_from_rgbd(
             raise ValueError(f"{views} images but {len(values)} {name}")
     if stride < 1:
         raise ValueError(f"stride must be >= 1, got {stride}")
-
-    all_points, all_colors, poses, cameras, sizes, depth_maps = [], [], [], [], [], []
-    for view in range(views):
-        image = np.asarray(images[view])
-        if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
-            raise ValueError(f"image {view} must be uint8 (H, W, 3), got {image.dtype} {image.shape}")
-        depth_map = _check_depth(depths[view])
-        height, width = image.shape[:2]
-        if depth_map.shape[0] > height or depth_map.shape[1] > width:
-            raise ValueError(f"depth {view} {depth_map.shape} is larger than its image {image.shape[:2]}")
-        pose = validate_extrinsic(extrinsics[view])[:3]
-        intrinsic = _check_intrinsic(intrinsics[view])
-        scale_x, scale_y = depth_map.shape[1] / width, depth_map.shape[0] / height
-        points, rows, columns = _backproject(
-            depth_map, scale_intrinsic(intrinsic, scale_x, scale_y), pose, stride
-        )
-        # Image pixel under each depth sample: the grids share their extent, so index scales.
-        image_rows = np.minimum((rows * (height / depth_map.shape[0])).astype(np.int64), height - 1)
-        image_columns = np.minimum((columns * (width / depth_map.shape[1])).astype(np.int64), width - 1)
-        all_points.append(points)
-        all_colors.append(image[image_rows, image_columns])
-        poses.append(pose)
-        cameras.append(intrinsic)
-        sizes.append((width, height))
-        depth_maps.append(depth_map)
-
-    warnings = [f"view {v + 1} has no valid depth" for v in range(views) if len(all_points[v]) == 0]
+    fused = [
+        _fuse_view(view, images[view], depths[view], extrinsics[view], intrinsics[view], stride)
+        for view in range(views)
+    ]
     return Reconstruction(
-        points=np.concatenate(all_points).astype(np.float32),
-        colors=np.concatenate(all_colors),
-        extrinsics=np.stack(poses),
-        intrinsics=np.stack(cameras),
-        image_sizes=np.array(sizes),
+        points=np.concatenate([view.points for view in fused]).astype(np.float32),
+        colors=np.concatenate([view.colors for view in fused]),
+        extrinsics=np.stack([view.pose for view in fused]),
+        intrinsics=np.stack([view.intrinsic for view in fused]),
+        image_sizes=np.array([view.size for view in fused]),
         registered=np.ones(views, dtype=bool),
         backbone=backbone,
         backbone_version=version,
-        depths=depth_maps,
-        warnings=warnings,
+        depths=[view.depth_map for view in fused],
+        warnings=[
+            f"view {v + 1} has no valid depth" for v, view in enumerate(fused) if len(view.points) == 0
+        ],
         intrinsics_source=["given"] * views,
     )
 

@@ -37,12 +37,13 @@ locally in the child. Time spent in the parent's tools does not count against `w
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from services.agent.sandbox.runner import ExecutionResult, SandboxLimits, ToolProvider, run_program
+    from services.agent.sandbox.runner import ToolProvider, run_program
     from services.agent.sandbox.validation import ProgramRejected, validate_program
+    from services.agent.sandbox.worker_process import ExecutionResult, SandboxLimits
 
 _EXPORTS = {
-    "ExecutionResult": "runner",
-    "SandboxLimits": "runner",
+    "ExecutionResult": "worker_process",
+    "SandboxLimits": "worker_process",
     "ToolProvider": "runner",
     "run_program": "runner",
     "ProgramRejected": "validation",

@@ -29,9 +29,20 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
+from services.agent.sandbox.protocol import ProtocolError
+from services.agent.sandbox.text import clean_text
+from services.agent.sandbox.worker_process import (
+    JAILED_BOOT,
+    REPO_ROOT,
+    SandboxLimits,
+    ToolFailure,
+    child_environment,
+    job_message,
+    run_worker,
+)
+
 log = logging.getLogger("pyspatial.sandbox")
 
-REPO_ROOT = Path(__file__).resolve().parents[3]
 SANDBOX_UID = 65534  # "nobody": owns nothing on the host
 SANDBOX_GID = 65534
 WORKDIR_PREFIX = "pyspatial-sandbox-"
@@ -158,6 +169,11 @@ def bwrap_command(worker_arguments: list[str]) -> list[str]:
     return command + [interpreter(), *worker_arguments]
 
 
+def jailed_worker_command() -> list[str]:
+    """The sandbox worker inside the jail: `python -I -S` with exactly the mounted sys.path."""
+    return bwrap_command(["-I", "-S", "-c", JAILED_BOOT.format(paths=list(python_path()))])
+
+
 def workdir_prefix() -> str:
     """Host work directories (opt-out mode only) carry the owning process id: pyspatial-sandbox-PID-."""
     return f"{WORKDIR_PREFIX}{os.getpid()}-"
@@ -206,13 +222,37 @@ def probe(mode: JailMode = JailMode.REQUIRED) -> JailStatus:
         return JailStatus(mode, False, f"the OS jail needs Linux namespaces; this is {sys.platform}")
     if shutil.which("bwrap") is None:
         return JailStatus(mode, False, "bubblewrap (bwrap) is not installed: apt-get install bubblewrap")
-    from services.agent.sandbox.runner import probe_jail  # runner imports this module
-
-    problem = probe_jail()
+    problem = _probe_run()
     if problem:
         return JailStatus(mode, False, f"the OS jail could not start a program: {problem}")
     who = f"uid {SANDBOX_UID}" if os.geteuid() == 0 else f"uid {os.geteuid()} in a user namespace"
     return JailStatus(mode, True, f"bubblewrap namespaces, {who}, no capabilities, seccomp filter")
+
+
+class _NoTools:
+    """The probe's program calls no tool and returns no image."""
+
+    limit_exceeded = False
+
+    def handle(self, tool: object, arguments: object) -> object:
+        raise ToolFailure("no tools in the probe")
+
+    def image_bytes(self, handle: object) -> bytes:
+        raise ProtocolError(f"unknown image handle {handle!r}")
+
+
+def _probe_run() -> str | None:
+    """Run one trivial program through the jailed worker; None when it worked, else what went wrong."""
+    source = "def program(input_scene):\n    return 'jail ok'\n"
+    limits = SandboxLimits(cpu_seconds=10, wall_seconds=20, memory_mb=1024, startup_seconds=30)
+    job = job_message(source, "", 0, limits, python_checks=True)
+    try:
+        result = run_worker(jailed_worker_command(), "/", child_environment("/tmp"), job, _NoTools(), limits)
+    except OSError as error:
+        return f"{type(error).__name__}: {error}"
+    if result.ok and result.clue_text == "jail ok":
+        return None
+    return clean_text(result.error) if result.error else "the probe program returned something else"
 
 
 def announce(status: JailStatus) -> None:

@@ -2,7 +2,7 @@
 
 Order matters: everything trusted (imports, protocol streams) is set up first; then the process
 limits are applied, an audit hook is armed, and only then does the program's code run.
-Started by runner.py as `python -I -c ...`; not meant to be run by hand.
+Started by worker_process.py (`python -I -c ...`, in the jail `-I -S`); not meant to be run by hand.
 """
 
 from __future__ import annotations

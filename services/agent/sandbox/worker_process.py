@@ -1,0 +1,264 @@
+"""One sandbox worker process, seen from the parent: start it, hand it its job, answer its tool
+calls, and read its result or why it died.
+
+Both the runner (which decides what runs and serves the real tools) and the jail's start-up probe
+(one trivial program through the real jailed command) start workers through `run_worker`; neither
+imports the other.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol
+
+from services.agent.sandbox.protocol import ChildStreams, ProtocolError, send_before
+
+REPO_ROOT = Path(__file__).resolve().parents[3]
+# -I: no PYTHON* variables, no user site, no current directory on sys.path.
+BOOT = (
+    f"import sys; sys.path.insert(0, {str(REPO_ROOT)!r}); "
+    "from services.agent.sandbox.worker import main; main()"
+)
+# In the jail: -S as well (no site-packages scan, no .pth files); sys.path is exactly what is mounted.
+JAILED_BOOT = (
+    "import sys; sys.path[:0] = {paths!r}; from services.agent.sandbox.worker import main; main(jailed=True)"
+)
+MAX_TOOL_ERROR_CHARS = 1000
+
+
+@dataclass
+class SandboxLimits:
+    cpu_seconds: int = 20
+    wall_seconds: float = 60.0  # program time; waiting for the parent's tools does not count
+    memory_mb: int = 2048
+    max_output_chars: int = 20_000
+    max_images: int = 8
+    max_tool_calls: int = 32
+    startup_seconds: float = 30.0  # interpreter + numpy import, before the program's clock starts
+
+
+@dataclass
+class ExecutionResult:
+    ok: bool
+    error: str | None = None
+    # rejected | timeout | cpu | memory | exception | output | tool_limit | crash | jail
+    error_kind: str | None = None
+    clue_text: str | None = None
+    clue_images: list[bytes] = field(default_factory=list)
+    stdout: str = ""
+    tool_calls: list[str] = field(default_factory=list)
+    duration_ms: float = 0.0
+
+
+_CHILD_FAILURE_KINDS = ("rejected", "memory", "exception", "output", "crash")
+
+
+class ToolFailure(Exception):
+    """A tool request that could not be served; its message goes back to the program."""
+
+
+class ToolServer(Protocol):
+    """What a conversation needs from the parent's side of the tools."""
+
+    limit_exceeded: bool  # the program asked for more tool calls than it may make
+
+    def handle(self, tool: Any, arguments: Any) -> Any:
+        """The JSON value of a tool call; raises ToolFailure with the message for the program."""
+
+    def image_bytes(self, handle: Any) -> bytes:
+        """PNG of an image handle the program returned; ProtocolError for a handle never given out."""
+
+
+def job_message(
+    source: str, question: str, num_images: int, limits: SandboxLimits, python_checks: bool
+) -> dict[str, Any]:
+    """The one message that tells a started worker what to run and within which limits."""
+    return {
+        "type": "job",
+        "source": source,
+        "question": question,
+        "num_images": num_images,
+        "python_checks": python_checks,
+        "limits": {
+            "cpu_seconds": limits.cpu_seconds,
+            "memory_mb": limits.memory_mb,
+            "max_output_chars": limits.max_output_chars,
+            "max_images": limits.max_images,
+        },
+    }
+
+
+def child_environment(home: str) -> dict[str, str]:
+    threads = "1"  # one BLAS thread: cheaper start, and the CPU limit means what it says
+    return {
+        "PATH": "/usr/bin:/bin",
+        "HOME": home,
+        "TMPDIR": home,
+        "LANG": "C.UTF-8",
+        "OPENBLAS_NUM_THREADS": threads,
+        "OMP_NUM_THREADS": threads,
+        "MKL_NUM_THREADS": threads,
+    }
+
+
+def failure(error: str, kind: str, **extra: Any) -> ExecutionResult:
+    return ExecutionResult(ok=False, error=error, error_kind=kind, **extra)
+
+
+def run_worker(
+    command: list[str],
+    cwd: str,
+    environment: dict[str, str],
+    job: dict[str, Any],
+    server: ToolServer,
+    limits: SandboxLimits,
+) -> ExecutionResult:
+    process = subprocess.Popen(
+        command,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        cwd=cwd,
+        env=environment,
+        start_new_session=True,  # its own process group: one kill takes everything it started
+        close_fds=True,
+    )
+    try:
+        return _converse(process, job, server, limits)
+    finally:
+        _kill(process)
+
+
+def _converse(
+    process: subprocess.Popen, job: dict[str, Any], server: ToolServer, limits: SandboxLimits
+) -> ExecutionResult:
+    max_line = 4 * limits.max_output_chars + (1 << 20)
+    streams = ChildStreams(process.stdout.fileno(), process.stderr.fileno(), max_line)
+    try:
+        try:
+            ready = streams.next_message(time.monotonic() + limits.startup_seconds)
+        except TimeoutError:
+            return failure(f"the sandbox did not start within {limits.startup_seconds:g} s", "crash")
+        if ready is None or ready.get("type") != "ready":
+            return _death(process, streams, limits)
+        stdin_fd = process.stdin.fileno()
+        os.set_blocking(stdin_fd, False)
+        send_before(stdin_fd, job, time.monotonic() + limits.startup_seconds)
+        clock_start, tool_seconds = time.monotonic(), 0.0
+        while True:
+            deadline = clock_start + limits.wall_seconds + tool_seconds
+            message = streams.next_message(deadline)
+            if message is None:
+                return _death(process, streams, limits)
+            if message["type"] == "result":
+                return _collect(message, server, limits)
+            if message["type"] != "call":
+                raise ProtocolError(f"unexpected message type {message['type']!r}")
+            tool_started = time.monotonic()
+            reply = _serve(server, message)
+            tool_seconds += time.monotonic() - tool_started
+            send_before(stdin_fd, reply, clock_start + limits.wall_seconds + tool_seconds)
+    except TimeoutError:
+        return failure(f"timed out after {limits.wall_seconds:g} s", "timeout")
+    except (BrokenPipeError, ConnectionResetError):
+        return _death(process, streams, limits)
+    except ProtocolError as error:
+        return failure(f"the sandbox broke its protocol: {error}", "crash")
+    finally:
+        streams.close()
+
+
+def _serve(server: ToolServer, message: dict[str, Any]) -> dict[str, Any]:
+    try:
+        value = server.handle(message.get("tool"), message.get("arguments"))
+    except ToolFailure as error:
+        return {"type": "reply", "ok": False, "error": str(error)}
+    return {"type": "reply", "ok": True, "value": value}
+
+
+def _collect(message: dict[str, Any], server: ToolServer, limits: SandboxLimits) -> ExecutionResult:
+    stdout, error = message.get("stdout") or "", message.get("error")
+    if not isinstance(stdout, str) or (error is not None and not isinstance(error, str)):
+        raise ProtocolError("result stdout and error must be strings")
+    stdout = stdout[: limits.max_output_chars]
+    if server.limit_exceeded:
+        error = f"too many tool calls: the limit is {limits.max_tool_calls} per program"
+        return failure(error, "tool_limit", stdout=stdout)
+    if not message.get("ok"):
+        kind = message.get("kind")
+        if kind not in _CHILD_FAILURE_KINDS:
+            raise ProtocolError(f"unknown failure kind {str(kind)[:40]!r}")
+        return failure(str(error)[: 4 * MAX_TOOL_ERROR_CHARS], kind, stdout=stdout)
+    text, handles = message.get("text"), message.get("images") or []
+    if text is not None and (not isinstance(text, str) or len(text) > limits.max_output_chars):
+        raise ProtocolError("result text is not a bounded string")
+    if not isinstance(handles, list) or len(handles) > limits.max_images:
+        raise ProtocolError("result images are not a bounded list")
+    try:
+        images = [server.image_bytes(handle) for handle in handles]
+    except ProtocolError:
+        raise
+    except Exception as error:  # the provider failed to hand over an input image
+        return failure(f"get_input_image failed: {type(error).__name__}: {error}", "exception", stdout=stdout)
+    return ExecutionResult(ok=True, clue_text=text, clue_images=images, stdout=stdout)
+
+
+def _death(process: subprocess.Popen, streams: ChildStreams, limits: SandboxLimits) -> ExecutionResult:
+    """Explain why the sandbox process ended without a result, from its exit status and stderr."""
+    try:
+        code = process.wait(timeout=2)
+    except subprocess.TimeoutExpired:
+        return failure("the sandbox stopped talking without exiting", "crash")
+    if code > 128 and process.args and os.path.basename(str(process.args[0])) == "bwrap":
+        code = -(code - 128)  # bubblewrap reports a signalled child as 128 + signal
+    stderr = streams.drain_stderr()
+    if code == -signal.SIGXCPU:  # sent only by RLIMIT_CPU
+        return failure(f"CPU time limit exceeded ({limits.cpu_seconds} s)", "cpu")
+    if code == -signal.SIGKILL:  # the parent kills only after the conversation
+        return failure(
+            f"the sandbox process was killed by SIGKILL: the CPU hard limit ({limits.cpu_seconds} s) "
+            "or the system's out-of-memory killer",
+            "cpu",
+        )
+    if code < 0:
+        name = signal.Signals(-code).name if -code in signal.Signals._value2member_map_ else str(-code)
+        return failure(f"the sandbox process crashed with {name}{_crash_site(stderr)}", "crash")
+    last_line = (stderr.strip().splitlines() or [""])[-1]
+    detail = f": {last_line[:MAX_TOOL_ERROR_CHARS]}" if last_line else ""
+    return failure(f"the sandbox process exited with status {code} without a result{detail}", "crash")
+
+
+_FAULT_LINE = re.compile(r'File "<program>", line (\d+)')
+_FAULT_KIND = re.compile(r"Fatal Python error: ([^\n]+)")
+
+
+def _crash_site(stderr: str) -> str:
+    """What faulthandler wrote: the fatal error and the program line that was running."""
+    kind = _FAULT_KIND.search(stderr)
+    lines = _FAULT_LINE.findall(stderr)
+    parts = []
+    if kind:
+        parts.append(f" ({kind.group(1).strip()[:200]})")
+    if lines:
+        parts.append(f" while running program line {lines[0]}")
+    return "".join(parts)
+
+
+def _kill(process: subprocess.Popen) -> None:
+    try:
+        os.killpg(process.pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        pass
+    process.wait()
+    for stream in (process.stdin, process.stdout, process.stderr):
+        if stream is not None:
+            try:
+                stream.close()
+            except OSError:
+                pass
