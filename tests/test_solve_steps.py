@@ -8,35 +8,27 @@ stream a page or the CLI sees is the same event for event, details included.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import ExitStack
+from dataclasses import dataclass
+
 import httpx
 import pytest
 
 from services.agent.progress import StageReporter
 from services.agent.steps import SolveLog, StepCallbacks
-from shared.local.services import running_service
+from shared.local.services import ServiceProcess, running_service
+from shared.wire import schemas
 from shared.wire.client import AgentClient
-from shared.wire.schemas import (
-    AnswerStep,
-    ExecutionStep,
-    ProgramStep,
-    ReconstructionStep,
-    SceneStep,
-    SolveResponse,
-    StageEvent,
-    StepRecord,
-)
-from tests.support.scenes import orbit_views
+from shared.wire.schemas import SolveResponse, StageEvent
+from tests.support.scenes import PosedViews, orbit_views
 from tests.support.stack import recon_env, upload_posed_views
+from tests.test_model_endpoints import MOTION_REPLY
 
 RECORDED_ON = "e45e93a"
 MOTION_QUESTION = (
     "Which way did the camera move from view 1 to view 2? A. left B. right C. forward D. backward"
 )
-MOTION_REPLY = """```python
-def program(input_scene):
-    recon = pySpatial.reconstruct(input_scene)
-    return pySpatial.describe_camera_motion(recon)
-```"""
 SHAPE_ERROR_REPLY = """```python
 def program(input_scene):
     recon = pySpatial.reconstruct(input_scene)
@@ -45,44 +37,30 @@ def program(input_scene):
 ANSWER_REPLY = '{"reasoning": "The output says the camera moved.", "answer": "B"}'
 
 
-@pytest.fixture(scope="module")
-def views():
-    return orbit_views(seed=5, num_views=3)
+@dataclass
+class Stack:
+    views: PosedViews
+    scene_id: str  # the posed views, uploaded
+    offline_agent: ServiceProcess  # no models: the offline planner and answerer
+    model_agent: ServiceProcess  # scripted code model "coder" and answer model "answerer"
 
 
 @pytest.fixture(scope="module")
-def recon(tmp_path_factory, redis_url):
-    env = recon_env(tmp_path_factory.mktemp("recon"), redis_url)
-    with running_service("services.recon.app:create_app", env) as service:
-        yield service
-
-
-@pytest.fixture(scope="module")
-def scene_id(recon, views) -> str:
-    return upload_posed_views(recon.url, views)
-
-
-@pytest.fixture(scope="module")
-def offline_agent(recon):
-    env = {"PYSPATIAL_RECON_URL": recon.url, "PYSPATIAL_CODE_MODEL": "", "PYSPATIAL_ANSWER_MODEL": ""}
-    with running_service("services.agent.app:create_app", env) as service:
-        yield service
-
-
-@pytest.fixture(scope="module")
-def model_agent(recon, llm):
-    env = {
-        "PYSPATIAL_RECON_URL": recon.url,
-        "PYSPATIAL_CODE_MODEL": "coder",
-        "PYSPATIAL_CODE_MODEL_BASE_URL": llm.base_url,
-        "PYSPATIAL_ANSWER_MODEL": "answerer",
-        "PYSPATIAL_ANSWER_MODEL_BASE_URL": llm.base_url,
-        "PYSPATIAL_MODEL_TIMEOUT_S": "5",
-        "PYSPATIAL_MODEL_MAX_RETRIES": "0",
-        "PYSPATIAL_SANDBOX_WALL_S": "10",
-    }
-    with running_service("services.agent.app:create_app", env) as service:
-        yield service
+def stack(tmp_path_factory, redis_url, llm) -> Iterator[Stack]:
+    views = orbit_views(seed=5, num_views=3)
+    scripted = {"PYSPATIAL_MODEL_TIMEOUT_S": "5", "PYSPATIAL_MODEL_MAX_RETRIES": "0"}
+    for role, name in (("CODE", "coder"), ("ANSWER", "answerer")):
+        scripted |= {f"PYSPATIAL_{role}_MODEL": name, f"PYSPATIAL_{role}_MODEL_BASE_URL": llm.base_url}
+    with ExitStack() as services:
+        recon_settings = recon_env(tmp_path_factory.mktemp("recon"), redis_url)
+        recon = services.enter_context(running_service("services.recon.app:create_app", recon_settings))
+        agents = [
+            services.enter_context(
+                running_service("services.agent.app:create_app", {"PYSPATIAL_RECON_URL": recon.url, **models})
+            )
+            for models in ({"PYSPATIAL_CODE_MODEL": "", "PYSPATIAL_ANSWER_MODEL": ""}, scripted)
+        ]
+        yield Stack(views, upload_posed_views(recon.url, views), *agents)
 
 
 RECONSTRUCTED = [
@@ -211,28 +189,34 @@ def assert_timed(result: SolveResponse) -> None:
     assert result.steps[-1].started_ms + result.steps[-1].duration_ms <= timings.total_ms
 
 
-def test_offline_planner_stream_is_as_recorded_and_made_of_the_steps(offline_agent, scene_id):
-    events, result = solve_streamed(offline_agent, question=MOTION_QUESTION, scene_id=scene_id)
+def test_offline_planner_stream_is_as_recorded_and_made_of_the_steps(stack):
+    events, result = solve_streamed(stack.offline_agent, question=MOTION_QUESTION, scene_id=stack.scene_id)
     assert events == OFFLINE_PLANNER_EVENTS
     assert replayed(result) == events
     assert kinds(result) == ["scene", "reconstruction", "program", "execution", "answer"]
     scene, recon, program, execution, answer = result.steps
-    assert isinstance(scene, SceneStep) and scene.scene_id == scene_id and scene.num_images == 3
-    assert isinstance(recon, ReconstructionStep) and (recon.views_placed, recon.num_views) == (3, 3)
-    assert isinstance(program, ProgramStep) and program.author == "offline-planner"
+    assert isinstance(scene, schemas.SceneStep) and scene.scene_id == stack.scene_id and scene.num_images == 3
+    assert isinstance(recon, schemas.ReconstructionStep) and (recon.views_placed, recon.num_views) == (3, 3)
+    assert isinstance(program, schemas.ProgramStep) and program.author == "offline-planner"
     assert program.program == result.program and program.error is None
-    assert isinstance(execution, ExecutionStep) and execution.ok and execution.run == execution.attempt == 1
+    assert (
+        isinstance(execution, schemas.ExecutionStep)
+        and execution.ok
+        and execution.run == execution.attempt == 1
+    )
     assert execution.clue_text == result.clue.text and execution.clue_images == 0
-    assert isinstance(answer, AnswerStep) and answer.answer == result.answer == "B"
+    assert isinstance(answer, schemas.AnswerStep) and answer.answer == result.answer == "B"
     assert answer.answered_by == result.answer_model == "offline-answerer"
     assert_timed(result)
 
 
-def test_a_repaired_attempt_is_two_programs_and_two_runs(model_agent, llm, scene_id):
+def test_a_repaired_attempt_is_two_programs_and_two_runs(stack, llm):
     llm.reset()
     llm.script([SHAPE_ERROR_REPLY, MOTION_REPLY], model="coder")
     llm.script([ANSWER_REPLY], model="answerer")
-    events, result = solve_streamed(model_agent, question=MOTION_QUESTION, scene_id=scene_id, max_repairs=2)
+    events, result = solve_streamed(
+        stack.model_agent, question=MOTION_QUESTION, scene_id=stack.scene_id, max_repairs=2
+    )
     assert events == REPAIRED_EVENTS
     assert replayed(result) == events
     assert kinds(result) == [
@@ -256,11 +240,13 @@ def test_a_repaired_attempt_is_two_programs_and_two_runs(model_agent, llm, scene
     assert_timed(result)
 
 
-def test_images_only_fallback_is_an_answer_step_from_the_photos(model_agent, llm, scene_id):
+def test_images_only_fallback_is_an_answer_step_from_the_photos(stack, llm):
     llm.reset()
     llm.script([SHAPE_ERROR_REPLY], model="coder")
     llm.script(['{"reasoning": "from the photos", "answer": "A"}'], model="answerer")
-    events, result = solve_streamed(model_agent, question=MOTION_QUESTION, scene_id=scene_id, max_repairs=0)
+    events, result = solve_streamed(
+        stack.model_agent, question=MOTION_QUESTION, scene_id=stack.scene_id, max_repairs=0
+    )
     assert events == IMAGES_ONLY_EVENTS
     assert replayed(result) == events
     assert kinds(result) == ["scene", "reconstruction", "program", "execution", "answer"]
@@ -271,9 +257,9 @@ def test_images_only_fallback_is_an_answer_step_from_the_photos(model_agent, llm
     assert_timed(result)
 
 
-def test_a_scene_the_backbone_cannot_reconstruct(offline_agent, views):
+def test_a_scene_the_backbone_cannot_reconstruct(stack):
     events, result = solve_streamed(
-        offline_agent, question=MOTION_QUESTION, images=views.pngs(), backbone="posed-rgbd"
+        stack.offline_agent, question=MOTION_QUESTION, images=stack.views.pngs(), backbone="posed-rgbd"
     )
     assert events == RECONSTRUCTION_422_EVENTS
     assert replayed(result) == events
@@ -285,8 +271,8 @@ def test_a_scene_the_backbone_cannot_reconstruct(offline_agent, views):
     assert_timed(result)
 
 
-def test_unplannable_question_and_a_reply_without_a_program(offline_agent, model_agent, llm, scene_id):
-    events, result = solve_streamed(offline_agent, question=OCCLUSION_QUESTION, scene_id=scene_id)
+def test_unplannable_question_and_a_reply_without_a_program(stack, llm):
+    events, result = solve_streamed(stack.offline_agent, question=OCCLUSION_QUESTION, scene_id=stack.scene_id)
     assert events == UNPLANNABLE_EVENTS and replayed(result) == events
     planner = result.steps[2]
     assert planner.error_kind == "unplannable" and planner.program is None and planner.error == UNPLANNABLE
@@ -294,21 +280,25 @@ def test_unplannable_question_and_a_reply_without_a_program(offline_agent, model
     llm.reset()
     llm.script(["I would describe the camera motion.", MOTION_REPLY], model="coder")
     llm.script([ANSWER_REPLY], model="answerer")
-    events, result = solve_streamed(model_agent, question=MOTION_QUESTION, scene_id=scene_id, max_repairs=2)
+    events, result = solve_streamed(
+        stack.model_agent, question=MOTION_QUESTION, scene_id=stack.scene_id, max_repairs=2
+    )
     assert events == NO_PROGRAM_FIRST_EVENTS and replayed(result) == events
     no_program, written = result.steps[2:4]
     assert no_program.kind == written.kind == "program"
     assert no_program.error_kind == "no_program" and no_program.program is None and written.attempt == 2
 
 
-def test_a_repair_is_announced_only_when_the_model_is_asked_again(model_agent, llm, scene_id):
+def test_a_repair_is_announced_only_when_the_model_is_asked_again(stack, llm):
     """The one place the stream differs from RECORDED_ON: there, a failed run on the last request
     still sent "asking coder to repair attempt 1" although no request followed (a reply without a
     program had used up the repairs); the stream built from the records only says what happened."""
     llm.reset()
     llm.script(["I would describe the camera motion.", SHAPE_ERROR_REPLY], model="coder")
     llm.script([ANSWER_REPLY], model="answerer")
-    events, result = solve_streamed(model_agent, question=MOTION_QUESTION, scene_id=scene_id, max_repairs=1)
+    events, result = solve_streamed(
+        stack.model_agent, question=MOTION_QUESTION, scene_id=stack.scene_id, max_repairs=1
+    )
     assert [(stage, state) for stage, state, _ in events].count(("program", "started")) == 1
     assert events[-2:] == [
         ("answer", "started", "answering from the photos alone with answerer"),
@@ -317,9 +307,9 @@ def test_a_repair_is_announced_only_when_the_model_is_asked_again(model_agent, l
     assert replayed(result) == events
 
 
-def test_the_response_json_carries_the_records_but_not_the_images(offline_agent, scene_id):
-    body = {"question": MOTION_QUESTION, "scene_id": scene_id}
-    response = httpx.post(offline_agent.url + "/v1/solve", json=body, timeout=120)
+def test_the_response_json_carries_the_records_but_not_the_images(stack):
+    body = {"question": MOTION_QUESTION, "scene_id": stack.scene_id}
+    response = httpx.post(stack.offline_agent.url + "/v1/solve", json=body, timeout=120)
     assert response.status_code == 200, response.text
     steps = response.json()["steps"]
     assert [step["kind"] for step in steps] == ["scene", "reconstruction", "program", "execution", "answer"]
@@ -337,10 +327,10 @@ def test_a_step_that_raises_is_aborted_and_its_end_is_no_stage_event():
     log = SolveLog()
     StageReporter(lambda *event: events.append(event)).watch(log.callbacks)
     seen: list[tuple[str, str]] = []
-    log.callbacks.register(StepRecord, lambda step, moment: seen.append((step.kind, moment)))
-    with log.record(SceneStep(uploaded_images=2)) as scene:
+    log.callbacks.register(schemas.StepRecord, lambda step, moment: seen.append((step.kind, moment)))
+    with log.record(schemas.SceneStep(uploaded_images=2)) as scene:
         scene.scene_id = "a" * 24
-    with pytest.raises(RuntimeError), log.record(ReconstructionStep()):
+    with pytest.raises(RuntimeError), log.record(schemas.ReconstructionStep()):
         raise RuntimeError("recon went away")
     assert events == [
         ("upload", "started", "2 images"),
@@ -355,4 +345,4 @@ def test_a_step_that_raises_is_aborted_and_its_end_is_no_stage_event():
     ]
     aborted = log.steps[-1]
     assert aborted.error == "RuntimeError: recon went away" and aborted.duration_ms >= 0
-    assert log.of(SceneStep) == [log.steps[0]]
+    assert log.of(schemas.SceneStep) == [log.steps[0]]

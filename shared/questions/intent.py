@@ -405,26 +405,35 @@ def _read_parts(question: str, views_known: int, item_id: str | None) -> Questio
 # Each family rule below fills the intent and returns True when the question is of its family; they
 # are tried in parse_question's order (an object's perspective first: it also names directions).
 
+_NO_OBJECT_TOOL = (
+    "an object-perspective question (standing at a named object, facing another) needs that "
+    "object's position and facing; no tool locates objects, so the offline planner cannot "
+    "write a program for it"
+)
+_NO_OCCLUSION_TOOL = (
+    "an occlusion question (what hides what, what is visible) is about objects in the "
+    "photos; no tool output states it in words, so only a vision model can answer it"
+)
+
+
+def _of_family(
+    intent: QuestionIntent, family: Family, views_known: int, offline_reason: str | None = None
+) -> bool:
+    intent.family = family
+    intent.asked_view = _asked_view(intent.ask, views_known)
+    intent.offline_reason = offline_reason
+    return True
+
 
 def _object_perspective(intent: QuestionIntent, views_known: int) -> bool:
-    if not _OBJECT_PERSPECTIVE.search(intent.ask):
-        return False
-    intent.family = "object_perspective"
-    intent.asked_view = _asked_view(intent.ask, views_known)
-    intent.offline_reason = (
-        "an object-perspective question (standing at a named object, facing another) needs that "
-        "object's position and facing; no tool locates objects, so the offline planner cannot "
-        "write a program for it"
-    )
-    return True
+    found = _OBJECT_PERSPECTIVE.search(intent.ask)
+    return bool(found) and _of_family(intent, "object_perspective", views_known, _NO_OBJECT_TOOL)
 
 
 def _what_if(intent: QuestionIntent, views_known: int) -> bool:
     if not intent.steps:
         return False
     ask, options = intent.ask, intent.options
-    intent.family = "what_if"
-    intent.asked_view = _asked_view(ask, views_known)
     asks_distance = bool(_DISTANCE.search(ask)) or any(_DISTANCE.search(o) for o in options.values())
     intent.comparison = "distance" if asks_distance else None
     target = _DISTANCE_TARGET.search(ask) or next(
@@ -432,7 +441,7 @@ def _what_if(intent: QuestionIntent, views_known: int) -> bool:
     )
     if intent.comparison and target and intent.target_object is None:
         intent.target_object = " ".join(target.group("object").split())
-    return True
+    return _of_family(intent, "what_if", views_known)
 
 
 def _self_movement(intent: QuestionIntent, views_known: int) -> bool:
@@ -449,23 +458,12 @@ def _self_movement(intent: QuestionIntent, views_known: int) -> bool:
 
 
 def _occlusion(intent: QuestionIntent, views_known: int) -> bool:
-    if not _OCCLUSION.search(intent.ask):
-        return False
-    intent.family = "occlusion"
-    intent.asked_view = _asked_view(intent.ask, views_known)
-    intent.offline_reason = (
-        "an occlusion question (what hides what, what is visible) is about objects in the "
-        "photos; no tool output states it in words, so only a vision model can answer it"
-    )
-    return True
+    found = _OCCLUSION.search(intent.ask)
+    return bool(found) and _of_family(intent, "occlusion", views_known, _NO_OCCLUSION_TOOL)
 
 
 def _relative_direction(intent: QuestionIntent, views_known: int) -> bool:
-    if intent.direction is None:
-        return False
-    intent.family = "relative_direction"
-    intent.asked_view = _asked_view(intent.ask, views_known)
-    return True
+    return intent.direction is not None and _of_family(intent, "relative_direction", views_known)
 
 
 def _after_last_step(ask: str, steps: list[PoseStep]) -> str:

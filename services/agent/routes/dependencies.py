@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Annotated
+from collections.abc import Callable
+from typing import Annotated, Any
 
 from fastapi import Depends, Request
 
@@ -10,13 +11,14 @@ from services.agent.pipeline import SolvePipeline
 from shared.wire.settings import AgentSettings
 
 
-def solve_pipeline(request: Request) -> SolvePipeline:
-    return request.app.state.pipeline
+def _on_app_state(name: str) -> Callable[[Request], Any]:
+    """A dependency that reads `app.state.<name>` (create_app puts it there)."""
+
+    def read(request: Request) -> Any:
+        return getattr(request.app.state, name)
+
+    return read
 
 
-def agent_settings(request: Request) -> AgentSettings:
-    return request.app.state.settings
-
-
-PipelineDep = Annotated[SolvePipeline, Depends(solve_pipeline)]
-SettingsDep = Annotated[AgentSettings, Depends(agent_settings)]
+PipelineDep = Annotated[SolvePipeline, Depends(_on_app_state("pipeline"))]
+SettingsDep = Annotated[AgentSettings, Depends(_on_app_state("settings"))]

@@ -8,26 +8,17 @@ program sandbox cannot run programs.
 from __future__ import annotations
 
 import anyio
-from fastapi import APIRouter
 from fastapi.responses import JSONResponse
 
 from services.agent.routes.dependencies import PipelineDep, SettingsDep
 from shared.wire.client import ReconClient, ServiceError, ServiceUnreachable
+from shared.wire.probes import health_router, not_ready
 from shared.wire.schemas import AgentReadiness, Readiness, SandboxStatus
 
-router = APIRouter(tags=["health"])
+router = health_router()  # GET /healthz; GET /readyz below
 
 
-@router.get("/healthz")
-async def healthz() -> dict:
-    return {"status": "ok"}
-
-
-@router.get(
-    "/readyz",
-    response_model=AgentReadiness,
-    responses={503: {"model": AgentReadiness, "description": "Not ready; `reason` says why."}},
-)
+@router.get("/readyz", response_model=AgentReadiness, responses=not_ready(AgentReadiness, "reason"))
 async def readyz(pipeline: PipelineDep, settings: SettingsDep) -> JSONResponse:
     """Ready when the recon service is; answers within `PYSPATIAL_READINESS_TIMEOUT_S`."""
     recon, reason = await _recon_readiness(pipeline.recon, settings.readiness_timeout_s)
