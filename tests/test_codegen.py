@@ -17,7 +17,9 @@ from services.agent.codegen import (
 from services.agent.llm import ChatClient, ChatModelConfig
 from services.agent.prompts import PromptError, load_examples, load_template
 from services.agent.sandbox.validation import ProgramRejected, validate_program
+from services.agent.steps import SolveLog
 from shared.questions.intent import parse_question
+from shared.wire.schemas import ProgramStep
 from tests.support.scripted_llm import ScriptedLLM
 
 PNG = b"\x89PNG\r\n\x1a\n not decoded by anyone here"
@@ -349,3 +351,26 @@ def test_the_same_prose_twice_more_ends_the_loop(llm: ScriptedLLM, client: ChatC
     llm.script(["The answer is B.", "The answer is  B.", "The answer is B.", GOOD_REPLY])
     result = generate_program(client, INTENT, [PNG], validate_only, max_repairs=4)
     assert not result.ok and len(result.attempts) == 3 and len(llm.requests()) == 3
+
+
+def test_each_request_is_a_program_step_of_the_log(llm: ScriptedLLM, client: ChatClient) -> None:
+    """One ProgramStep per request: what it asked for, the program it handed on, or why none."""
+    runs: list[str] = []
+
+    def execute(source: str) -> ExecutionOutcome:
+        runs.append(source)
+        return ExecutionOutcome(len(runs) > 1, None if len(runs) > 1 else "program raised ValueError", None)
+
+    other = GOOD_REPLY.replace("recon.extrinsics[1]", "recon.extrinsics[0]")
+    llm.script(["I think the answer is A.", GOOD_REPLY, GOOD_REPLY, other])
+    log = SolveLog()
+    result = generate_program(client, INTENT, [PNG], execute, max_repairs=3, log=log)
+    assert result.ok and len(runs) == 2
+    steps = log.of(ProgramStep)
+    assert [step.attempt for step in steps] == [1, 2, 3, 4] and {step.author for step in steps} == {"coder"}
+    assert [step.error_kind for step in steps] == ["no_program", None, "repeated", None]
+    assert [step.repairs for step in steps] == [None, None, 1, None]  # after the run that failed
+    assert steps[0].program is None and "no ```python block" in steps[0].error
+    assert steps[1].program == runs[0] and steps[3].program == runs[1] == result.program
+    assert steps[2].program is None and "same program as attempt 2" in steps[2].error  # not run again
+    assert all(step.duration_ms >= 0 and step.stage == "program" for step in steps)

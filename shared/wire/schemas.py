@@ -324,8 +324,14 @@ class ProgramStep(StepRecord):
     stage: Literal["program"] = "program"
     attempt: int = Field(..., description="1-based, as in the response's `attempts`.")
     author: str = Field(..., description="The code model's name, or 'offline-planner'.")
-    repairs: int | None = Field(None, description="The failed execution (its `run`) the model was shown.")
-    program: str | None = Field(None, description="The program taken from the reply; null when none.")
+    repairs: int | None = Field(
+        None,
+        description="The failed execution (its `run`) this request asks to repair; null for the first "
+        "request and after a reply that had no program to run.",
+    )
+    program: str | None = Field(
+        None, description="The program handed to the sandbox; null when none was (see error_kind)."
+    )
     error_kind: str | None = Field(
         None, description="no_program, too_long, repeated, model (the model failed), unplannable."
     )
