@@ -35,7 +35,6 @@ class WrittenProgram:
     run: ExecutionStep | None = None  # its run
     failure: str | None = None  # why no program ran successfully
     fallback: str | None = None  # why the code model did not write it (the planner did)
-    unplannable: str | None = None  # why the offline planner wrote none
     by_model: bool = False  # the code model wrote it (its output is checked for typed-in claims)
 
 
@@ -94,7 +93,7 @@ def plan_offline(
             step.error = f"the offline planner has no program for this question: {unplannable.reason}"
             step.error_kind = "unplannable"
     if step.program is None:
-        return WrittenProgram(code_model, attempts, failure=step.error, unplannable=step.error)
+        return WrittenProgram(code_model, attempts, failure=step.error)  # unplannable
     outcome = runs.execute(step.program, written_by_model=False)
     run: ExecutionStep = outcome.payload
     attempts.append(
