@@ -26,6 +26,8 @@ ProgressCallback = Callable[[str, str, str], None]
 
 
 class StageReporter:
+    """The stage events of one solve; `watch` hooks it to the solve's callbacks."""
+
     def __init__(self, progress: ProgressCallback) -> None:
         self.progress = progress
         self.runs = 0  # sandbox runs so far: "attempt N" in the events counts runs
