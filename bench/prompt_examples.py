@@ -54,7 +54,9 @@ def _coverage(
 def _prompt_chars(questions: list[tuple[str, int]], count: int) -> float:
     sizes = []
     for question, _ in questions:
-        messages = build_codegen_messages(question, [], num_examples=count)
+        messages = build_codegen_messages(
+            parse_question(question), [], num_examples=count, rank_examples=False
+        )
         sizes.append(sum(len(part["text"]) for part in messages[0]["content"] if part["type"] == "text"))
     return sum(sizes) / len(sizes)
 

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import re
 
-from shared.questions.choices import extract_letter, parse_options
+from shared.questions.choices import extract_letter
+from shared.questions.intent import QuestionIntent
 
 _NUMBER_WORDS = {
     word: value
@@ -19,14 +20,15 @@ _YES = {"yes", "true", "correct"}
 _NO = {"no", "false", "incorrect"}
 
 
-def answer_letter(text: str | None, question: str | None = None) -> str | None:
+def answer_letter(text: str | None, intent: QuestionIntent | None = None) -> str | None:
     """The option letter in "C", "C.", "(C) the sofa", "Answer: C"; None when there is none.
 
-    When the question lists its options, only their letters count (so "I think" is not option I).
+    When the question (its parsed intent) lists options, only their letters count (so "I think" is
+    not option I).
     """
     if not text:
         return None
-    options = parse_options(question) if question else {}
+    options = intent.options if intent is not None else {}
     return extract_letter(text, valid_letters=options or None)
 
 

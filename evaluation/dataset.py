@@ -16,10 +16,11 @@ from __future__ import annotations
 import json
 import logging
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
-from shared.questions.intent import setting_from_id
+from shared.questions.intent import QuestionIntent, parse_question, setting_from_id
 
 MINDCUBE_SETTINGS = ("rotation", "among", "around")
 UNKNOWN_SETTING = "other"
@@ -44,6 +45,11 @@ class BenchmarkItem:
     type: str | None = None
     meta_info: Any = field(default_factory=list)  # MindCube: a list; kept as the data has it
     exact_scene: dict[str, Any] | None = None  # synthetic items: {"scene_file", "view_indices"}
+
+    @cached_property
+    def intent(self) -> QuestionIntent:
+        """The question parsed once (its options, family, views), as the agent parses it."""
+        return parse_question(self.question, len(self.images) or None, self.id)
 
 
 def setting_of(item_id: str, image_paths: list[str], category: Any = None) -> str:

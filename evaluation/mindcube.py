@@ -26,7 +26,7 @@ MINDCUBE_INSTRUCTION = "Answer with the letter of the correct option only."
 
 def gt_letter(item: BenchmarkItem) -> str:
     """The ground-truth letter; MindCube writes "C" but some exports write "C. Left"."""
-    return answer_letter(item.gt_answer, item.question) or item.gt_answer.strip()
+    return answer_letter(item.gt_answer, item.intent) or item.gt_answer.strip()
 
 
 def score_mindcube(item: BenchmarkItem, prediction: Prediction) -> dict[str, Any]:
@@ -35,7 +35,7 @@ def score_mindcube(item: BenchmarkItem, prediction: Prediction) -> dict[str, Any
     ``answer`` (the letter, or null) and ``gt_answer`` are the fields MindCube's own evaluator reads,
     so a results file can be scored by it unchanged; ``raw_answer`` keeps what the solver said.
     """
-    predicted = None if prediction.error else answer_letter(prediction.answer, item.question)
+    predicted = None if prediction.error else answer_letter(prediction.answer, item.intent)
     truth = gt_letter(item)
     return {
         "id": item.id,

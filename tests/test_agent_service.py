@@ -248,7 +248,7 @@ def test_recon_errors_pass_through_with_their_message(offline_agent, scene_id):
 
 
 def test_coverage_notes_flag_blank_views_only():
-    from services.agent.pipeline import coverage_notes
+    from services.agent.stages.clue import coverage_notes
     from shared.imaging.codecs import encode_image
 
     blank = np.full((64, 64, 3), 255, np.uint8)

@@ -9,7 +9,8 @@ import pytest
 
 from services.agent.answering import answer_offline, answer_with_model, read_model_answer
 from services.agent.llm import ChatClient, ChatModelConfig
-from shared.questions.choices import DIRECTIONS, parse_options
+from shared.questions.choices import DIRECTIONS
+from shared.questions.intent import parse_question
 from tests.support.scripted_llm import ScriptedLLM
 
 QUESTION = "From image 2, what is behind me? A. A door B. A window C. A bookshelf"
@@ -30,7 +31,7 @@ def client(llm: ScriptedLLM) -> Iterator[ChatClient]:
 
 def ask(client: ChatClient, clue_text: str | None = None, clue_images: list[bytes] | None = None):
     return answer_with_model(
-        client, QUESTION, [b"photo-1", b"photo-2"], PROGRAM, clue_text, clue_images or []
+        client, parse_question(QUESTION), [b"photo-1", b"photo-2"], PROGRAM, clue_text, clue_images or []
     )
 
 
@@ -118,7 +119,7 @@ def test_model_failure_gives_none_with_reason(llm: ScriptedLLM, client: ChatClie
 
 
 def test_read_model_answer_ignores_letters_outside_the_options() -> None:
-    options = parse_options(QUESTION)
+    options = parse_question(QUESTION).options
     assert read_model_answer('{"reasoning": "x", "answer": "E"}', options).answer is None
     # MindCube models answer in lower case too: "b" is option B.
     assert read_model_answer('{"reasoning": "x", "answer": "b"}', options).answer == "B"
@@ -134,7 +135,7 @@ MOTION_QUESTION = "In which direction did I move from the first view to the seco
 @pytest.mark.parametrize("letter, direction", list(zip("ABCDEFGH", DIRECTIONS, strict=True)))
 def test_offline_matches_every_direction(letter: str, direction: str) -> None:
     clue = f"From view 1 to view 2 the camera moved {direction} and turned left by about 30 degrees."
-    result = answer_offline(MOTION_QUESTION, clue, [])
+    result = answer_offline(parse_question(MOTION_QUESTION), clue, [])
     assert (result.answer, result.method) == (letter, "offline_text")
     assert clue in result.reasoning
 
@@ -151,7 +152,7 @@ def test_offline_matches_every_direction(letter: str, direction: str) -> None:
 def test_offline_normalizes_option_wording(options: str, clue_direction: str, answer: str) -> None:
     question = "How did I move from view 1 to view 2? " + options
     clue = f"From view 1 to view 2 the camera moved {clue_direction} without turning significantly."
-    assert answer_offline(question, clue, []).answer == answer
+    assert answer_offline(parse_question(question), clue, []).answer == answer
 
 
 def test_offline_picks_the_asked_pair_among_several_sentences() -> None:
@@ -160,9 +161,9 @@ def test_offline_picks_the_asked_pair_among_several_sentences() -> None:
         "From view 2 to view 3 the camera moved left and turned right by about 45 degrees."
     )
     question = "How did I move from image 2 to image 3? A. Forward B. Left C. Right"
-    assert answer_offline(question, clue, []).answer == "B"
+    assert answer_offline(parse_question(question), clue, []).answer == "B"
     question = "How did I move from the first image to the second image? A. Forward B. Left C. Right"
-    assert answer_offline(question, clue, []).answer == "A"
+    assert answer_offline(parse_question(question), clue, []).answer == "A"
 
 
 def test_offline_turn_questions_use_side_and_degrees() -> None:
@@ -173,42 +174,50 @@ def test_offline_turn_questions_use_side_and_degrees() -> None:
         "C. turned left by about 90 degrees D. did not turn"
     )
     clue = "From view 1 to view 2 the camera stayed in place and turned left by about 90 degrees."
-    assert answer_offline(question, clue, []).answer == "C"
+    assert answer_offline(parse_question(question), clue, []).answer == "C"
     still = "From view 1 to view 2 the camera neither moved nor turned significantly."
-    assert answer_offline(question, still, []).answer == "D"
+    assert answer_offline(parse_question(question), still, []).answer == "D"
 
 
 def test_offline_turn_question_with_bare_sides() -> None:
     question = "Which way did I turn from view 1 to view 2? A. Left B. Right C. Around"
     clue = "From view 1 to view 2 the camera stayed in place and turned right by about 45 degrees."
-    assert answer_offline(question, clue, []).answer == "B"
+    assert answer_offline(parse_question(question), clue, []).answer == "B"
 
 
 def test_turning_is_not_moving() -> None:
     question = "In which direction did I move from view 1 to view 2? A. Left B. Right C. Forward"
     clue = "From view 1 to view 2 the camera stayed in place and turned left by about 90 degrees."
-    result = answer_offline(question, clue, [])
+    result = answer_offline(parse_question(question), clue, [])
     assert result.answer is None and "no option states" in result.reason
 
 
 def test_offline_missing_pair_and_ambiguous_options() -> None:
     clue = "From view 1 to view 2 the camera moved left without turning significantly."
-    missing = answer_offline("How did I move from view 2 to view 3? A. Left B. Right", clue, [])
+    missing = answer_offline(
+        parse_question("How did I move from view 2 to view 3? A. Left B. Right"), clue, []
+    )
     assert missing.answer is None and "no sentence about view 2 to view 3" in missing.reason
-    twice = answer_offline("How did I move from view 1 to view 2? A. Left B. to the left", clue, [])
+    twice = answer_offline(
+        parse_question("How did I move from view 1 to view 2? A. Left B. to the left"), clue, []
+    )
     assert twice.answer is None and "A, B all fit" in twice.reason
 
 
 def test_offline_image_clue_needs_a_vision_model() -> None:
-    result = answer_offline(QUESTION, None, [b"render-1", b"render-2"])
+    result = answer_offline(parse_question(QUESTION), None, [b"render-1", b"render-2"])
     assert result.answer is None and result.method == "none"
     assert "the clue is 2 rendered views" in result.reason
     assert "vision model" in result.reason and "PYSPATIAL_ANSWER_MODEL" in result.reason
 
 
 def test_offline_other_cases() -> None:
-    assert answer_offline("What is behind me?", "sofa", []).reason.startswith("the question has no lettered")
-    assert answer_offline(QUESTION, "A window", []).answer == "B"  # the output is an option's text
-    unreadable = answer_offline(QUESTION, "42 points", [])
+    assert answer_offline(parse_question("What is behind me?"), "sofa", []).reason.startswith(
+        "the question has no lettered"
+    )
+    assert (
+        answer_offline(parse_question(QUESTION), "A window", []).answer == "B"
+    )  # the output is an option's text
+    unreadable = answer_offline(parse_question(QUESTION), "42 points", [])
     assert unreadable.answer is None and "only reads camera-motion sentences" in unreadable.reason
-    assert "no clue" in answer_offline(QUESTION, "", []).reason
+    assert "no clue" in answer_offline(parse_question(QUESTION), "", []).reason

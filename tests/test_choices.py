@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import ast
+from pathlib import Path
+
 import pytest
 
 from shared.questions.choices import (
@@ -12,6 +15,7 @@ from shared.questions.choices import (
     parse_options,
     turn_degrees,
 )
+from shared.questions.intent import parse_question
 
 MINDCUBE_INLINE = (
     "Based on these two views showing the same scene: in which direction did I move from the first view "
@@ -167,3 +171,49 @@ def test_turn_degrees() -> None:
     assert turn_degrees("did not turn") == 0.0
     assert turn_degrees("turned left") is None
     assert turn_degrees("moved 3 degrees left") is None
+
+
+# ---- options are parsed once, by the question parser ------------------------------------------------
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+THIS_FILE = "tests/test_choices.py"  # the parser's own tests call it
+PARSER = {"shared/questions/choices.py", "shared/questions/intent.py"}  # the question parser
+SOURCE_ROOTS = ("services", "shared", "evaluation", "cli", "bench", "tests")
+
+
+def callers_of_parse_options(files: dict[str, str]) -> list[str]:
+    """`path:line` of every call of `parse_options` in `files` (path -> Python source)."""
+    found = []
+    for path, source in files.items():
+        for node in ast.walk(ast.parse(source)):
+            if isinstance(node, ast.Call):
+                name = getattr(node.func, "id", None) or getattr(node.func, "attr", None)
+                if name == "parse_options":
+                    found.append(f"{path}:{node.lineno}")
+    return found
+
+
+def test_options_are_parsed_only_by_the_question_parser():
+    """Everything below the parser reads `QuestionIntent.options` instead of re-reading the text."""
+    files = {
+        str(path.relative_to(REPO_ROOT)): path.read_text()
+        for root in SOURCE_ROOTS
+        for path in (REPO_ROOT / root).rglob("*.py")
+    }
+    assert any(
+        caller.startswith("shared/questions/choices.py:") for caller in callers_of_parse_options(files)
+    )
+    outside = [c for c in callers_of_parse_options(files) if c.split(":")[0] not in PARSER | {THIS_FILE}]
+    assert outside == []
+    # The check finds a call that sneaks in, under either spelling.
+    sneaked = {"services/agent/x.py": "from shared.questions import choices\nchoices.parse_options(q)\n"}
+    assert callers_of_parse_options(sneaked) == ["services/agent/x.py:2"]
+
+
+def test_the_intent_carries_the_options_as_asked_and_the_text_for_the_prompts():
+    question = "From image 2, what is behind me?\nA. A door\nB. A window\nAnswer with the letter only."
+    intent = parse_question(question, 2)
+    # An option ends at its line's end, as parse_options reads the text as asked.
+    assert intent.options == parse_options(question) == {"A": "A door", "B": "A window"}
+    assert intent.family == "relative_direction" and intent.asked_view == 2 and intent.direction == "behind"
+    assert intent.text == question and "text" not in intent.model_dump()  # for prompts, not sent back

@@ -17,10 +17,14 @@ from services.agent.codegen import (
 from services.agent.llm import ChatClient, ChatModelConfig
 from services.agent.prompts import PromptError, load_examples, load_template
 from services.agent.sandbox.validation import ProgramRejected, validate_program
+from services.agent.steps import SolveLog
+from shared.questions.intent import parse_question
+from shared.wire.schemas import ProgramStep
 from tests.support.scripted_llm import ScriptedLLM
 
 PNG = b"\x89PNG\r\n\x1a\n not decoded by anyone here"
 QUESTION = "From image 2, what is behind me? A. A door B. A window"
+INTENT = parse_question(QUESTION)
 GOOD_REPLY = """The photographer of image 2 needs to look back, so turn that camera around.
 
 ```python
@@ -65,7 +69,7 @@ def prompt_text(messages: list[dict]) -> str:
 
 
 def test_prompt_has_the_api_specification_and_conventions() -> None:
-    text = prompt_text(build_codegen_messages(QUESTION, [PNG, PNG]))
+    text = prompt_text(build_codegen_messages(INTENT, [PNG, PNG]))
     for signature in (
         "pySpatial.reconstruct(scene) -> Reconstruction",
         "pySpatial.describe_camera_motion(recon) -> str",
@@ -86,7 +90,7 @@ def test_prompt_has_the_api_specification_and_conventions() -> None:
 
 @pytest.mark.parametrize("count", [0, 1, 2, 3, 4, 5, 6])
 def test_prompt_has_the_requested_number_of_examples(count: int) -> None:
-    text = prompt_text(build_codegen_messages(QUESTION, [PNG], num_examples=count))
+    text = prompt_text(build_codegen_messages(INTENT, [PNG], num_examples=count, rank_examples=False))
     assert text.count("### Example ") == count
     examples = load_examples("codegen_examples")  # without an intent: file order
     for shown in examples[:count]:
@@ -105,14 +109,14 @@ def test_examples_are_valid_programs_without_answers() -> None:
 
 def test_num_examples_out_of_range() -> None:
     with pytest.raises(ValueError, match="between 0 and 6"):
-        build_codegen_messages(QUESTION, [PNG], num_examples=7)
+        build_codegen_messages(INTENT, [PNG], num_examples=7)
 
 
 def test_images_follow_the_text_in_order_or_not_at_all() -> None:
-    content = build_codegen_messages(QUESTION, [b"one", b"two"])[0]["content"]
+    content = build_codegen_messages(INTENT, [b"one", b"two"])[0]["content"]
     assert [part["type"] for part in content] == ["text", "text", "image_url", "text", "image_url"]
     assert content[1]["text"] == "Image 1:" and content[3]["text"] == "Image 2:"
-    text_only = build_codegen_messages(QUESTION, [b"one", b"two"], attach_images=False)[0]["content"]
+    text_only = build_codegen_messages(INTENT, [b"one", b"two"], attach_images=False)[0]["content"]
     assert isinstance(text_only, str)  # plain string content: what text-only chat templates accept
     assert "There are 2 photo(s). You do not see them" in text_only and "image_url" not in text_only
 
@@ -168,7 +172,7 @@ def test_extract_unclosed_block_and_bare_code() -> None:
 
 def test_good_program_first_time(llm: ScriptedLLM, client: ChatClient) -> None:
     llm.script([GOOD_REPLY])
-    result = generate_program(client, QUESTION, [PNG, PNG], validate_only)
+    result = generate_program(client, INTENT, [PNG, PNG], validate_only)
     assert result.ok and result.failure is None
     assert "turn_around(recon.extrinsics[1])" in result.program
     assert isinstance(result.payload, ast.Module)
@@ -179,7 +183,7 @@ def test_good_program_first_time(llm: ScriptedLLM, client: ChatClient) -> None:
 
 def test_rejected_program_is_repaired(llm: ScriptedLLM, client: ChatClient) -> None:
     llm.script([IMPORTING_REPLY, GOOD_REPLY])
-    result = generate_program(client, QUESTION, [PNG], validate_only, max_repairs=2)
+    result = generate_program(client, INTENT, [PNG], validate_only, max_repairs=2)
     assert result.ok
     assert [attempt.error is None for attempt in result.attempts] == [False, True]
     assert "imports are not allowed" in result.attempts[0].error
@@ -195,7 +199,7 @@ def test_rejected_program_is_repaired(llm: ScriptedLLM, client: ChatClient) -> N
 
 def test_reply_without_code_asks_again(llm: ScriptedLLM, client: ChatClient) -> None:
     llm.script(["I think the answer is A.", GOOD_REPLY])
-    result = generate_program(client, QUESTION, [PNG], validate_only)
+    result = generate_program(client, INTENT, [PNG], validate_only)
     assert result.ok
     assert result.attempts[0].program is None
     assert "no ```python block" in result.attempts[0].error
@@ -206,7 +210,7 @@ def test_reply_without_code_asks_again(llm: ScriptedLLM, client: ChatClient) -> 
 def test_repairs_exhausted(llm: ScriptedLLM, client: ChatClient) -> None:
     importing_sys = IMPORTING_REPLY.replace("os", "sys")
     llm.script([IMPORTING_REPLY, "no code, sorry", importing_sys, GOOD_REPLY])
-    result = generate_program(client, QUESTION, [PNG], validate_only, max_repairs=2)
+    result = generate_program(client, INTENT, [PNG], validate_only, max_repairs=2)
     assert not result.ok and result.program is None and result.failure == "execution"
     assert len(result.attempts) == 3
     assert "3 attempt(s)" in result.error and "imports are not allowed" in result.error
@@ -217,7 +221,7 @@ def test_repairs_exhausted(llm: ScriptedLLM, client: ChatClient) -> None:
 
 def test_zero_repairs_means_one_attempt(llm: ScriptedLLM, client: ChatClient) -> None:
     llm.script(["no code", GOOD_REPLY])
-    result = generate_program(client, QUESTION, [PNG], validate_only, max_repairs=0)
+    result = generate_program(client, INTENT, [PNG], validate_only, max_repairs=0)
     assert not result.ok and result.failure == "no_program" and len(result.attempts) == 1
 
 
@@ -231,14 +235,14 @@ def test_execution_errors_are_fed_back(llm: ScriptedLLM, client: ChatClient) -> 
         return ExecutionOutcome(True, None, "clue")
 
     llm.script([GOOD_REPLY, GOOD_REPLY.replace("extrinsics[1]", "extrinsics[0]")])
-    result = generate_program(client, QUESTION, [PNG], execute)
+    result = generate_program(client, INTENT, [PNG], execute)
     assert result.ok and result.payload == "clue" and len(runs) == 2
     assert "IndexError: list index out of range" in llm.requests()[1]["messages"][2]["content"]
 
 
 def test_model_failure_ends_the_loop_with_the_attempts_so_far(llm: ScriptedLLM, client: ChatClient) -> None:
     llm.script([IMPORTING_REPLY, {"status": 400, "error_message": "context length exceeded"}])
-    result = generate_program(client, QUESTION, [PNG], validate_only)
+    result = generate_program(client, INTENT, [PNG], validate_only)
     assert not result.ok and result.failure == "model"
     assert len(result.attempts) == 1
     assert "context length exceeded" in result.error and "'coder'" in result.error
@@ -273,7 +277,7 @@ def test_demo_code_around_a_good_program_is_dropped_and_recorded(
         "print(program(input_scene))\n```"
     )
     llm.script([reply])
-    result = generate_program(client, QUESTION, [PNG], validate_only, max_repairs=0)
+    result = generate_program(client, INTENT, [PNG], validate_only, max_repairs=0)
     assert result.ok, result.error
     (attempt,) = result.attempts
     assert "STEP = 0.5" in result.program and "import numpy as np" in result.program
@@ -295,7 +299,7 @@ def test_regex_bombs_parse_in_one_pass() -> None:
 def test_an_oversized_reply_is_refused_unread(llm: ScriptedLLM, client: ChatClient) -> None:
     huge = GOOD_REPLY + "\n" + "x" * 5000
     llm.script([huge, GOOD_REPLY])
-    result = generate_program(client, QUESTION, [PNG], validate_only, max_reply_chars=4000)
+    result = generate_program(client, INTENT, [PNG], validate_only, max_reply_chars=4000)
     assert result.ok and len(result.attempts) == 2
     first = result.attempts[0]
     assert first.error_kind == "too_long" and first.program is None and "not read" in first.error
@@ -316,7 +320,7 @@ def test_an_identical_program_is_never_run_again(llm: ScriptedLLM, client: ChatC
 
     same_again = GOOD_REPLY.replace("The photographer", "Fixed! The photographer") + "\n# no change"
     llm.script([GOOD_REPLY, same_again, GOOD_REPLY, GOOD_REPLY])
-    result = generate_program(client, QUESTION, [PNG], execute, max_repairs=3)
+    result = generate_program(client, INTENT, [PNG], execute, max_repairs=3)
     assert len(runs) == 1  # the same program (same syntax tree) is not run twice
     assert not result.ok and result.failure == "repeated"
     assert [a.error_kind for a in result.attempts] == ["execution", "repeated", "repeated"]
@@ -345,5 +349,28 @@ def test_known_mistakes_get_a_hint_that_names_the_helper(error: str, expected: s
 
 def test_the_same_prose_twice_more_ends_the_loop(llm: ScriptedLLM, client: ChatClient) -> None:
     llm.script(["The answer is B.", "The answer is  B.", "The answer is B.", GOOD_REPLY])
-    result = generate_program(client, QUESTION, [PNG], validate_only, max_repairs=4)
+    result = generate_program(client, INTENT, [PNG], validate_only, max_repairs=4)
     assert not result.ok and len(result.attempts) == 3 and len(llm.requests()) == 3
+
+
+def test_each_request_is_a_program_step_of_the_log(llm: ScriptedLLM, client: ChatClient) -> None:
+    """One ProgramStep per request: what it asked for, the program it handed on, or why none."""
+    runs: list[str] = []
+
+    def execute(source: str) -> ExecutionOutcome:
+        runs.append(source)
+        return ExecutionOutcome(len(runs) > 1, None if len(runs) > 1 else "program raised ValueError", None)
+
+    other = GOOD_REPLY.replace("recon.extrinsics[1]", "recon.extrinsics[0]")
+    llm.script(["I think the answer is A.", GOOD_REPLY, GOOD_REPLY, other])
+    log = SolveLog()
+    result = generate_program(client, INTENT, [PNG], execute, max_repairs=3, log=log)
+    assert result.ok and len(runs) == 2
+    steps = log.of(ProgramStep)
+    assert [step.attempt for step in steps] == [1, 2, 3, 4] and {step.author for step in steps} == {"coder"}
+    assert [step.error_kind for step in steps] == ["no_program", None, "repeated", None]
+    assert [step.repairs for step in steps] == [None, None, 1, None]  # after the run that failed
+    assert steps[0].program is None and "no ```python block" in steps[0].error
+    assert steps[1].program == runs[0] and steps[3].program == runs[1] == result.program
+    assert steps[2].program is None and "same program as attempt 2" in steps[2].error  # not run again
+    assert all(step.duration_ms >= 0 and step.stage == "program" for step in steps)

@@ -23,6 +23,7 @@ from evaluation.metrics import mean_relative_accuracy, summarize_mindcube, summa
 from evaluation.omni3d import score_omni3d
 from evaluation.runner import read_results, run_items
 from evaluation.solvers import Prediction
+from shared.questions.intent import parse_question
 from shared.synthetic import make_dataset
 from tests.support.processes import running_service
 from tests.support.scripted_llm import start_scripted_llm
@@ -49,7 +50,7 @@ QUESTION = "Where is the lamp? A. left B. right C. (the sofa side) D. behind"
     ],
 )
 def test_answer_letters_are_normalized(reply, letter):
-    assert answer_letter(reply, QUESTION) == letter
+    assert answer_letter(reply, parse_question(QUESTION)) == letter
 
 
 @pytest.mark.parametrize(

@@ -29,7 +29,7 @@ from services.agent.answering import answer_offline
 from services.agent.example_choice import choose_examples, program_kind
 from services.agent.planner import UnplannableQuestion, plan_intent
 from services.agent.sandbox import run_program, validate_program
-from shared.questions.choices import extract_letter, parse_options
+from shared.questions.choices import extract_letter
 from shared.questions.intent import parse_question
 from shared.wire.client import AgentClient, ReconClient
 from tests.support.processes import running_service
@@ -168,8 +168,8 @@ def test_program_runs_from_the_right_view_and_text_clues_are_answered(item_id: s
         assert f"pose = recon.extrinsics[{intent.asked_view - 1}]" in plan.source
     result = run_program(plan.source, record["question"], len(record["images"]), tools_for(record))
     assert result.ok, result.error
-    options = parse_options(record["question"])
-    answer = answer_offline(record["question"], result.clue_text, result.clue_images, intent)
+    options = intent.options
+    answer = answer_offline(intent, result.clue_text, result.clue_images)
     if intent.family == "self_movement":
         # The clue is text: the offline answerer reads it, and the answer is the fixture's.
         assert answer.answer == record["gt_answer"], answer.reason
@@ -372,7 +372,7 @@ def test_eval_on_real_schema_without_an_answer_model(recon, tmp_path, monkeypatc
 
 
 def _wrong_letter(question: str, truth: str) -> str:
-    return next(letter for letter in parse_options(question) if letter != truth)
+    return next(letter for letter in parse_question(question).options if letter != truth)
 
 
 def test_images_only_fallback_with_an_answer_model(recon, llm, tmp_path, monkeypatch):

@@ -16,6 +16,7 @@ from services.agent.codegen import ExecutionOutcome, find_program, generate_prog
 from services.agent.llm import ChatClient, ChatModelConfig
 from services.agent.program_cleanup import clean_program
 from services.agent.sandbox.validation import ProgramRejected, validate_program
+from shared.questions.intent import parse_question
 from tests.support.model_replies import recorded_replies
 from tests.support.scripted_llm import ScriptedLLM
 
@@ -102,7 +103,9 @@ def test_every_recorded_reply_replays_through_the_scripted_server(
 ) -> None:
     llm.script([reply.script_entry() for reply in REPLIES], model="qwen-coder")
     outcomes = [
-        generate_program(coder, "Which way did I turn? A. left B. right", [], _validate, max_repairs=0)
+        generate_program(
+            coder, parse_question("Which way did I turn? A. left B. right"), [], _validate, max_repairs=0
+        )
         for _ in REPLIES
     ]
     assert [index for index, outcome in enumerate(outcomes) if not outcome.ok] == sorted(WITHOUT_PROGRAM)
@@ -125,7 +128,9 @@ def test_the_recorded_repeat_is_not_run_again(llm: ScriptedLLM, coder: ChatClien
         [REPLIES[10].script_entry(), REPLIES[11].script_entry(), REPLIES[11].script_entry()],
         model="qwen-coder",
     )
-    result = generate_program(coder, "Which way did I move? A. left B. right", [], execute, max_repairs=2)
+    result = generate_program(
+        coder, parse_question("Which way did I move? A. left B. right"), [], execute, max_repairs=2
+    )
     assert len(runs) == 1 and result.failure == "repeated"
     assert [attempt.error_kind for attempt in result.attempts] == ["execution", "repeated", "repeated"]
     assert "camera_center" in llm.requests()[1]["messages"][-1]["content"]  # the shape error got the hint

@@ -16,12 +16,13 @@ import numpy as np
 import pytest
 
 from services.agent.answering import answer_offline
-from services.agent.planner import PlanningError, plan_program, view_references
+from services.agent.planner import PlanningError, plan_intent, view_references
 from services.agent.sandbox import run_program, validate_program
 from shared.geometry.camera_motion import describe_camera_motion
 from shared.geometry.reconstruction import Reconstruction
 from shared.geometry.rendering import synthesize_novel_view
 from shared.imaging.codecs import decode_image, encode_image
+from shared.questions.intent import parse_question
 from shared.synthetic.render import default_intrinsic, look_at
 
 WORLD_UP = np.array([0.0, 0.0, 1.0])
@@ -105,7 +106,7 @@ def dominant_wall(png: bytes) -> str:
 
 
 def planned(question: str, num_images: int = 4):
-    plan = plan_program(question, num_images)
+    plan = plan_intent(parse_question(question, num_images), num_images)
     validate_program(plan.source)  # the real sandbox validator
     ast.parse(plan.source)
     return plan
@@ -232,9 +233,9 @@ def test_other_questions_render_around_the_asked_view() -> None:
 
 def test_a_view_that_does_not_exist_is_an_error() -> None:
     with pytest.raises(PlanningError, match="view 5, but there are 3 image"):
-        plan_program("From image 5, what is behind me?", 3)
+        plan_intent(parse_question("From image 5, what is behind me?", 3), 3)
     with pytest.raises(PlanningError):
-        plan_program("anything", 0)
+        plan_intent(parse_question("anything", 0), 0)
 
 
 # ---- running the plans in the sandbox --------------------------------------------------------------
@@ -248,7 +249,7 @@ def tools() -> ColourRoomTools:
 
 
 def run(question: str, tools: ColourRoomTools):
-    plan = plan_program(question, len(ROOM))
+    plan = plan_intent(parse_question(question, len(ROOM)), len(ROOM))
     result = run_program(plan.source, question, len(ROOM), tools)
     assert result.ok, result.error
     return plan, result
@@ -300,4 +301,4 @@ def test_computed_motion_matches_shared_camera_motion(tools: ColourRoomTools) ->
 )
 def test_planned_motion_programs_answer_offline(question: str, answer: str, tools: ColourRoomTools) -> None:
     _, result = run(question, tools)
-    assert answer_offline(question, result.clue_text, result.clue_images).answer == answer
+    assert answer_offline(parse_question(question), result.clue_text, result.clue_images).answer == answer

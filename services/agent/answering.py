@@ -32,10 +32,9 @@ from shared.questions.choices import (
     extract_letter,
     normalize_direction,
     normalize_turn,
-    parse_options,
     turn_degrees,
 )
-from shared.questions.intent import QuestionIntent, parse_question
+from shared.questions.intent import QuestionIntent
 
 AnswerMethod = Literal["model_json", "model_text", "model_option_text", "offline_text", "text_model", "none"]
 DEFAULT_TEMPLATE = "answer_v1"
@@ -97,20 +96,20 @@ def _labelled_images(label: str, images: list[bytes]) -> list[dict[str, Any]]:
 
 
 def build_answer_messages(
-    question: str,
+    intent: QuestionIntent,
     images_png: list[bytes],
     program: str,
     clue_text: str | None,
     clue_images: list[bytes],
     template_version: str = DEFAULT_TEMPLATE,
 ) -> list[dict[str, Any]]:
-    letters = sorted(parse_options(question))
+    letters = sorted(intent.options)
     content = load_template(template_version).render_parts(
         slots={
             "original_images": _labelled_images("Image", images_png),
             "clue_images": _labelled_images("Rendered view", clue_images),
         },
-        question=question.strip(),
+        question=intent.text,
         num_images=len(images_png),
         program=program.strip(),
         num_clue_images=len(clue_images),
@@ -173,7 +172,7 @@ def read_model_answer(text: str, options: dict[str, str]) -> AnswerResult:
 
 def answer_with_model(
     client: ChatClient,
-    question: str,
+    intent: QuestionIntent,
     images_png: list[bytes],
     program: str,
     clue_text: str | None,
@@ -181,8 +180,8 @@ def answer_with_model(
     template_version: str = DEFAULT_TEMPLATE,
 ) -> AnswerResult:
     """Ask the answer model; a model failure gives answer=None with the reason, not an exception."""
-    options = parse_options(question)
-    messages = build_answer_messages(question, images_png, program, clue_text, clue_images, template_version)
+    options = intent.options
+    messages = build_answer_messages(intent, images_png, program, clue_text, clue_images, template_version)
     try:
         try:
             reply = client.complete(messages, response_format=answer_schema(sorted(options)))
@@ -204,17 +203,21 @@ TEXT_MODEL_NOTE = "Answered by a text-only model from the program's text output;
 
 
 def answer_text_clue_with_model(
-    client: ChatClient, question: str, program: str, clue_text: str, template_version: str = "answer_text_v1"
+    client: ChatClient,
+    intent: QuestionIntent,
+    program: str,
+    clue_text: str,
+    template_version: str = "answer_text_v1",
 ) -> AnswerResult:
     """A text model reads a text clue (camera motion, turns) and picks an option, saying so.
 
     The model sees no images, so this is only for clues that are text. A model failure or a reply
     naming no option gives answer=None with the reason; a rejected key is raised.
     """
-    options = parse_options(question)
+    options = intent.options
     letters = sorted(options)
     text = load_template(template_version).render(
-        question=question.strip(),
+        question=intent.text,
         program=program.strip(),
         clue_text=clue_text.strip(),
         letters=", ".join(letters) if letters else "the options",
@@ -234,16 +237,19 @@ def answer_text_clue_with_model(
 
 
 def answer_from_images(
-    client: ChatClient, question: str, images_png: list[bytes], template_version: str = IMAGES_ONLY_TEMPLATE
+    client: ChatClient,
+    intent: QuestionIntent,
+    images_png: list[bytes],
+    template_version: str = IMAGES_ONLY_TEMPLATE,
 ) -> AnswerResult:
     """The answer model alone, from the question and the photos: the fallback when no program ran
     (the backbone could not reconstruct, or no program could be written or run), as the paper's code
     does. A model failure gives answer=None with the reason."""
-    options = parse_options(question)
+    options = intent.options
     letters = sorted(options)
     content = load_template(template_version).render_parts(
         slots={"original_images": _labelled_images("Image", images_png)},
-        question=question.strip(),
+        question=intent.text,
         num_images=len(images_png),
         letters=", ".join(letters) if letters else "the options",
     )
@@ -345,69 +351,67 @@ def _match_motion(
     return closest[0], ""
 
 
-def answer_offline(
-    question: str, clue_text: str | None, clue_images: list[bytes], intent: QuestionIntent | None = None
-) -> AnswerResult:
+def answer_offline(intent: QuestionIntent, clue_text: str | None, clue_images: list[bytes]) -> AnswerResult:
     """Answer from a camera-motion text clue without any model; None with the reason otherwise.
 
-    The pair of views and whether a turn or a walk is asked come from the question's intent (parsed
-    here when not given): never from the first view the question's opening happens to mention.
+    The pair of views and whether a turn or a walk is asked come from the question's intent: never
+    from the first view the question's opening happens to mention.
     """
-    options = parse_options(question)
-    intent = intent or parse_question(question)
-    if not options:
-        return AnswerResult(
-            answer=None,
-            method="none",
-            reason="the question has no lettered options (A. ... B. ...) to choose from",
-        )
+    if not intent.options:
+        return _no_answer("the question has no lettered options (A. ... B. ...) to choose from")
     text = (clue_text or "").strip()
     statements = _motion_statements(text) if text else []
-    if statements and intent.family != "self_movement":
-        return AnswerResult(
-            answer=None,
-            method="none",
-            reason="the program's output describes camera motion, but this is a "
-            f"{intent.family.replace('_', ' ')} question, which a motion sentence does not answer",
-        )
     if statements:
-        statement, why = _pick_statement(intent, statements)
-        if statement is None:
-            return AnswerResult(answer=None, method="none", reason=why)
-        letter, why = _match_motion(intent, statement, options)
-        if letter is None:
-            return AnswerResult(answer=None, method="none", reason=why)
-        return AnswerResult(
-            answer=letter,
-            reasoning=f"The program's output says: {statement.sentence!r}. "
-            f"Option {letter} ({options[letter]!r}) states the same motion.",
-            method="offline_text",
-        )
-    exact = [letter for letter, option in options.items() if text and option.lower() == text.lower()]
+        return _answer_from_motion(intent, statements)
+    exact = [letter for letter, option in intent.options.items() if text and option.lower() == text.lower()]
     if len(exact) == 1:
         return AnswerResult(
             answer=exact[0],
-            reasoning=f"The program's output is option {exact[0]}'s text, {options[exact[0]]!r}.",
+            reasoning=f"The program's output is option {exact[0]}'s text, {intent.options[exact[0]]!r}.",
             method="offline_text",
         )
+    return _no_answer(_unreadable_clue(text, clue_images))
+
+
+def _no_answer(reason: str) -> AnswerResult:
+    return AnswerResult(answer=None, method="none", reason=reason)
+
+
+def _answer_from_motion(intent: QuestionIntent, statements: list[_Motion]) -> AnswerResult:
+    """The option that states the motion the program's output describes for the asked pair."""
+    if intent.family != "self_movement":
+        return _no_answer(
+            "the program's output describes camera motion, but this is a "
+            f"{intent.family.replace('_', ' ')} question, which a motion sentence does not answer"
+        )
+    statement, why = _pick_statement(intent, statements)
+    if statement is None:
+        return _no_answer(why)
+    letter, why = _match_motion(intent, statement, intent.options)
+    if letter is None:
+        return _no_answer(why)
+    return AnswerResult(
+        answer=letter,
+        reasoning=f"The program's output says: {statement.sentence!r}. "
+        f"Option {letter} ({intent.options[letter]!r}) states the same motion.",
+        method="offline_text",
+    )
+
+
+def _unreadable_clue(text: str, clue_images: list[bytes]) -> str:
+    """Why the offline answerer cannot read a clue that is no motion sentence and no option's text."""
     if clue_images:
         count = len(clue_images)
-        return AnswerResult(
-            answer=None,
-            method="none",
-            reason=f"the clue is {count} rendered view{'s' if count != 1 else ''}; answering from images "
-            f"needs a vision model: {VISION_MODEL_HINT}",
+        return (
+            f"the clue is {count} rendered view{'s' if count != 1 else ''}; answering from images "
+            f"needs a vision model: {VISION_MODEL_HINT}"
         )
     if text:
-        return AnswerResult(
-            answer=None,
-            method="none",
-            reason="the offline answerer only reads camera-motion sentences, and the program's output "
-            f"is not one: {text[:200]!r}",
+        return (
+            "the offline answerer only reads camera-motion sentences, and the program's output "
+            f"is not one: {text[:200]!r}"
         )
-    return AnswerResult(
-        answer=None, method="none", reason="the program produced no clue (no text, no images)"
-    )
+    return "the program produced no clue (no text, no images)"
 
 
 __all__ = [

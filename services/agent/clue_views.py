@@ -7,12 +7,13 @@ import io
 from PIL import Image
 
 from services.agent.recon_tools import ReconToolProvider
-from shared.wire.schemas import ClueView, ReconstructionSummary
+from shared.wire.schemas import CameraInfo, ClueView
 
 
 def clue_views(
-    clue_images: list[bytes], tools: ReconToolProvider, summary: ReconstructionSummary
+    clue_images: list[bytes], tools: ReconToolProvider, cameras: list[CameraInfo]
 ) -> list[ClueView]:
+    """One ClueView per clue image; `cameras` are the reconstruction's, one per input photo."""
     views = []
     for png in clue_images:
         with Image.open(io.BytesIO(png)) as image:  # header only
@@ -22,7 +23,7 @@ def clue_views(
             views.append(ClueView(source="rendered", extrinsic=extrinsic, width=width, height=height))
             continue
         index = next((i for i, own in enumerate(tools.input_pngs) if own == png), None)
-        camera = summary.cameras[index] if index is not None and index < len(summary.cameras) else None
+        camera = cameras[index] if index is not None and index < len(cameras) else None
         views.append(
             ClueView(
                 source="input",

@@ -26,6 +26,7 @@ import re
 import textwrap
 import time
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any, Literal, NamedTuple
 
 from pydantic import BaseModel, ConfigDict, Field
@@ -35,7 +36,9 @@ from services.agent.llm import ChatClient, ChatReply, LLMError, image_part, text
 from services.agent.program_cleanup import UNPARSABLE_ERRORS, clean_program, program_fingerprint
 from services.agent.prompts import load_template
 from services.agent.reply_blocks import CodeBlock, code_blocks, defines_function, unfenced_function
+from services.agent.steps import SolveLog
 from shared.questions.intent import QuestionIntent
+from shared.wire.schemas import ProgramStep
 
 DEFAULT_TEMPLATE = "codegen_v2"
 REPAIR_TEMPLATE = "repair_v2"
@@ -168,17 +171,18 @@ def _render_examples(count: int, intent: QuestionIntent | None = None) -> str:
 
 
 def build_codegen_messages(
-    question: str,
+    intent: QuestionIntent,
     images_png: list[bytes],
     num_examples: int = 2,
     template_version: str = DEFAULT_TEMPLATE,
     attach_images: bool = True,
-    intent: QuestionIntent | None = None,
+    rank_examples: bool = True,
 ) -> list[dict[str, Any]]:
     """The chat messages of the first code request: one user message, text then the photos.
 
     `attach_images=False` is for text-only code models: the prompt says how many photos exist and
-    that the model does not see them, and the message is one plain string.
+    that the model does not see them, and the message is one plain string. `rank_examples=False`
+    shows the examples in file order instead of those most like the question first.
     """
     template = load_template(template_version)
     count = len(images_png)
@@ -188,10 +192,10 @@ def build_codegen_messages(
         else f"There are {count} photo(s). You do not see them: write the program from the question."
     )
     candidates: dict[str, object] = {
-        "examples": _render_examples(num_examples, intent),
+        "examples": _render_examples(num_examples, intent if rank_examples else None),
         "num_images": count,
         "photos": photos,
-        "question": question.strip(),
+        "question": intent.text,
     }
     fields = {name: value for name, value in candidates.items() if name in template.fields}
     text = template.render(**fields)
@@ -270,19 +274,43 @@ def _repair_temperature(base: float, repair: int, repeats: int) -> float:
     return min(MAX_TEMPERATURE, base + REPAIR_TEMPERATURE_STEP * (repair + repeats))
 
 
+@dataclass
+class _Loop:
+    """What the repair loop has seen so far: the conversation, the attempts, the failed programs."""
+
+    messages: list[dict[str, Any]]
+    base_temperature: float
+    attempts: list[Attempt] = field(default_factory=list)
+    failed: dict[str, tuple[int, str]] = field(default_factory=dict)  # fingerprint -> (attempt, error)
+    replies_without_program: set[str] = field(default_factory=set)
+    repeats: int = 0
+    runs: int = 0  # programs handed to `execute`
+    repairing: int | None = None  # the failed run the next request shows the model
+    last_error: str = "no attempt made"
+    failure: Failure = "no_program"
+
+    def temperature(self, number: int) -> float | None:
+        """None (the model's own) for the first request; each repair and each repeat raise it."""
+        return None if number == 1 else _repair_temperature(self.base_temperature, number - 1, self.repeats)
+
+    def gives_up(self) -> bool:
+        return self.repeats >= REPEATS_BEFORE_STOPPING  # more rounds would only cost time
+
+
 def generate_program(
     client: ChatClient,
-    question: str,
+    intent: QuestionIntent,
     images_png: list[bytes],
     execute: Callable[[str], ExecutionOutcome | tuple],
     max_repairs: int = 2,
     num_examples: int = 2,
     template_version: str = DEFAULT_TEMPLATE,
     attach_images: bool = True,
-    intent: QuestionIntent | None = None,
     max_reply_chars: int = DEFAULT_MAX_REPLY_CHARS,
+    log: SolveLog | None = None,
 ) -> CodegenResult:
-    """Generate, run and repair a program; see the module docstring.
+    """Generate, run and repair a program; see the module docstring. Each request is a ProgramStep
+    of `log` (the solve's records; a log of its own when none is given).
 
     Model failures (ModelUnavailable / ModelError) end the loop with `failure="model"`, the
     exception in `model_error` and the attempts made so far, so the caller can decide (fall back to
@@ -290,107 +318,138 @@ def generate_program(
     """
     if max_repairs < 0:
         raise ValueError(f"max_repairs must be >= 0, got {max_repairs}")
-    messages = build_codegen_messages(
-        question, images_png, num_examples, template_version, attach_images, intent=intent
-    )
-    attempts: list[Attempt] = []
-    failed: dict[str, tuple[int, str]] = {}  # program fingerprint -> (attempt number, its error)
-    replies_without_program: set[str] = set()
-    repeats = 0
-    last_error = "no attempt made"
-    failure: Failure = "no_program"
-    base_temperature = client.config.temperature
+    messages = build_codegen_messages(intent, images_png, num_examples, template_version, attach_images)
+    loop = _Loop(messages, client.config.temperature)
+    log = log or SolveLog()
     for number in range(1, max_repairs + 2):
-        temperature = None if number == 1 else _repair_temperature(base_temperature, number - 1, repeats)
-        try:
-            reply = client.complete(messages, temperature=temperature)
-        except LLMError as model_error:
-            return CodegenResult(
-                ok=False, attempts=attempts, error=str(model_error), failure="model", model_error=model_error
+        step = ProgramStep(attempt=number, author=client.config.model, repairs=loop.repairing)
+        temperature = loop.temperature(number)
+        with log.record(step):
+            try:
+                reply = client.complete(loop.messages, temperature=temperature)
+            except LLMError as model_error:
+                step.error, step.error_kind = str(model_error), "model"
+                return CodegenResult(
+                    ok=False,
+                    attempts=loop.attempts,
+                    error=str(model_error),
+                    failure="model",
+                    model_error=model_error,
+                )
+            attempt = _attempt(reply, loop.base_temperature if temperature is None else temperature)
+            loop.attempts.append(attempt)
+            step.program, follow_up = _read_reply(reply, attempt, loop, max_reply_chars)
+            step.error, step.error_kind = (
+                (attempt.error, attempt.error_kind) if step.program is None else (None, None)
             )
-        attempt = Attempt(
-            program=None,
-            reply=reply.text,
-            error=None,
-            temperature=base_temperature if temperature is None else temperature,
-            finish_reason=reply.finish_reason,
-            prompt_tokens=reply.usage.prompt_tokens if reply.usage else None,
-            completion_tokens=reply.usage.completion_tokens if reply.usage else None,
-            latency_ms=reply.latency_ms,
-        )
-        attempts.append(attempt)
-        follow_up: dict[str, Any]
-        if len(reply.text) > max_reply_chars:
-            attempt.reply = reply.text[:2000] + f"\n[... {len(reply.text) - 2000} more characters not kept]"
-            attempt.error = last_error = (
-                f"the reply is {len(reply.text)} characters long; replies over {max_reply_chars} are not read"
-            )
-            attempt.error_kind, failure = "too_long", "no_program"
-            follow_up = _repair_message(
-                "Your reply was far too long and was not read.",
-                f"It had {len(reply.text)} characters; the limit is {max_reply_chars}.",
-                ["Send only the program: one short ```python block defining `def program(input_scene):`."],
-            )
-            reply_for_history = attempt.reply
+        if step.program is not None:
+            result, follow_up = _run(step.program, number, execute, attempt, loop)
+            if result is not None:
+                return result
         else:
-            reply_for_history = reply.text
-            choice = find_program(reply.text)
-            if choice is None:
-                attempt.error = last_error = "the reply contained no ```python block defining program()"
-                attempt.error_kind, failure = "no_program", "no_program"
-                said = " ".join(reply.text.split())
-                if said in replies_without_program:
-                    repeats += 1  # the same prose again: the model is going in circles
-                    if repeats >= REPEATS_BEFORE_STOPPING:
-                        break
-                replies_without_program.add(said)
-                follow_up = _no_program_message(reply)
-            else:
-                cleaned = clean_program(choice.source)
-                attempt.program, attempt.dropped = cleaned.source, cleaned.dropped
-                fingerprint = program_fingerprint(cleaned.source)
-                if fingerprint in failed:
-                    earlier, earlier_error = failed[fingerprint]
-                    repeats += 1
-                    attempt.error = last_error = (
-                        f"the same program as attempt {earlier}, which failed: {_cut(earlier_error)} "
-                        "(not run again)"
-                    )
-                    attempt.error_kind, failure = "repeated", "repeated"
-                    if repeats >= REPEATS_BEFORE_STOPPING:
-                        break  # the model keeps sending it: more rounds would only cost time
-                    follow_up = _repair_message(
-                        f"You sent the same program as before (attempt {earlier}); it was not run again.",
-                        f"It fails with:\n{_cut(earlier_error)}",
-                        [
-                            "Change the code that raises the error; do not send the same program.",
-                            *repair_hints(earlier_error),
-                        ],
-                    )
-                else:
-                    started = time.perf_counter()
-                    outcome = execute(cleaned.source)
-                    attempt.execution_ms = (time.perf_counter() - started) * 1000.0
-                    ok, error, payload = outcome[0], outcome[1], outcome[2]
-                    if ok:
-                        return CodegenResult(
-                            ok=True, program=cleaned.source, payload=payload, attempts=attempts
-                        )
-                    error = error or "the program failed without an error message"
-                    attempt.error = last_error = error
-                    attempt.error_kind = outcome[3] if len(outcome) > 3 and outcome[3] else "execution"
-                    failure = "execution"
-                    failed[fingerprint] = (number, error)
-                    follow_up = _repair_message(
-                        "Your program failed.", f"Error:\n{_cut(error)}", repair_hints(error)
-                    )
-        messages = [*messages, {"role": "assistant", "content": reply_for_history}, follow_up]
+            loop.repairing = None
+        if follow_up is None:
+            break  # the model keeps sending the same reply
+        loop.messages = [*loop.messages, {"role": "assistant", "content": attempt.reply}, follow_up]
     return CodegenResult(
         ok=False,
-        attempts=attempts,
-        error=f"no working program after {len(attempts)} attempt(s); last error: {last_error}",
-        failure=failure,
+        attempts=loop.attempts,
+        error=f"no working program after {len(loop.attempts)} attempt(s); last error: {loop.last_error}",
+        failure=loop.failure,
     )
+
+
+def _attempt(reply: ChatReply, temperature: float) -> Attempt:
+    return Attempt(
+        program=None,
+        reply=reply.text,
+        error=None,
+        temperature=temperature,
+        finish_reason=reply.finish_reason,
+        prompt_tokens=reply.usage.prompt_tokens if reply.usage else None,
+        completion_tokens=reply.usage.completion_tokens if reply.usage else None,
+        latency_ms=reply.latency_ms,
+    )
+
+
+def _read_reply(
+    reply: ChatReply, attempt: Attempt, loop: _Loop, max_reply_chars: int
+) -> tuple[str | None, dict[str, Any] | None]:
+    """(the program to run, None) or (None, the message asking again; None when the loop gives up)."""
+    if len(reply.text) > max_reply_chars:
+        return None, _too_long(reply, attempt, loop, max_reply_chars)
+    choice = find_program(reply.text)
+    if choice is None:
+        return None, _without_program(reply, attempt, loop)
+    cleaned = clean_program(choice.source)
+    attempt.program, attempt.dropped = cleaned.source, cleaned.dropped
+    earlier = loop.failed.get(program_fingerprint(cleaned.source))
+    if earlier is not None:
+        return None, _repeated(attempt, loop, *earlier)
+    return cleaned.source, None
+
+
+def _too_long(reply: ChatReply, attempt: Attempt, loop: _Loop, max_reply_chars: int) -> dict[str, Any]:
+    attempt.reply = reply.text[:2000] + f"\n[... {len(reply.text) - 2000} more characters not kept]"
+    attempt.error = loop.last_error = (
+        f"the reply is {len(reply.text)} characters long; replies over {max_reply_chars} are not read"
+    )
+    attempt.error_kind, loop.failure = "too_long", "no_program"
+    return _repair_message(
+        "Your reply was far too long and was not read.",
+        f"It had {len(reply.text)} characters; the limit is {max_reply_chars}.",
+        ["Send only the program: one short ```python block defining `def program(input_scene):`."],
+    )
+
+
+def _without_program(reply: ChatReply, attempt: Attempt, loop: _Loop) -> dict[str, Any] | None:
+    attempt.error = loop.last_error = "the reply contained no ```python block defining program()"
+    attempt.error_kind, loop.failure = "no_program", "no_program"
+    said = " ".join(reply.text.split())
+    if said in loop.replies_without_program:
+        loop.repeats += 1  # the same prose again: the model is going in circles
+        if loop.gives_up():
+            return None
+    loop.replies_without_program.add(said)
+    return _no_program_message(reply)
+
+
+def _repeated(attempt: Attempt, loop: _Loop, earlier: int, earlier_error: str) -> dict[str, Any] | None:
+    loop.repeats += 1
+    attempt.error = loop.last_error = (
+        f"the same program as attempt {earlier}, which failed: {_cut(earlier_error)} (not run again)"
+    )
+    attempt.error_kind, loop.failure = "repeated", "repeated"
+    if loop.gives_up():
+        return None
+    return _repair_message(
+        f"You sent the same program as before (attempt {earlier}); it was not run again.",
+        f"It fails with:\n{_cut(earlier_error)}",
+        [
+            "Change the code that raises the error; do not send the same program.",
+            *repair_hints(earlier_error),
+        ],
+    )
+
+
+def _run(
+    program: str, number: int, execute: Callable, attempt: Attempt, loop: _Loop
+) -> tuple[CodegenResult | None, dict[str, Any]]:
+    """(the result, when the program worked) or (None, the repair message with its error)."""
+    loop.runs += 1
+    started = time.perf_counter()
+    outcome = execute(program)
+    attempt.execution_ms = (time.perf_counter() - started) * 1000.0
+    ok, error, payload = outcome[0], outcome[1], outcome[2]
+    if ok:
+        return CodegenResult(ok=True, program=program, payload=payload, attempts=loop.attempts), {}
+    error = error or "the program failed without an error message"
+    attempt.error = loop.last_error = error
+    attempt.error_kind = outcome[3] if len(outcome) > 3 and outcome[3] else "execution"
+    loop.failure = "execution"
+    loop.failed[program_fingerprint(program)] = (number, error)
+    loop.repairing = loop.runs
+    return None, _repair_message("Your program failed.", f"Error:\n{_cut(error)}", repair_hints(error))
 
 
 __all__ = [

@@ -26,7 +26,8 @@ import ast
 import re
 
 from services.agent.program_cleanup import UNPARSABLE_ERRORS
-from shared.questions.choices import normalize_direction, normalize_turn, parse_options
+from shared.questions.choices import normalize_direction, normalize_turn
+from shared.questions.intent import QuestionIntent
 
 _MIN_LITERAL_CHARS = 2
 _ONLY_NUMBERS_AND_PUNCTUATION = re.compile(r"^[\W\d_]*$")
@@ -74,14 +75,16 @@ def _made_of_literals(line: str, literals: list[str]) -> bool:
     return normalize_direction(line) is not None or normalize_turn(line) is not None
 
 
-def typed_in_lines(clue_text: str | None, program: str, question: str) -> tuple[str | None, list[str]]:
-    """(the clue text without typed-in lines, one note per line left out)."""
+def typed_in_lines(
+    clue_text: str | None, program: str, intent: QuestionIntent
+) -> tuple[str | None, list[str]]:
+    """(the clue text without typed-in lines, one note per line left out); options from the intent."""
     if not clue_text or not clue_text.strip():
         return clue_text, []
     literals = program_literals(program)
     if not literals:
         return clue_text, []
-    typed = _typed_options(literals, parse_options(question))
+    typed = _typed_options(literals, intent.options)
     kept, notes = [], []
     for line in clue_text.splitlines():
         normalized = _normalized(line)

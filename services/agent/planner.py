@@ -24,7 +24,7 @@ from typing import Literal
 
 from pydantic import BaseModel
 
-from shared.questions.intent import PoseStep, QuestionIntent, parse_question, view_references
+from shared.questions.intent import PoseStep, QuestionIntent, view_references
 
 ProgramKind = Literal["motion", "behind", "left", "right", "front", "turn_and_move", "around"]
 # Kept under its old name: the kind of program the planner wrote.
@@ -257,13 +257,6 @@ def plan_intent(intent: QuestionIntent, num_images: int) -> PlannedProgram:
     )
 
 
-def plan_program(question: str, num_images: int, item_id: str | None = None) -> PlannedProgram:
-    """Parse the question and plan it; see plan_intent."""
-    if num_images < 1:
-        raise PlanningError("a question needs at least one image")
-    return plan_intent(parse_question(question, num_images, item_id), num_images)
-
-
 __all__ = [
     "Family",
     "PlannedProgram",
@@ -271,6 +264,5 @@ __all__ = [
     "ProgramKind",
     "UnplannableQuestion",
     "plan_intent",
-    "plan_program",
     "view_references",
 ]

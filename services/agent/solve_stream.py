@@ -20,9 +20,10 @@ import anyio
 from pydantic import BaseModel
 from starlette.responses import StreamingResponse
 
+from services.agent.errors import SolveError
 from services.agent.infrastructure import InfrastructureFailure, recon_error_status
 from services.agent.llm import LLMError
-from services.agent.pipeline import ProgressCallback, SolveError
+from services.agent.progress import ProgressCallback
 from shared.imaging.codecs import ImageError
 from shared.wire.bodies import BodyTooLarge
 from shared.wire.client import ServiceError, ServiceUnreachable

@@ -64,6 +64,11 @@ class ViewRelation(BaseModel, frozen=True):
 
 
 class QuestionIntent(BaseModel):
+    text: str = Field(
+        "",
+        exclude=True,  # not sent back: the client has the question it asked
+        description="The question as asked (stripped), for the prompts that quote it.",
+    )
     setting: Setting
     family: Family
     ask: str = Field(description="The asking part of the question (opening and setup removed).")
@@ -365,69 +370,100 @@ def parse_question(
     question: str, num_images: int | None = None, item_id: str | None = None
 ) -> QuestionIntent:
     """The question's intent (see the module docstring). Views are 1-based as in the question."""
-    text = " ".join(question.split())
-    stem, options = split_options(text)
     views_known = num_images if num_images else 10
-    opening, setup, ask = _parts(stem)
+    intent = _read_parts(question, views_known, item_id)
+    for family_of in (_object_perspective, _what_if, _self_movement, _occlusion, _relative_direction):
+        if family_of(intent, views_known):
+            return intent
+    intent.asked_view = _asked_view(intent.ask, views_known)
+    return intent
+
+
+def _read_parts(question: str, views_known: int, item_id: str | None) -> QuestionIntent:
+    """Everything read off the text before the family is decided (the family is "unknown" here)."""
+    # Options from the text as asked (an option ends at its line's end), the rest with spaces collapsed.
+    raw_stem, options = split_options(question.strip())
+    stem = " ".join(raw_stem.split())
+    _, setup, ask = _parts(stem)
     relations = _relations(setup)
-    setting = setting_from_id(item_id) or _setting_from_words(stem, relations)
-    mentions = list(dict.fromkeys(view_references(ask, views_known)))
     steps = pose_steps(ask) if _HYPOTHETICAL.search(ask) else []
     direction, target = _asked_direction(_after_last_step(ask, steps))
-    asks_distance = bool(_DISTANCE.search(ask)) or any(_DISTANCE.search(o) for o in options.values())
-    intent = QuestionIntent(
-        setting=setting,
+    return QuestionIntent(
+        text=question.strip(),
+        setting=setting_from_id(item_id) or _setting_from_words(stem, relations),
         family="unknown",
         ask=ask,
         steps=steps,
         direction=direction,
         target_object=target,
         relations=relations,
-        mentioned_views=mentions,
+        mentioned_views=list(dict.fromkeys(view_references(ask, views_known))),
         options=options,
     )
-    if _OBJECT_PERSPECTIVE.search(ask):
-        intent.family = "object_perspective"
-        intent.asked_view = _asked_view(ask, views_known)
-        intent.offline_reason = (
-            "an object-perspective question (standing at a named object, facing another) needs that "
-            "object's position and facing; no tool locates objects, so the offline planner cannot "
-            "write a program for it"
-        )
-        return intent
-    if steps:
-        intent.family = "what_if"
-        intent.asked_view = _asked_view(ask, views_known)
-        intent.comparison = "distance" if asks_distance else None
-        target = _DISTANCE_TARGET.search(ask) or next(
-            (m for m in map(_DISTANCE_TARGET.search, options.values()) if m), None
-        )
-        if intent.comparison and target and intent.target_object is None:
-            intent.target_object = " ".join(target.group("object").split())
-        return intent
-    if len(mentions) >= 2 and _MOTION_VERB.search(ask) and direction is None:
-        return _self_movement(intent, (mentions[0], mentions[1]), ask)
-    if (
-        _MOTION_VERB.search(ask)
-        and direction is None
-        and not mentions
-        and (re.search(r"\bcamera\b|\bdid (?:i|you|we)\b|\bfrom\b.*\bto\b", ask, re.IGNORECASE))
-    ):
-        return _self_movement(intent, (1, 2), ask)
-    if _OCCLUSION.search(ask):
-        intent.family = "occlusion"
-        intent.asked_view = _asked_view(ask, views_known)
-        intent.offline_reason = (
-            "an occlusion question (what hides what, what is visible) is about objects in the "
-            "photos; no tool output states it in words, so only a vision model can answer it"
-        )
-        return intent
-    if direction is not None:
-        intent.family = "relative_direction"
-        intent.asked_view = _asked_view(ask, views_known)
-        return intent
-    intent.asked_view = _asked_view(ask, views_known)
-    return intent
+
+
+# Each family rule below fills the intent and returns True when the question is of its family; they
+# are tried in parse_question's order (an object's perspective first: it also names directions).
+
+_NO_OBJECT_TOOL = (
+    "an object-perspective question (standing at a named object, facing another) needs that "
+    "object's position and facing; no tool locates objects, so the offline planner cannot "
+    "write a program for it"
+)
+_NO_OCCLUSION_TOOL = (
+    "an occlusion question (what hides what, what is visible) is about objects in the "
+    "photos; no tool output states it in words, so only a vision model can answer it"
+)
+
+
+def _of_family(
+    intent: QuestionIntent, family: Family, views_known: int, offline_reason: str | None = None
+) -> bool:
+    intent.family = family
+    intent.asked_view = _asked_view(intent.ask, views_known)
+    intent.offline_reason = offline_reason
+    return True
+
+
+def _object_perspective(intent: QuestionIntent, views_known: int) -> bool:
+    found = _OBJECT_PERSPECTIVE.search(intent.ask)
+    return bool(found) and _of_family(intent, "object_perspective", views_known, _NO_OBJECT_TOOL)
+
+
+def _what_if(intent: QuestionIntent, views_known: int) -> bool:
+    if not intent.steps:
+        return False
+    ask, options = intent.ask, intent.options
+    asks_distance = bool(_DISTANCE.search(ask)) or any(_DISTANCE.search(o) for o in options.values())
+    intent.comparison = "distance" if asks_distance else None
+    target = _DISTANCE_TARGET.search(ask) or next(
+        (m for m in map(_DISTANCE_TARGET.search, options.values()) if m), None
+    )
+    if intent.comparison and target and intent.target_object is None:
+        intent.target_object = " ".join(target.group("object").split())
+    return _of_family(intent, "what_if", views_known)
+
+
+def _self_movement(intent: QuestionIntent, views_known: int) -> bool:
+    ask, mentions = intent.ask, intent.mentioned_views
+    if not _MOTION_VERB.search(ask) or intent.direction is not None:
+        return False
+    if len(mentions) >= 2:
+        _as_self_movement(intent, (mentions[0], mentions[1]), ask)
+        return True
+    if not mentions and re.search(r"\bcamera\b|\bdid (?:i|you|we)\b|\bfrom\b.*\bto\b", ask, re.IGNORECASE):
+        _as_self_movement(intent, (1, 2), ask)  # "how did the camera move?": the first pair
+        return True
+    return False
+
+
+def _occlusion(intent: QuestionIntent, views_known: int) -> bool:
+    found = _OCCLUSION.search(intent.ask)
+    return bool(found) and _of_family(intent, "occlusion", views_known, _NO_OCCLUSION_TOOL)
+
+
+def _relative_direction(intent: QuestionIntent, views_known: int) -> bool:
+    return intent.direction is not None and _of_family(intent, "relative_direction", views_known)
 
 
 def _after_last_step(ask: str, steps: list[PoseStep]) -> str:
@@ -438,7 +474,7 @@ def _after_last_step(ask: str, steps: list[PoseStep]) -> str:
     return ask[max(ends) :] if ends else ask
 
 
-def _self_movement(intent: QuestionIntent, pair: tuple[int, int], ask: str) -> QuestionIntent:
+def _as_self_movement(intent: QuestionIntent, pair: tuple[int, int], ask: str) -> QuestionIntent:
     intent.family = "self_movement"
     intent.motion_pair = pair
     intent.asked_view = pair[0]

@@ -281,6 +281,107 @@ class TokenCounts(_Model):
     answer_completion: int = 0
 
 
+# ---- the steps of one solve: scene -> reconstruction -> program -> execution (repairs) -> answer ----
+
+SolveStage = Literal["upload", "reconstruction", "program", "execution", "answer"]
+
+
+class StepRecord(_Model):
+    """One step of a solve: when it ran, and why it failed when it did (the solve went on).
+
+    Fields marked `exclude` carry what the next stage needs (photos, rendered views) inside the agent;
+    they are not sent (the response has the clue's images once, in `clue`).
+    """
+
+    stage: SolveStage = Field(..., description="The stage of the event stream this step belongs to.")
+    started_ms: float = Field(0.0, description="When the step started, since the solve began.")
+    duration_ms: float = 0.0
+    error: str | None = Field(None, description="Why the step failed; null when it did its job.")
+
+
+class SceneStep(StepRecord):
+    """The photos uploaded to the recon service (or an existing scene looked up)."""
+
+    kind: Literal["scene"] = "scene"
+    stage: Literal["upload"] = "upload"
+    uploaded_images: int = Field(0, description="Images sent with the request; 0 for an existing scene.")
+    scene_id: str | None = None
+    num_images: int = 0
+    input_pngs: list[bytes] = Field(default_factory=list, exclude=True, repr=False)
+
+
+class ReconstructionStep(StepRecord):
+    """The scene reconstructed (or read from the cache); a 422 of the backbone is its `error`."""
+
+    kind: Literal["reconstruction"] = "reconstruction"
+    stage: Literal["reconstruction"] = "reconstruction"
+    requested_backbone: str | None = Field(None, description="Null: the service's default backbone.")
+    backbone: str | None = None
+    views_placed: int = 0
+    num_views: int = 0
+    num_points: int = 0
+    cached: bool = False
+    cameras: list[CameraInfo] = Field(default_factory=list, exclude=True, repr=False)
+
+
+class ProgramStep(StepRecord):
+    """One program asked for: a code model's reply (first or a repair), or the offline planner's."""
+
+    kind: Literal["program"] = "program"
+    stage: Literal["program"] = "program"
+    attempt: int = Field(..., description="1-based, as in the response's `attempts`.")
+    author: str = Field(..., description="The code model's name, or 'offline-planner'.")
+    repairs: int | None = Field(
+        None,
+        description="The failed execution (its `run`) this request asks to repair; null for the first "
+        "request and after a reply that had no program to run.",
+    )
+    program: str | None = Field(
+        None, description="The program handed to the sandbox; null when none was (see error_kind)."
+    )
+    error_kind: str | None = Field(
+        None, description="no_program, too_long, repeated, model (the model failed), unplannable."
+    )
+
+
+class ExecutionStep(StepRecord):
+    """One run of a program in the sandbox, and whether its output is evidence."""
+
+    kind: Literal["execution"] = "execution"
+    stage: Literal["execution"] = "execution"
+    run: int = Field(..., description="1-based count of sandbox runs in this solve.")
+    attempt: int = Field(..., description="The program's attempt (see ProgramStep.attempt).")
+    ok: bool = False
+    error_kind: str | None = Field(
+        None, description="The sandbox's kind (rejected, exception, ...) or not_evidence."
+    )
+    clue_text: str | None = None
+    clue_images: int = Field(0, description="How many images the program returned.")
+    clue_pngs: list[bytes] = Field(default_factory=list, exclude=True, repr=False)
+
+
+class AnswerStep(StepRecord):
+    """The answer chosen from the clue, or from the photos alone; `error` says why there is none."""
+
+    kind: Literal["answer"] = "answer"
+    stage: Literal["answer"] = "answer"
+    answerer: str | None = Field(None, description="What was asked; null when nothing could answer.")
+    from_photos: bool = Field(False, description="Answered from the photos alone (no program ran).")
+    answered_by: str | None = Field(
+        None, description="What the response names as `answer_model` (e.g. '<model> (text only)')."
+    )
+    answer: str | None = None
+    method: str | None = None
+    reasoning: str = ""
+    prompt_tokens: int = 0
+    completion_tokens: int = 0
+
+
+SolveStep = Annotated[
+    SceneStep | ReconstructionStep | ProgramStep | ExecutionStep | AnswerStep, Field(discriminator="kind")
+]
+
+
 class SolveResponse(_Model):
     answer: str | None = Field(..., description="The option letter, or null when no honest answer exists.")
     answer_reason: str | None = Field(None, description="Why answer is null.")
@@ -315,11 +416,14 @@ class SolveResponse(_Model):
         None, description="The question as parsed once: setting, family, asked view, view pair, steps."
     )
     timings: SolveTimings
+    steps: list[SolveStep] = Field(
+        default_factory=list,
+        description="The solve's steps in order (scene, reconstruction, program, execution, answer): "
+        "what each got and produced, its timing, and why it failed. The event stream is made from them.",
+    )
 
 
 # ---- progress of one solve (POST /v1/solve with Accept: text/event-stream) ---------------
-
-SolveStage = Literal["upload", "reconstruction", "program", "execution", "answer"]
 
 
 class StageEvent(_Model):

@@ -7,26 +7,17 @@ Redis is only a warning, since the service then serves from its in-process cache
 
 from __future__ import annotations
 
-from fastapi import APIRouter
 from fastapi.responses import JSONResponse
 
 from services.recon.offload import run_cpu
 from services.recon.routes.dependencies import ServiceDep
+from shared.wire.probes import health_router, not_ready
 from shared.wire.schemas import Readiness
 
-router = APIRouter(tags=["health"])
+router = health_router()  # GET /healthz; GET /readyz below
 
 
-@router.get("/healthz")
-async def healthz() -> dict:
-    return {"status": "ok"}
-
-
-@router.get(
-    "/readyz",
-    response_model=Readiness,
-    responses={503: {"model": Readiness, "description": "Not ready; `backbone_detail` says why."}},
-)
+@router.get("/readyz", response_model=Readiness, responses=not_ready(Readiness, "backbone_detail"))
 async def readyz(service: ServiceDep) -> JSONResponse:
     backbone_ready, detail = service.backbone_status()
     cache_mode = await service.cache.check()

@@ -1,0 +1,87 @@
+"""Programs run in the sandbox for one solve, one ExecutionStep each; typed-in output is no evidence.
+
+`SandboxRuns.execute` is what codegen's repair loop and the offline planner hand a program to. A
+recon failure while the program ran ends the solve (InfrastructureFailure: 502/503/504 with the
+attempts so far): the service failed, not the program, and no repair can help.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+from services.agent.codegen import ExecutionOutcome
+from services.agent.evidence import typed_in_lines
+from services.agent.infrastructure import FailureRecordingClient, InfrastructureFailure, gateway_status
+from services.agent.recon_tools import ReconToolProvider
+from services.agent.sandbox import SandboxLimits, run_program
+from services.agent.sandbox.jail import JailStatus
+from services.agent.steps import SolveLog
+from shared.questions.intent import QuestionIntent
+from shared.wire.schemas import AttemptRecord, ExecutionStep, ProgramStep
+
+
+def not_evidence_error(clue_text: str, notes: list[str]) -> str:
+    """The repair message for a program whose whole output it typed in itself."""
+    return (
+        f"the program returned text it typed in itself ({clue_text.strip()[:160]!r}), which is not "
+        "evidence: " + " ".join(notes[:2])
+    )
+
+
+@dataclass
+class SandboxRuns:
+    """Everything a run needs besides the program, and the attempts so far (for a failure report)."""
+
+    log: SolveLog
+    intent: QuestionIntent
+    num_images: int
+    tools: ReconToolProvider
+    recon: FailureRecordingClient  # the recon client the tools call, recording a service failure
+    limits: SandboxLimits
+    jail: JailStatus
+    python_checks: bool
+    attempts_so_far: list[AttemptRecord] = field(default_factory=list)
+
+    def execute(self, source: str, written_by_model: bool = True) -> ExecutionOutcome:
+        programs = self.log.of(ProgramStep)
+        step = ExecutionStep(
+            run=len(self.log.of(ExecutionStep)) + 1, attempt=programs[-1].attempt if programs else 1
+        )
+        with self.log.record(step):
+            self._run(step, source, written_by_model)
+        return ExecutionOutcome(step.ok, step.error, step, step.error_kind)
+
+    def _run(self, step: ExecutionStep, source: str, written_by_model: bool) -> None:
+        started = time.perf_counter()
+        result = run_program(
+            source,
+            self.intent.text,
+            self.num_images,
+            self.tools,
+            self.limits,
+            jail_status=self.jail,
+            python_checks=self.python_checks,
+        )
+        latency_ms = round((time.perf_counter() - started) * 1e3, 2)
+        self.attempts_so_far.append(AttemptRecord(program=source, error=result.error, latency_ms=latency_ms))
+        if self.recon.failure is not None:  # the service failed, not the program: no repair can help
+            raise InfrastructureFailure(
+                gateway_status(self.recon.failure),
+                f"the reconstruction service failed while the program ran: {self.recon.failure}",
+                self.attempts_so_far,
+            )
+        step.ok, step.error, step.error_kind = result.ok, result.error, result.error_kind
+        step.clue_text, step.clue_pngs, step.clue_images = (
+            result.clue_text,
+            result.clue_images,
+            len(result.clue_images),
+        )
+        if result.ok and written_by_model and result.clue_text and not result.clue_images:
+            kept, typed = typed_in_lines(result.clue_text, source, self.intent)
+            if kept is None:  # all it returned is its own words: ask for tool output instead
+                step.ok, step.error_kind = False, "not_evidence"
+                step.error = not_evidence_error(result.clue_text, typed)
+
+
+__all__ = ["SandboxRuns", "not_evidence_error"]

@@ -1,0 +1,126 @@
+"""A program for the question, run in the sandbox and repaired when it fails.
+
+With a code model: codegen's repair loop (one ProgramStep per request, one ExecutionStep per run).
+Without one, or when the model cannot be reached even after retries: the offline planner writes the
+program from the intent, and the result says who wrote it and why. A model that refuses our key or
+our messages is a configuration error (502 to the client): a fallback would hide it.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+from services.agent.codegen import Attempt, generate_program
+from services.agent.errors import SolveError
+from services.agent.llm import ChatClient, ModelConfigurationError
+from services.agent.planner import PlanningError, UnplannableQuestion, plan_intent
+from services.agent.sandbox.text import clean_text
+from services.agent.stages.execution import SandboxRuns
+from shared.wire.schemas import AttemptRecord, ExecutionStep, ProgramStep
+from shared.wire.settings import AgentSettings
+
+log = logging.getLogger("pyspatial.agent")
+
+OFFLINE_PLANNER = "offline-planner"
+
+
+@dataclass
+class WrittenProgram:
+    """What the program stage produced: the attempts, and the run that worked (or why none did)."""
+
+    code_model: str  # what wrote the program (the response's `code_model`)
+    attempts: list[AttemptRecord] = field(default_factory=list)
+    program: str | None = None  # the program that ran successfully
+    run: ExecutionStep | None = None  # its run
+    failure: str | None = None  # why no program ran successfully
+    fallback: str | None = None  # why the code model did not write it (the planner did)
+    by_model: bool = False  # the code model wrote it (its output is checked for typed-in claims)
+
+
+def write_and_run(
+    runs: SandboxRuns,
+    photos: list[bytes],
+    code_client: ChatClient | None,
+    settings: AgentSettings,
+    max_repairs: int | None,
+) -> WrittenProgram:
+    """The program stage: the code model's (repaired) program, else the offline planner's."""
+    if code_client is None:
+        return plan_offline(runs, OFFLINE_PLANNER)
+    generated = generate_program(
+        code_client,
+        runs.intent,
+        photos,
+        runs.execute,
+        max_repairs=settings.max_repairs if max_repairs is None else max_repairs,
+        num_examples=settings.num_examples,
+        attach_images=not settings.code_model_text_only,
+        max_reply_chars=settings.max_reply_chars,
+        log=runs.log,
+    )
+    attempts = [_attempt_record(attempt) for attempt in generated.attempts]
+    name = code_client.config.model
+    if generated.failure == "model":
+        if isinstance(generated.model_error, ModelConfigurationError):
+            # A rejected key or a server that cannot take our messages: an operator must fix a
+            # setting, and a fallback would hide that. The client gets a 502 saying what to fix.
+            raise generated.model_error
+        # The model could not be reached even after retries: the planner still gives an honest
+        # result, and the response says who wrote the program and why.
+        log.warning("code model failed (%s); falling back to the offline planner", generated.error)
+        planned = plan_offline(runs, f"{OFFLINE_PLANNER} (fallback: {name} failed)", attempts)
+        planned.fallback = f"{name} failed: {generated.error}"
+        return planned
+    if generated.ok:
+        return WrittenProgram(name, attempts, _encodable(generated.program), generated.payload, by_model=True)
+    failure = attempts[-1].error if attempts else "no program was produced"
+    return WrittenProgram(name, attempts, failure=failure, by_model=True)
+
+
+def plan_offline(
+    runs: SandboxRuns, code_model: str, attempts: list[AttemptRecord] | None = None
+) -> WrittenProgram:
+    """The offline planner's program for the intent, run once (it is not repaired)."""
+    attempts = list(attempts or [])
+    step = ProgramStep(attempt=len(attempts) + 1, author=OFFLINE_PLANNER)
+    with runs.log.record(step):
+        try:
+            step.program = plan_intent(runs.intent, runs.num_images).source
+        except PlanningError as error:  # e.g. the question names image 5 of 3
+            raise SolveError(422, f"cannot plan a program for this question: {error}") from error
+        except UnplannableQuestion as unplannable:
+            step.error = f"the offline planner has no program for this question: {unplannable.reason}"
+            step.error_kind = "unplannable"
+    if step.program is None:
+        return WrittenProgram(code_model, attempts, failure=step.error)  # unplannable
+    outcome = runs.execute(step.program, written_by_model=False)
+    run: ExecutionStep = outcome.payload
+    attempts.append(
+        AttemptRecord(program=step.program, error=outcome.error, reply=None, latency_ms=run.duration_ms)
+    )
+    if outcome.ok:
+        return WrittenProgram(code_model, attempts, step.program, run)
+    return WrittenProgram(code_model, attempts, failure=outcome.error)
+
+
+def _attempt_record(attempt: Attempt) -> AttemptRecord:
+    return AttemptRecord(
+        program=_encodable(attempt.program),
+        error=_encodable(attempt.error),
+        reply=_encodable(attempt.reply),
+        latency_ms=round(attempt.latency_ms, 2),
+        error_kind=attempt.error_kind,
+        dropped=attempt.dropped,
+        temperature=attempt.temperature,
+        prompt_tokens=attempt.prompt_tokens,
+        completion_tokens=attempt.completion_tokens,
+    )
+
+
+def _encodable(text: str | None) -> str | None:
+    """A model's text in the response: lone surrogates (valid in JSON, not in UTF-8) replaced."""
+    return None if text is None else clean_text(text)
+
+
+__all__ = ["OFFLINE_PLANNER", "WrittenProgram", "plan_offline", "write_and_run"]
