@@ -4,6 +4,9 @@ and camera motion, in metres. And the backbone menu that tells the truth."""
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
@@ -16,7 +19,7 @@ from shared.local.services import running_service
 from shared.wire.client import ReconClient, ServiceError
 from tests.support.hub_standin import HubStandIn
 from tests.support.scenes import orbit_views
-from tests.test_weights_cli import PI3_DATA, run_weights
+from tests.test_weights_cli import PI3_DATA, ROOT, run_weights
 
 APP = "services.recon.app:create_app"
 
@@ -91,7 +94,7 @@ def test_the_backbone_menu_tells_what_can_run_and_why_not(tmp_path: Path, pulled
             assert entries[name]["reason"] == f"weights not present: run `pyspatial weights pull {name}`"
         assert entries["classical"]["available"] is True and entries["classical"]["units"] == "relative"
         assert menu["auto"] == "pi3x" and menu["default"] == "classical"
-        assert set(menu["available"]) == {"classical", "posed-rgbd", "pi3x"}
+        assert set(menu["available"]) == {"auto", "classical", "posed-rgbd", "pi3x"}
 
         with ReconClient(service.url, timeout=120) as client:
             scene = client.upload_scene(orbit_views(seed=3, num_views=2).pngs())
@@ -107,8 +110,21 @@ def test_without_pulled_weights_auto_is_classical_and_nothing_is_offered_that_ca
 ) -> None:
     with running_service(APP, recon_env(tmp_path, tmp_path / "empty-hf")) as service:
         menu = httpx.get(f"{service.url}/v1/backbones", timeout=30).json()
-        assert menu["auto"] == "classical" and set(menu["available"]) == {"classical", "posed-rgbd"}
+        assert menu["auto"] == "classical" and set(menu["available"]) == {"auto", "classical", "posed-rgbd"}
         with ReconClient(service.url, timeout=300) as client:
             scene = client.upload_scene(orbit_views(seed=4, num_views=3).pngs())
             summary = client.reconstruct(scene.scene_id)  # the default is auto
         assert summary.backbone == "classical" and summary.units == "relative"
+        # The command line offers only what the service can run, and says why not before uploading.
+        refused = subprocess.run(
+            [sys.executable, "-m", "cli.main", "reconstruct", "examples/living_room", "--backbone", "pi3x"],
+            cwd=ROOT,
+            env={**os.environ, "PYSPATIAL_RECON_URL": service.url, "COLUMNS": "200"},
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+        assert refused.returncode == 2
+        assert "backbone pi3x is not available on this service: weights not present: run `pyspatial" in (
+            " ".join(refused.stderr.split())
+        )

@@ -134,6 +134,22 @@ class CameraMotionRequest(_Model):
     backbone: str | None = None
 
 
+class BackboneEntry(_Model):
+    name: str
+    available: bool = Field(..., description="Whether a request naming it can run now.")
+    reason: str | None = Field(None, description="Why not, with what to run; null when available.")
+    units: Units = Field(..., description=UNITS_DESCRIPTION)
+    device: str = Field(..., description="Where it would run: cpu, cuda, ...")
+    note: str | None = Field(None, description="What it needs from an upload, where that matters.")
+
+
+class BackboneMenu(_Model):
+    default: str = Field(..., description="The backbone a request without one gets (may be auto).")
+    auto: str = Field(..., description="What `auto` stands for now: pi3x, else vggt, else classical.")
+    backbones: list[BackboneEntry]
+    available: list[str] = Field(..., description="Names a request may use now (auto included).")
+
+
 class CameraMotionItem(_Model):
     """One pair of views: a description, or (described = false) the reason there is none."""
 

@@ -21,7 +21,7 @@ router = APIRouter(tags=["scenes"])
 @router.post(
     "/v1/scenes/{scene_id}/reconstruct",
     response_model=ReconstructionSummary,
-    responses=error_responses(401, 404, 422, 429, 503),
+    responses=error_responses(401, 404, 409, 422, 429, 503),
 )
 async def reconstruct(
     http: Request, scene_id: str, service: ServiceDep, request: ReconstructRequest | None = None
@@ -38,7 +38,7 @@ async def reconstruct(
     "/v1/scenes/{scene_id}/reconstruction",
     responses={
         200: {"content": {"application/octet-stream": {}, "application/x-ply": {}}},
-        **error_responses(401, 404, 422, 429, 503),
+        **error_responses(401, 404, 409, 422, 429, 503),
     },
 )
 async def reconstruction(
@@ -61,7 +61,7 @@ async def reconstruction(
 @router.get(
     "/v1/scenes/{scene_id}/points",
     response_model=PointCloudPreview,
-    responses=error_responses(401, 404, 422, 429, 503),
+    responses=error_responses(401, 404, 409, 422, 429, 503),
 )
 async def points(
     http: Request,
