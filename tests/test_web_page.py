@@ -145,6 +145,10 @@ def test_solve_the_example_and_inspect_it(stack, llm, browser, shots):
         "image 3",
     ]
     browser.find_element(By.ID, "question").send_keys(spec["question"])
+    # The backbone menu offers only what recon can run: no learned backbone without its weights.
+    WebDriverWait(browser, 30).until(lambda d: len(d.find_elements(By.CSS_SELECTOR, "#backbone option")) > 1)
+    offered = [e.text for e in browser.find_elements(By.CSS_SELECTOR, "#backbone option")]
+    assert offered[1:] == ["auto (classical)", "classical", "posed-rgbd"], offered
     browser.find_element(By.ID, "solve").click()
     try:
         WebDriverWait(browser, 240).until(lambda d: d.find_element(By.ID, "answer").text)
