@@ -15,11 +15,10 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import torch
-from torch import nn
-
-from services.recon.backbones.transformer.checkpoint import shape_problems
+if TYPE_CHECKING:  # torch loads only when a checkpoint is read: the service starts without it
+    from torch import nn
 
 Shapes = dict[str, tuple[int, ...]]
 
@@ -89,6 +88,8 @@ def locate(name: str, explicit: str | os.PathLike | None, revision: str = "main"
 
 def checkpoint_shapes(path: str | os.PathLike) -> Shapes:
     """Tensor names and shapes of a checkpoint without reading its weights into memory."""
+    import torch
+
     path = Path(path)
     try:
         if path.suffix.lower() == ".safetensors":
@@ -107,6 +108,8 @@ def checkpoint_shapes(path: str | os.PathLike) -> Shapes:
 
 
 def _meta_shapes(build: Callable[[], nn.Module]) -> Shapes:
+    import torch
+
     with torch.device("meta"):
         model = build()
     return {name: tuple(tensor.shape) for name, tensor in model.state_dict().items()}
@@ -114,6 +117,8 @@ def _meta_shapes(build: Callable[[], nn.Module]) -> Shapes:
 
 def architecture_problems(name: str, given: Shapes, config_path: str | None = None) -> list[str]:
     """What does not fit between a checkpoint's tensors and the backbone's architecture (empty: fits)."""
+    from services.recon.backbones.transformer.checkpoint import shape_problems
+
     if name == "vggt":
         from services.recon.backbones.vggt.checkpoint import IGNORED_PREFIXES
         from services.recon.backbones.vggt.config import VGGTConfig
