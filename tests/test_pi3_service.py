@@ -5,6 +5,7 @@ and camera motion, in metres. And the backbone menu that tells the truth."""
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 import uuid
@@ -16,12 +17,14 @@ import numpy as np
 import pytest
 
 from shared.local.services import running_service
-from shared.wire.client import ReconClient, ServiceError
+from shared.wire.client import AgentClient, ReconClient, ServiceError
 from tests.support.hub_standin import HubStandIn
 from tests.support.scenes import orbit_views
+from tests.test_agent_service import motion_question
 from tests.test_weights_cli import PI3_DATA, ROOT, run_weights
 
 APP = "services.recon.app:create_app"
+AGENT_APP = "services.agent.app:create_app"
 
 
 @pytest.fixture(scope="module")
@@ -80,6 +83,15 @@ def test_pulled_pi3x_reconstructs_renders_and_describes_motion_in_metres(
                     assert f"moved {item.distance:.2f} m " in item.sentence, item.sentence
             stored = client.reconstruction(scene.scene_id)
             assert stored.units == "metres"
+        # Through the agent (offline planner): `auto` ran Pi3X, and the response says so.
+        agent_env = {"PYSPATIAL_RECON_URL": service.url, "PYSPATIAL_SANDBOX_WALL_S": "20"}
+        with running_service(AGENT_APP, agent_env) as agent, AgentClient(agent.url, timeout=300) as solver:
+            question, _ = motion_question(views)
+            result = solver.solve(question, scene_id=scene.scene_id, backbone="auto")
+        assert result.backbone == "pi3x", result
+        # Metric: a step is said with its length (random tiny weights may also make it no step at all).
+        for line in result.clue.text.splitlines():
+            assert re.search(r"moved \d+\.\d\d m ", line) or "neither moved" in line or "stayed" in line, line
 
 
 def test_the_backbone_menu_tells_what_can_run_and_why_not(tmp_path: Path, pulled_cache: Path) -> None:
