@@ -28,7 +28,7 @@ from services.recon.backbones.pi3.config import Arch, Pi3Config, Pi3ConfigError
 from services.recon.backbones.pi3.config_file import read_pi3_config
 from services.recon.backbones.pi3.inputs import Pi3XInputs, conditioning_inputs
 from services.recon.backbones.pi3.preprocessing import ViewScale, preprocess
-from services.recon.backbones.transformer.checkpoint import file_digest
+from services.recon.backbones.transformer.checkpoint import weights_id
 from services.recon.checkpoints import CATALOGUE, WeightsError, locate, verify
 from shared.geometry.reconstruction import Reconstruction
 
@@ -67,7 +67,7 @@ class Pi3FamilyBackbone(Backbone):
         self._load_lock = threading.Lock()
         self._run_lock = threading.Lock()  # one forward pass at a time: each can take gigabytes
         self._check_header(config)
-        weights = "absent" if self.checkpoint is None else f"w{_weights_id(self.checkpoint)}"
+        weights = "absent" if self.checkpoint is None else f"w{weights_id(self.checkpoint)}"
         self.version = f"cfg{self.config.fingerprint()}-{weights}"
 
     def _check_header(self, config: str | None) -> None:
@@ -194,16 +194,6 @@ class Pi3FamilyBackbone(Backbone):
             intrinsics.append(scale.network_to_original(focal, centre))
             sources.append("predicted")
         return np.stack(intrinsics), sources
-
-
-def _weights_id(path: Any) -> str:
-    """A short id of the weights: the hub's content hash (its blob name) when cached, else a digest."""
-    from pathlib import Path
-
-    resolved = Path(path).resolve()
-    if resolved.parent.name == "blobs" and len(resolved.name) == 64:
-        return resolved.name[:12]
-    return file_digest(resolved)[:12]
 
 
 class Pi3Backbone(Pi3FamilyBackbone):

@@ -139,6 +139,15 @@ def file_digest(path: str | Path, chunk_bytes: int = 16 << 20) -> str:
     return digest.hexdigest()
 
 
+def weights_id(path: str | Path) -> str:
+    """A short id of a checkpoint's content: the hub cache names its blobs by their sha256, so a
+    pulled file needs no hashing again; any other file is hashed (checkpoints are gigabytes)."""
+    resolved = Path(path).resolve()
+    if resolved.parent.name == "blobs" and len(resolved.name) == 64:
+        return resolved.name[:12]
+    return file_digest(resolved)[:12]
+
+
 def read_json_object(path: str | Path, what: str, error: type[Exception]) -> dict:
     """A JSON object from a model configuration file; `error` (with the reason) when it is not one."""
     try:

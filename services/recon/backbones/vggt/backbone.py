@@ -22,7 +22,8 @@ import numpy as np
 import torch
 
 from services.recon.backbones.base import Backbone, BackboneError, check_rgb_images
-from services.recon.backbones.vggt.checkpoint import file_digest, load_vggt
+from services.recon.backbones.transformer.checkpoint import weights_id
+from services.recon.backbones.vggt.checkpoint import load_vggt
 from services.recon.backbones.vggt.config import VGGTConfig, VGGTConfigError
 from services.recon.backbones.vggt.geometry import pose_encoding_to_cameras, unproject_depth_maps
 from services.recon.backbones.vggt.model import VGGT
@@ -72,7 +73,7 @@ class VGGTBackbone(Backbone):
         self.version = f"cfg{self.config.fingerprint()}-unloaded"
         if checkpoint:
             self._model = load_vggt(checkpoint, self.config, self.device)
-            self.version = f"cfg{self.config.fingerprint()}-w{file_digest(checkpoint)[:12]}"
+            self.version = f"cfg{self.config.fingerprint()}-w{weights_id(checkpoint)}"
 
     def ready(self) -> tuple[bool, str]:
         if self._model is None:
