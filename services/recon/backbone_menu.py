@@ -34,7 +34,9 @@ class BackboneAvailability:
         return f"backbone {self.name} is not available here: {self.reason}"
 
 
+@lru_cache(maxsize=8)
 def learned_device(setting: str | None) -> str:
+    """Where a learned backbone would run: the setting, else cuda when torch sees a GPU, else cpu."""
     if setting:
         return setting
     import torch

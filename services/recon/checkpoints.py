@@ -17,6 +17,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+# Imported with the service, not on the first /v1/backbones request (it takes a second or more).
+from huggingface_hub import try_to_load_from_cache
+
 if TYPE_CHECKING:  # torch loads only when a checkpoint is read: the service starts without it
     from torch import nn
 
@@ -63,8 +66,6 @@ def hub_endpoint() -> str:
 
 def cached_path(name: str, revision: str = "main") -> Path | None:
     """The pulled file in the hub cache, or None. Never touches the network."""
-    from huggingface_hub import try_to_load_from_cache
-
     entry = published(name)
     found = try_to_load_from_cache(entry.repo_id, entry.filename, revision=revision)
     return Path(found) if isinstance(found, str) and Path(found).is_file() else None
