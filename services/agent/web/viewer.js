@@ -1,7 +1,10 @@
 // The 3D view: coloured points, input cameras and rendered clue views as labelled frustums.
 // World frame and poses are the service's: 3x4 camera-from-world [R|t], OpenCV axes.
+// Points arrive sorted by confidence, most confident first (when the reconstruction has one), so
+// hiding the least confident is a shorter draw range: no buffer is rebuilt when the slider moves.
+// Frames are drawn on demand (a change of view or of a control), never in a loop.
 import * as THREE from "three";
-import { OrbitControls } from "/web/vendor/three/OrbitControls.js";
+import { OrbitControls } from "/web/vendor/three-0.187.0/OrbitControls.js";
 
 const INPUT_COLOR = 0x0b5cad;
 const RENDERED_COLOR = 0xd14f00;
@@ -55,7 +58,11 @@ export class SceneViewer {
     this.controls = this.makeControls();
     this.pickables = [];
     this.content = new THREE.Group();
+    this.groups = { input: new THREE.Group(), rendered: new THREE.Group() };
     this.scene.add(this.content);
+    this.totalPoints = 0;
+    this.drawnPoints = 0;
+    this.confidence = null;
     canvas.addEventListener("keydown", (event) => this.onKey(event));
     canvas.addEventListener("pointerdown", (event) => { this.downAt = [event.clientX, event.clientY]; });
     canvas.addEventListener("pointerup", (event) => this.onPointerUp(event));
@@ -65,9 +72,14 @@ export class SceneViewer {
   // preview: PointCloudPreview; clueViews: [{index, extrinsic, width, height}] of rendered clue views.
   show(preview, clueViews) {
     this.content.clear();
+    this.groups.input.clear();
+    this.groups.rendered.clear();
+    this.content.add(this.groups.input, this.groups.rendered);
     this.pickables = [];
     const positions = new Float32Array(decodeBase64(preview.positions).buffer);
     const colors = decodeBase64(preview.colors);
+    this.confidence = preview.confidence ? new Float32Array(decodeBase64(preview.confidence).buffer) : null;
+    this.totalPoints = this.drawnPoints = preview.num_points;
     const cloud = new THREE.BufferGeometry();
     cloud.setAttribute("position", new THREE.BufferAttribute(positions, 3));
     cloud.setAttribute("color", new THREE.BufferAttribute(colors, 3, true));
@@ -77,8 +89,9 @@ export class SceneViewer {
     const box = new THREE.Box3().setFromPoints(centers);
     if (preview.num_points) box.union(new THREE.Box3().setFromBufferAttribute(cloud.getAttribute("position")));
     const size = Math.max(box.getSize(new THREE.Vector3()).length(), 1e-3);
-    const pointSize = size / 120;
-    this.content.add(new THREE.Points(cloud, new THREE.PointsMaterial({ size: pointSize, vertexColors: true })));
+    this.basePointSize = size / 120;
+    this.cloud = new THREE.Points(cloud, new THREE.PointsMaterial({ size: this.basePointSize, vertexColors: true }));
+    this.content.add(this.cloud);
 
     const frustumDepth = size * 0.06;
     preview.cameras.forEach((c) => {
@@ -143,8 +156,34 @@ export class SceneViewer {
     sprite.position.copy(corners[0].clone().add(corners[1]).multiplyScalar(0.5));
     sprite.scale.set(depth * 0.8, depth * 0.4, 1);
     sprite.userData.pick = pick;
-    this.content.add(lines, mesh, sprite);
+    this.groups[pick.kind].add(lines, mesh, sprite);
     this.pickables.push(mesh, sprite);
+  }
+
+  get hasConfidence() {
+    return this.confidence !== null && this.totalPoints > 0;
+  }
+
+  // Hide the least confident `fraction` of the points; returns the confidence at the cut.
+  setHiddenFraction(fraction) {
+    if (!this.cloud) return null;
+    const keep = this.hasConfidence ? Math.max(1, Math.ceil(this.totalPoints * (1 - fraction))) : this.totalPoints;
+    this.drawnPoints = keep;
+    this.cloud.geometry.setDrawRange(0, keep);
+    this.draw();
+    return this.hasConfidence ? this.confidence[keep - 1] : null;
+  }
+
+  setPointScale(scale) {
+    if (!this.cloud) return;
+    this.cloud.material.size = this.basePointSize * scale;
+    this.draw();
+  }
+
+  // kind: "input" (the photos' cameras) or "rendered" (the clue's views).
+  setVisible(kind, visible) {
+    this.groups[kind].visible = visible;
+    this.draw();
   }
 
   resetView() {
@@ -183,7 +222,8 @@ export class SceneViewer {
       -((event.clientY - rect.top) / rect.height) * 2 + 1);
     const ray = new THREE.Raycaster();
     ray.setFromCamera(ndc, this.camera);
-    const hit = ray.intersectObjects(this.pickables, false)[0];
+    const visible = this.pickables.filter((object) => object.parent && object.parent.visible);
+    const hit = ray.intersectObjects(visible, false)[0];
     if (hit) this.onPick(hit.object.userData.pick);
   }
 
