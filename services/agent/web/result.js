@@ -58,7 +58,8 @@ function showProgram(result) {
   highlighted(code);
   const attempts = result.attempts.length > 1 || result.attempts.some((a) => a.error) ? result.attempts : [];
   $("attempts").replaceChildren(...attempts.map((attempt, i) => {
-    const pre = element("pre", {}, highlighted(element("code", { className: "language-python",
+    // Focusable: a scrolling block must be reachable with the keyboard.
+    const pre = element("pre", { tabIndex: 0, ariaLabel: `Attempt ${i + 1}'s program` }, highlighted(element("code", { className: "language-python",
       textContent: attempt.program || "(no program in the reply)" })));
     return element("details", { className: "attempt", open: Boolean(attempt.error) && i === attempts.length - 1 },
       element("summary", { textContent: `Attempt ${i + 1}: ${attempt.error ? "failed" : "ran"}` }),
@@ -74,7 +75,8 @@ function showClue(result) {
     const label = view.source === "input" ? `clue image ${view.index + 1}: input image ${view.input_index + 1}`
       : `clue image ${view.index + 1}: rendered view v${view.index + 1}`;
     return element("li", {}, element("img", { src: imageSrc(view.png), alt: label }),
-      element("div", { textContent: label }), element("div", { className: "pose", textContent: poseText(view.extrinsic) }));
+      element("div", { textContent: label }),
+      element("div", { className: "pose", tabIndex: 0, ariaLabel: `${label}: pose`, textContent: poseText(view.extrinsic) }));
   }));
   $("notes").replaceChildren(...result.clue.notes.map((note) => element("li", { textContent: note })));
   return views;

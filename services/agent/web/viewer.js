@@ -7,7 +7,7 @@ import * as THREE from "three";
 import { OrbitControls } from "/web/vendor/three-0.187.0/OrbitControls.js";
 
 const INPUT_COLOR = 0x0b5cad;
-const RENDERED_COLOR = 0xd14f00;
+const RENDERED_COLOR = 0xb34000;
 const KEY_ROTATE = Math.PI / 36; // 5 degrees per arrow key press
 
 function decodeBase64(text) {
