@@ -46,8 +46,9 @@ ENDLESS_PROGRAM = """```python
 def program(input_scene):
     recon = pySpatial.reconstruct(input_scene)
     total = 0
-    for i in range(10 ** 10):
-        total += i
+    for i in range(10 ** 7):  # the sandbox allows ranges of up to 10 million items
+        for j in range(10 ** 7):
+            total += 1
     return str(total)
 ```"""
 SANDBOX_WORKER = "services.agent.sandbox.worker"
