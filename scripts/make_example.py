@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from PIL import Image
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -43,6 +44,18 @@ TEMPLE_CITATION = (
     "R. Szeliski, 'A Comparison and Evaluation of Multi-View Stereo Reconstruction Algorithms', CVPR 2006. "
     "https://vision.middlebury.edu/mview/"
 )
+
+
+THUMBNAIL = "thumbnail.jpg"
+THUMBNAIL_SIZE = (192, 144)  # the gallery shows 96x72 CSS pixels: sharp on 2x screens
+
+
+def write_thumbnail(folder: Path, first_photo: str) -> None:
+    """A small JPEG of the first photo for the gallery: the photos themselves are ~80-300 KB each."""
+    with Image.open(folder / first_photo) as photo:
+        small = photo.convert("RGB")
+        small.thumbnail(THUMBNAIL_SIZE)
+        small.save(folder / THUMBNAIL, quality=82, optimize=True)
 
 
 def step_right(extrinsic: np.ndarray, distance: float) -> np.ndarray:
@@ -170,6 +183,7 @@ def write_synthetic(example: SyntheticExample, out: Path) -> None:
         "expected_answer": first["expected_answer"],
         "questions": example.questions,
         "images": names,
+        "thumbnail": THUMBNAIL,
         "scene_seed": example.seed,
         "image_size": [WIDTH, HEIGHT],
         "intrinsic": np.round(intrinsic, 6).tolist(),
@@ -177,6 +191,7 @@ def write_synthetic(example: SyntheticExample, out: Path) -> None:
         "objects": scene.object_names,
     }
     (folder / "example.json").write_text(json.dumps(spec, indent=2) + "\n")
+    write_thumbnail(folder, names[0])
     print(f"wrote {len(names)} views and example.json to {folder}")
 
 
@@ -220,9 +235,11 @@ def write_templering(realdata: Path, out: Path) -> None:
         "expected_answer": questions[0]["expected_answer"],
         "questions": questions,
         "images": names,
+        "thumbnail": THUMBNAIL,
         "calibration": {name: [float(v) for v in calibration[name]] for name in names},
     }
     (folder / "example.json").write_text(json.dumps(spec, indent=2) + "\n")
+    write_thumbnail(folder, names[0])
     print(f"copied {len(names)} templeRing photos and wrote example.json to {folder}")
 
 

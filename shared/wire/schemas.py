@@ -189,7 +189,7 @@ class ExampleInfo(_Model):
     description: str
     source: Literal["synthetic", "real"]
     citation: str | None = Field(None, description="Where real photos come from, to cite them.")
-    thumbnail: str = Field(..., description="URL of a photo to show for it.")
+    thumbnail: str = Field(..., description="URL of a small picture of it (a JPEG of its first photo).")
     images: list[str] = Field(..., description="URLs of its photos, in order.")
     questions: list[ExampleQuestion]
 

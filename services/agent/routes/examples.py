@@ -52,7 +52,7 @@ def _info(name: str, spec: dict) -> ExampleInfo:
         description=spec.get("description", ""),
         source=spec.get("source", "synthetic"),
         citation=spec.get("citation"),
-        thumbnail=images[0],
+        thumbnail=f"/v1/examples/{name}/images/{spec['thumbnail']}" if "thumbnail" in spec else images[0],
         images=images,
         questions=questions,
     )
@@ -78,7 +78,8 @@ async def examples() -> ExampleList:
     responses=error_responses(401, 404, 429),
 )
 async def example_photo(name: str = Path(pattern=EXAMPLE_NAME), file: str = Path()) -> FileResponse:
-    if file not in _spec(name)["images"]:
+    spec = _spec(name)
+    if file not in [*spec["images"], spec.get("thumbnail")]:
         raise HTTPException(404, f"the example {name!r} has no image {file!r}")
     return FileResponse(EXAMPLES_DIR / name / file)
 

@@ -111,7 +111,6 @@ class VGGTBackbone(Backbone):
                 f"bad options point_source={point_source!r} confidence_percentile={percentile}"
             )
         warnings = [f"vggt ignores option {name!r}" for name in sorted(options)]
-
         arrays, placements = self.predict(images)
         frame_hw = arrays["depth"].shape[1:3]
         problems = [_field_of_view_problem(intrinsic, frame_hw) for intrinsic in arrays["intrinsic"]]
