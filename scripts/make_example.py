@@ -46,12 +46,13 @@ TEMPLE_CITATION = (
 )
 
 
-THUMBNAIL = "thumbnail.jpg"
+THUMBNAIL = "gallery/thumbnail.jpg"  # in a sub-folder: a folder of an example's photos is its scene
 THUMBNAIL_SIZE = (192, 144)  # the gallery shows 96x72 CSS pixels: sharp on 2x screens
 
 
 def write_thumbnail(folder: Path, first_photo: str) -> None:
     """A small JPEG of the first photo for the gallery: the photos themselves are ~80-300 KB each."""
+    (folder / THUMBNAIL).parent.mkdir(exist_ok=True)
     with Image.open(folder / first_photo) as photo:
         small = photo.convert("RGB")
         small.thumbnail(THUMBNAIL_SIZE)

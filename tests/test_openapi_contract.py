@@ -310,6 +310,9 @@ def exercise_agent(observe: Observer, stack, views, scene_id: str) -> None:
     photo = "/v1/examples/{name}/images/{file}"
     agent("GET", photo, examples[0]["images"][0], 200)
     agent("GET", photo, "/v1/examples/living_room/images/nothing.png", 404)
+    thumbnail = "/v1/examples/{name}/thumbnail"
+    agent("GET", thumbnail, examples[0]["thumbnail"], 200)
+    agent("GET", thumbnail, "/v1/examples/nothing/thumbnail", 404)
     agent("GET", "/v1/example", "/v1/example", 200)
     agent("GET", "/v1/example/images/{name}", "/v1/example/images/nothing.png", 404)
     image = agent("GET", "/v1/example", "/v1/example", 200).json()["images"][0]
@@ -324,6 +327,7 @@ def exercise_agent(observe: Observer, stack, views, scene_id: str) -> None:
         ("GET", download, f"/v1/scenes/{scene_id}/reconstruction?backbone=posed-rgbd", {}),
         ("GET", "/v1/examples", "/v1/examples", {}),
         ("GET", photo, examples[0]["images"][0], {}),
+        ("GET", thumbnail, examples[0]["thumbnail"], {}),
         ("GET", "/v1/example", "/v1/example", {}),
         ("GET", "/v1/example/images/{name}", image, {}),
     ]

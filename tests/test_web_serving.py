@@ -240,6 +240,8 @@ def test_the_examples_and_their_photos(agent):
         assert len(example["images"]) == len(spec["images"]) == 3
         photo = httpx.get(agent.url + example["images"][0])
         assert photo.status_code == 200 and photo.content.startswith(b"\x89PNG")
+        thumbnail = httpx.get(agent.url + example["thumbnail"])
+        assert thumbnail.headers["content-type"] == "image/jpeg" and len(thumbnail.content) < 20_000
         assert {q["free_form"] for q in example["questions"]} == {True, False}
     temple = next(example for example in examples if example["name"] == "temple_ring")
     assert temple["source"] == "real" and "Seitz" in temple["citation"]

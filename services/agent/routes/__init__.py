@@ -5,7 +5,7 @@
 | `health.py` | `GET /healthz`, `GET /readyz` |
 | `solve.py` | `POST /v1/solve` (JSON or multipart; plain or `Accept: text/event-stream`) |
 | `web.py` | `GET /`, `GET /v1/scenes/{id}/points`, `GET /v1/scenes/{id}/reconstruction`, `/v1/backbones` |
-| `examples.py` | `GET /v1/examples`, `GET /v1/examples/{name}/images/{file}`, `GET /v1/example[/...]` |
+| `examples.py` | `GET /v1/examples`, `/v1/examples/{name}/images/{file}`, `.../thumbnail`, `/v1/example` |
 
 Routes reach the pipeline and the settings through `dependencies.py`; `services/agent/app.py`
 builds them, mounts the page's static files (`/web`) and includes `ROUTERS`. A new endpoint goes

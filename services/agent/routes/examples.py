@@ -2,7 +2,7 @@
 
 - `/v1/examples`: every example with its title, description, source (synthetic or real, with the
   citation for real photos), the URLs of its photos and its questions;
-- `/v1/examples/{name}/images/{file}`: one photo;
+- `/v1/examples/{name}/images/{file}`: one photo; `/v1/examples/{name}/thumbnail`: a small JPEG;
 - `/v1/example` and `/v1/example/images/{name}`: the demo's example (living_room), as before.
 
 The Docker images leave `examples/` out: there the list is empty and `/v1/example` is a 404.
@@ -52,7 +52,7 @@ def _info(name: str, spec: dict) -> ExampleInfo:
         description=spec.get("description", ""),
         source=spec.get("source", "synthetic"),
         citation=spec.get("citation"),
-        thumbnail=f"/v1/examples/{name}/images/{spec['thumbnail']}" if "thumbnail" in spec else images[0],
+        thumbnail=f"/v1/examples/{name}/thumbnail" if "thumbnail" in spec else images[0],
         images=images,
         questions=questions,
     )
@@ -78,10 +78,22 @@ async def examples() -> ExampleList:
     responses=error_responses(401, 404, 429),
 )
 async def example_photo(name: str = Path(pattern=EXAMPLE_NAME), file: str = Path()) -> FileResponse:
-    spec = _spec(name)
-    if file not in [*spec["images"], spec.get("thumbnail")]:
+    if file not in _spec(name)["images"]:
         raise HTTPException(404, f"the example {name!r} has no image {file!r}")
     return FileResponse(EXAMPLES_DIR / name / file)
+
+
+@router.get(
+    "/v1/examples/{name}/thumbnail",
+    response_class=FileResponse,
+    responses=error_responses(401, 404, 429),
+)
+async def example_thumbnail(name: str = Path(pattern=EXAMPLE_NAME)) -> FileResponse:
+    """A small JPEG of the example's first photo, for the gallery."""
+    spec = _spec(name)
+    if "thumbnail" not in spec:
+        raise HTTPException(404, f"the example {name!r} has no thumbnail")
+    return FileResponse(EXAMPLES_DIR / name / spec["thumbnail"], media_type="image/jpeg")
 
 
 @router.get("/v1/example", responses=error_responses(401, 404, 429))
