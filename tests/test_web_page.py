@@ -600,22 +600,32 @@ def test_the_viewer_draws_200k_points_and_its_frame_time_is_measured(recon, stac
           viewer.resize();
           const gl = viewer.renderer.getContext();
           const pixel = new Uint8Array(4);
-          const times = [];
-          for (let i = 0; i < 13; i++) {
-            const started = performance.now();
-            viewer.controls.rotateLeft(0.05);
-            gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, pixel);
-            times.push(performance.now() - started);
-          }
-          done({ times: times.slice(3), drawn: viewer.drawnPoints, confidence: viewer.hasConfidence });
+          const orbit = () => {
+            const times = [];
+            for (let i = 0; i < 13; i++) {
+              const started = performance.now();
+              viewer.controls.rotateLeft(0.05);
+              gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, pixel);
+              times.push(performance.now() - started);
+            }
+            return times.slice(3);
+          };
+          const times = orbit();
+          viewer.setMoving(true);
+          const moving = orbit();
+          viewer.setMoving(false);
+          done({ times, moving, step: viewer.step, drawn: viewer.drawnPoints });
         })().catch((error) => done({ error: String(error) }));
         """,
         f"/v1/scenes/{scene}/points?max_points=200000&backbone=posed-rgbd",
     )
     assert "error" not in measured, measured
     assert measured["drawn"] == 200_000
-    median = float(np.median(measured["times"]))
-    (shots / "viewer-200k.json").write_text(json.dumps({"median_ms": median, **measured}))
-    print(f"200k points, 640x480, software WebGL: median {median:.0f} ms per frame")
-    assert median < 5000  # it draws; the speed figure is the bench's
+    assert measured["step"] == 8  # software WebGL: 25,000 points drawn while the view moves
+    median, moving = float(np.median(measured["times"])), float(np.median(measured["moving"]))
+    (shots / "viewer-200k.json").write_text(
+        json.dumps({"median_ms": median, "moving_ms": moving, **measured})
+    )
+    print(f"200k points, 640x480, software WebGL: median {median:.0f} ms per frame, {moving:.0f} ms moving")
+    assert median < 5000 and moving < median  # it draws, and moving is cheaper; figures: the bench
     assert csp_violations(browser) == []
