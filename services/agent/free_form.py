@@ -91,7 +91,7 @@ def answer_offline(intent: QuestionIntent, clue_text: str | None, clue_images: l
         return no_answer(f"the offline answerer finds no direction or turn in {statement.sentence!r}")
     return AnswerResult(
         answer=words,
-        reasoning=f"The program's output says: {statement.sentence!r}. Told in its own direction words.",
+        reasoning=f"The program's output says: {statement.sentence!r}.",
         method="offline_text",
     )
 
