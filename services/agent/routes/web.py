@@ -10,6 +10,8 @@ the examples of its gallery are in examples.py).
 
 from __future__ import annotations
 
+from contextlib import ExitStack
+
 import anyio
 from fastapi import APIRouter, Path, Query, Request
 from fastapi.responses import Response, StreamingResponse
@@ -65,14 +67,13 @@ async def reconstruction_file(
     format: str = Query("ply", pattern="^(ply|glb)$", description="ply (binary) or glb (binary glTF)"),
 ) -> StreamingResponse:
     """The reconstruction's coloured points as a PLY or GLB file, streamed from the recon service."""
-    opened = pipeline.recon.export(scene_id, format, backbone)
-    upstream = await anyio.to_thread.run_sync(opened.__enter__)  # recon's errors map before any byte
+    stream = ExitStack()  # recon's response stays open while its bytes are passed on
+    export = pipeline.recon.export(scene_id, format, backbone)
+    upstream = await anyio.to_thread.run_sync(stream.enter_context, export)  # errors map before any byte
 
     def chunks():
-        try:
+        with stream:
             yield from upstream.iter_bytes()
-        finally:
-            opened.__exit__(None, None, None)
 
     headers = {"Content-Disposition": f'attachment; filename="{scene_id}.{format}"'}
     if "content-length" in upstream.headers:
