@@ -6,12 +6,12 @@ cd "$(dirname "$0")/.."
 PYTHON="${PYTHON:-python3}"
 log() { printf '[setup] %s\n' "$*"; }
 
-# ---- Python >= 3.10 ----
+# ---- Python >= 3.11 (starlette-compress, the agent's compression, needs it) ----
 if ! command -v "$PYTHON" >/dev/null 2>&1; then
-    log "python3 not found: install Python 3.10 or newer"; exit 1
+    log "python3 not found: install Python 3.11 or newer"; exit 1
 fi
-if ! "$PYTHON" -c 'import sys; sys.exit(sys.version_info < (3, 10))'; then
-    log "$("$PYTHON" --version 2>&1) is too old: Python 3.10 or newer is required"; exit 1
+if ! "$PYTHON" -c 'import sys; sys.exit(sys.version_info < (3, 11))'; then
+    log "$("$PYTHON" --version 2>&1) is too old: Python 3.11 or newer is required"; exit 1
 fi
 
 # ---- system packages (Debian/Ubuntu) ----

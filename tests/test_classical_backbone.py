@@ -142,6 +142,13 @@ def test_densified_depth_matches_the_rendered_depth(scene, arc, arc_result):
     assert np.mean(relative_error < 0.05) > 0.9
 
 
+def test_each_point_says_how_many_views_support_it(arc_result):
+    """The points' confidence: a triangulated point's track length, a dense one's agreeing views."""
+    support = arc_result.point_confidence
+    assert support is not None and len(support) == arc_result.num_points
+    assert support.min() >= 2 and support.max() <= arc_result.num_views
+
+
 def test_densify_adds_points_beyond_the_sparse_matches(arc, arc_result):
     sparse = ClassicalBackbone(densify=False).reconstruct(arc[1])
     assert sparse.depths is None

@@ -321,7 +321,18 @@ def exercise_agent(observe: Observer, stack, views, scene_id: str) -> None:
     agent("GET", points, f"/v1/scenes/{UNKNOWN_SCENE}/points", 404)
     agent("GET", points, f"/v1/scenes/{scene_id}/points?backbone=pi3x", 409)
     agent("GET", points, "/v1/scenes/%23x/points", 422)  # "#x"
+    download = "/v1/scenes/{scene_id}/reconstruction"
+    agent("GET", download, f"/v1/scenes/{scene_id}/reconstruction?format=ply&backbone=posed-rgbd", 200)
+    agent("GET", download, f"/v1/scenes/{UNKNOWN_SCENE}/reconstruction", 404)
+    agent("GET", download, f"/v1/scenes/{scene_id}/reconstruction?format=obj", 422)
     agent("GET", "/v1/backbones", "/v1/backbones", 200)
+    examples = agent("GET", "/v1/examples", "/v1/examples", 200).json()["examples"]
+    photo = "/v1/examples/{name}/images/{file}"
+    agent("GET", photo, examples[0]["images"][0], 200)
+    agent("GET", photo, "/v1/examples/living_room/images/nothing.png", 404)
+    thumbnail = "/v1/examples/{name}/thumbnail"
+    agent("GET", thumbnail, examples[0]["thumbnail"], 200)
+    agent("GET", thumbnail, "/v1/examples/nothing/thumbnail", 404)
     agent("GET", "/v1/example", "/v1/example", 200)
     agent("GET", "/v1/example/images/{name}", "/v1/example/images/nothing.png", 404)
     image = agent("GET", "/v1/example", "/v1/example", 200).json()["images"][0]
@@ -333,6 +344,10 @@ def exercise_agent(observe: Observer, stack, views, scene_id: str) -> None:
         ("POST", "/v1/solve", "/v1/solve", {"json": solve_body}),
         ("GET", points, f"/v1/scenes/{scene_id}/points", {}),
         ("GET", "/v1/backbones", "/v1/backbones", {}),
+        ("GET", download, f"/v1/scenes/{scene_id}/reconstruction?backbone=posed-rgbd", {}),
+        ("GET", "/v1/examples", "/v1/examples", {}),
+        ("GET", photo, examples[0]["images"][0], {}),
+        ("GET", thumbnail, examples[0]["thumbnail"], {}),
         ("GET", "/v1/example", "/v1/example", {}),
         ("GET", "/v1/example/images/{name}", image, {}),
     ]
@@ -340,13 +355,13 @@ def exercise_agent(observe: Observer, stack, views, scene_id: str) -> None:
     for method, route, path, kwargs in guarded:
         agent(method, route, path, 401, headers={}, **kwargs)
         agent(method, route, path, 429, name="agent_limited", headers={}, **kwargs)
-        if route in ("/v1/solve", points, "/v1/backbones"):
+        if route in ("/v1/solve", points, "/v1/backbones", download):
             agent(method, route, path, 502, name="agent_without_recon_key", headers={}, **kwargs)
             agent(method, route, path, 503, name="agent_of_nothing", headers={}, **kwargs)
     process = stack["recon_unready"].process
     os.kill(process.pid, signal.SIGSTOP)  # a hung recon: connections are accepted, nothing answers
     try:
-        for method, route, path, kwargs in guarded[:3]:
+        for method, route, path, kwargs in guarded[:4]:
             agent(method, route, path, 504, name="agent_of_unready", headers={}, **kwargs)
     finally:
         os.kill(process.pid, signal.SIGCONT)

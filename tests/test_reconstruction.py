@@ -163,3 +163,45 @@ def test_units_round_trip_and_format_2_files_keep_their_backbones_units():
         assert Reconstruction.from_bytes(buffer.getvalue()).units == units
     with pytest.raises(ValueError, match="unknown units"):
         Reconstruction(**{**sample(num_points=4).__dict__, "units": "feet"})
+
+
+def test_point_confidence_round_trips_and_older_files_have_none():
+    recon = sample()
+    recon = Reconstruction(**{**recon.__dict__, "point_confidence": np.arange(recon.num_points) % 4 + 2})
+    restored = Reconstruction.from_bytes(recon.to_bytes())
+    assert restored.point_confidence.dtype == np.float32
+    np.testing.assert_array_equal(restored.point_confidence, recon.point_confidence)
+    with np.load(io.BytesIO(recon.to_bytes())) as archive:
+        arrays = {k: archive[k] for k in archive if k != "point_confidence"}
+    arrays["format_version"] = np.array(2, dtype=np.int32)
+    buffer = io.BytesIO()
+    np.savez(buffer, **arrays)
+    assert Reconstruction.from_bytes(buffer.getvalue()).point_confidence is None
+    with pytest.raises(ValueError, match="confidences for"):
+        Reconstruction(**{**recon.__dict__, "point_confidence": np.ones(3)})
+
+
+def test_ply_streams_in_chunks_that_make_the_whole_file():
+    recon = sample(num_points=1000)
+    chunks = list(recon.ply_chunks(points_per_chunk=300))
+    assert len(chunks) == 1 + 4 and b"".join(chunks) == recon.to_ply()
+    assert recon.ply_size() == len(recon.to_ply())
+
+
+def test_the_viewer_preview_is_sorted_by_confidence_most_confident_first():
+    import base64
+
+    from services.recon.preview import point_cloud_preview
+
+    recon = sample(num_points=2000)
+    confidence = np.random.default_rng(1).uniform(0, 10, recon.num_points)
+    recon = Reconstruction(**{**recon.__dict__, "point_confidence": confidence})
+    preview = point_cloud_preview("s", recon, [], [0.0, -1.0, 0.0], 500)
+    sent = np.frombuffer(base64.b64decode(preview.confidence), dtype="<f4")
+    positions = np.frombuffer(base64.b64decode(preview.positions), dtype="<f4").reshape(-1, 3)
+    assert len(sent) == 500 and np.all(np.diff(sent) <= 0)
+    # Each point keeps its own confidence: the same subsample, reordered.
+    index = {tuple(p): i for i, p in enumerate(recon.points.astype(np.float32))}
+    np.testing.assert_array_equal(sent, recon.point_confidence[[index[tuple(p)] for p in positions]])
+    without = point_cloud_preview("s", sample(num_points=2000), [], [0.0, -1.0, 0.0], 500)
+    assert without.confidence is None

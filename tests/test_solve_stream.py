@@ -152,7 +152,7 @@ def test_points_preview_is_a_bounded_subsample_with_the_cameras(agent, scene_id,
 def test_page_and_its_assets_are_served(agent):
     page = httpx.get(agent.url + "/")
     assert page.status_code == 200 and '<canvas id="viewer"' in page.text
-    for asset in ("/web/app.js", "/web/viewer.js", "/web/vendor/three/three.module.js"):
+    for asset in ("/web/app.js", "/web/viewer.js", "/web/vendor/three-0.187.0/three.module.js"):
         assert httpx.get(agent.url + asset).status_code == 200, asset
     example = httpx.get(agent.url + "/v1/example").json()
     image = httpx.get(agent.url + example["images"][0])
@@ -165,9 +165,9 @@ def test_vendored_libraries_are_the_published_files():
     vendor = REPO_ROOT / "services" / "agent" / "web" / "vendor"
     sums = [line.split() for line in (vendor / "SHA256SUMS").read_text().splitlines() if line.strip()]
     assert {name for _, name in sums} >= {
-        "three/three.module.js",
-        "three/OrbitControls.js",
-        "highlight/LICENSE",
+        "three-0.187.0/three.module.js",
+        "three-0.187.0/OrbitControls.js",
+        "highlight-11.11.1/LICENSE",
     }
     for digest, name in sums:
         assert hashlib.sha256((vendor / name).read_bytes()).hexdigest() == digest, name

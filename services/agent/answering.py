@@ -9,16 +9,18 @@ Offline: a camera-motion sentence ("From view 1 to view 2 the camera moved diago
 right and turned left by about 45 degrees.") is compared with the options, wording normalized by
 shared.questions.choices. Rendered images cannot be read without a vision model: the answer is then None with
 the reason, never a guess.
+
+A question without options is answered in words (services/agent/free_form.py: its prompts, how its
+replies are read, its offline rule); every function here hands such questions to it.
 """
 
 from __future__ import annotations
 
-import json
 import re
-from typing import Any, Literal
+from typing import Any
 
-from pydantic import BaseModel
-
+from services.agent import free_form
+from services.agent.answer_result import AnswerMethod, AnswerResult, json_object, no_answer, with_usage
 from services.agent.llm import (
     ChatClient,
     LLMError,
@@ -27,41 +29,27 @@ from services.agent.llm import (
     image_part,
     text_part,
 )
-from services.agent.prompts import load_template
-from shared.questions.choices import (
-    extract_letter,
-    normalize_direction,
-    normalize_turn,
-    turn_degrees,
+from services.agent.motion_clue import (
+    VISION_MODEL_HINT,
+    MotionStatement,
+    motion_statements,
+    not_a_motion_question,
+    pick_statement,
+    unreadable_clue,
 )
+from services.agent.prompts import load_template
+from shared.questions.choices import extract_letter, normalize_direction, normalize_turn, turn_degrees
 from shared.questions.intent import QuestionIntent
 
-AnswerMethod = Literal["model_json", "model_text", "model_option_text", "offline_text", "text_model", "none"]
 DEFAULT_TEMPLATE = "answer_v1"
 IMAGES_ONLY_TEMPLATE = "answer_images_only_v1"
-VISION_MODEL_HINT = (
-    "set PYSPATIAL_ANSWER_MODEL (and PYSPATIAL_ANSWER_MODEL_BASE_URL, PYSPATIAL_ANSWER_MODEL_API_KEY) "
-    "to a vision-capable chat model"
-)
 
 
-class AnswerResult(BaseModel):
-    answer: str | None  # an option letter, or None with `reason`
-    reasoning: str = ""
-    raw: str | None = None  # the model's reply, when a model answered
-    method: AnswerMethod
-    reason: str | None = None  # why there is no answer
-    prompt_tokens: int = 0  # spent by the answer model, when one was asked
-    completion_tokens: int = 0
-
-
-def _with_usage(result: AnswerResult, reply: Any) -> AnswerResult:
-    usage = getattr(reply, "usage", None)
-    if usage is None:
-        return result
-    return result.model_copy(
-        update={"prompt_tokens": usage.prompt_tokens or 0, "completion_tokens": usage.completion_tokens or 0}
-    )
+def _letter_fields(intent: QuestionIntent) -> dict[str, str]:
+    """The `letters` a multiple-choice prompt names; free-form prompts have no such field."""
+    if free_form.is_free_form(intent):
+        return {}
+    return {"letters": ", ".join(sorted(intent.options))}
 
 
 # ---- with a model --------------------------------------------------------------------------------
@@ -103,8 +91,7 @@ def build_answer_messages(
     clue_images: list[bytes],
     template_version: str = DEFAULT_TEMPLATE,
 ) -> list[dict[str, Any]]:
-    letters = sorted(intent.options)
-    content = load_template(template_version).render_parts(
+    content = load_template(free_form.template_for(intent, template_version)).render_parts(
         slots={
             "original_images": _labelled_images("Image", images_png),
             "clue_images": _labelled_images("Rendered view", clue_images),
@@ -114,22 +101,9 @@ def build_answer_messages(
         program=program.strip(),
         num_clue_images=len(clue_images),
         clue_text=clue_text.strip() if clue_text and clue_text.strip() else "(no text)",
-        letters=", ".join(letters) if letters else "the options",
+        **_letter_fields(intent),
     )
     return [{"role": "user", "content": content}]
-
-
-def _json_object(text: str) -> dict[str, Any] | None:
-    """The first JSON object in a reply: bare, inside ```json fences, or amid prose."""
-    decoder = json.JSONDecoder()
-    for start in [match.start() for match in re.finditer(r"\{", text)]:
-        try:
-            value, _ = decoder.raw_decode(text, start)
-        except json.JSONDecodeError:
-            continue
-        if isinstance(value, dict):
-            return value
-    return None
 
 
 def _option_named(text: str, options: dict[str, str]) -> str | None:
@@ -143,15 +117,16 @@ def _option_named(text: str, options: dict[str, str]) -> str | None:
 
 
 def read_model_answer(text: str, options: dict[str, str]) -> AnswerResult:
-    """Interpret an answer model's reply (JSON, a letter in prose, or an option's text)."""
+    """Interpret an answer model's reply (JSON, a letter in prose, or an option's text); with no
+    options, the reply is a free-form answer (services/agent/free_form.py)."""
+    if not options:
+        return free_form.read_reply(text)
     letters = sorted(options)
     valid = letters or None
-    data = _json_object(text)
+    data = json_object(text)
     if data is not None and "answer" in data:
         reasoning = str(data.get("reasoning") or "")
         stated = str(data["answer"]).strip()
-        if not options:
-            return AnswerResult(answer=stated or None, reasoning=reasoning, raw=text, method="model_json")
         letter = extract_letter(stated, valid) or _option_named(stated, options)
         if letter:
             return AnswerResult(answer=letter, reasoning=reasoning, raw=text, method="model_json")
@@ -194,7 +169,7 @@ def answer_with_model(
         raise
     except LLMError as error:
         return AnswerResult(answer=None, method="none", reason=f"the answer model failed: {error}")
-    return _with_usage(read_model_answer(reply.text, options), reply)
+    return with_usage(read_model_answer(reply.text, options), reply)
 
 
 # ---- a text-only model, for text clues ------------------------------------------------------------
@@ -215,12 +190,8 @@ def answer_text_clue_with_model(
     naming no option gives answer=None with the reason; a rejected key is raised.
     """
     options = intent.options
-    letters = sorted(options)
-    text = load_template(template_version).render(
-        question=intent.text,
-        program=program.strip(),
-        clue_text=clue_text.strip(),
-        letters=", ".join(letters) if letters else "the options",
+    text = load_template(free_form.template_for(intent, template_version)).render(
+        question=intent.text, program=program.strip(), clue_text=clue_text.strip(), **_letter_fields(intent)
     )
     try:
         reply = client.complete([{"role": "user", "content": text}])
@@ -228,7 +199,7 @@ def answer_text_clue_with_model(
         raise
     except LLMError as error:
         return AnswerResult(answer=None, method="none", reason=f"the text model failed: {error}")
-    read = _with_usage(read_model_answer(reply.text, options), reply)
+    read = with_usage(read_model_answer(reply.text, options), reply)
     if read.answer is None:
         return read
     return read.model_copy(
@@ -247,11 +218,11 @@ def answer_from_images(
     does. A model failure gives answer=None with the reason."""
     options = intent.options
     letters = sorted(options)
-    content = load_template(template_version).render_parts(
+    content = load_template(free_form.template_for(intent, template_version)).render_parts(
         slots={"original_images": _labelled_images("Image", images_png)},
         question=intent.text,
         num_images=len(images_png),
-        letters=", ".join(letters) if letters else "the options",
+        **_letter_fields(intent),
     )
     messages = [{"role": "user", "content": content}]
     try:
@@ -266,53 +237,6 @@ def answer_from_images(
 
 # ---- offline -----------------------------------------------------------------------------------
 
-_PAIR = re.compile(r"\b(?:view|image)\s+(\d+)\b.*?\b(?:view|image)\s+(\d+)\b", re.IGNORECASE)
-_SENTENCE_END = re.compile(r"(?<=[.!?])\s+(?=[A-Z])")
-
-
-class _Motion(BaseModel):
-    pair: tuple[int, int] | None
-    sentence: str
-    direction: str | None
-    turn: str | None
-    degrees: float | None
-
-
-def _motion_statements(clue_text: str) -> list[_Motion]:
-    statements = []
-    for line in clue_text.splitlines():
-        for sentence in _SENTENCE_END.split(line.strip()):
-            direction, turn = normalize_direction(sentence), normalize_turn(sentence)
-            moved_or_not = re.search(r"\b(?:moved|stayed in place|neither moved)\b", sentence, re.IGNORECASE)
-            if direction is None and turn is None and not moved_or_not:
-                continue
-            pair_match = _PAIR.search(sentence)
-            pair = (int(pair_match.group(1)), int(pair_match.group(2))) if pair_match else None
-            statements.append(
-                _Motion(
-                    pair=pair,
-                    sentence=sentence.strip(),
-                    direction=direction,
-                    turn=turn,
-                    degrees=turn_degrees(sentence),
-                )
-            )
-    return statements
-
-
-def _pick_statement(intent: QuestionIntent, statements: list[_Motion]) -> tuple[_Motion | None, str]:
-    """The statement about the pair the question asks for (from its parsed intent), or None and why."""
-    named = len(intent.mentioned_views) >= 2
-    if intent.motion_pair is not None and (named or len(statements) > 1):
-        for statement in statements:
-            if statement.pair == intent.motion_pair:
-                return statement, ""
-        first, second = intent.motion_pair
-        return None, f"the program's output has no sentence about view {first} to view {second}"
-    if len(statements) == 1:
-        return statements[0], ""
-    return None, "the question does not say which pair of views it asks about"
-
 
 def _option_motion(text: str, asks_turn_only: bool) -> tuple[str | None, str | None, float | None]:
     direction, turn, degrees = normalize_direction(text), normalize_turn(text), turn_degrees(text)
@@ -326,7 +250,7 @@ def _option_motion(text: str, asks_turn_only: bool) -> tuple[str | None, str | N
 
 
 def _match_motion(
-    intent: QuestionIntent, statement: _Motion, options: dict[str, str]
+    intent: QuestionIntent, statement: MotionStatement, options: dict[str, str]
 ) -> tuple[str | None, str]:
     asks_turn_only = intent.asks_turn_only
     matches: list[tuple[str, float]] = []
@@ -357,10 +281,10 @@ def answer_offline(intent: QuestionIntent, clue_text: str | None, clue_images: l
     The pair of views and whether a turn or a walk is asked come from the question's intent: never
     from the first view the question's opening happens to mention.
     """
-    if not intent.options:
-        return _no_answer("the question has no lettered options (A. ... B. ...) to choose from")
+    if free_form.is_free_form(intent):
+        return free_form.answer_offline(intent, clue_text, clue_images)
     text = (clue_text or "").strip()
-    statements = _motion_statements(text) if text else []
+    statements = motion_statements(text) if text else []
     if statements:
         return _answer_from_motion(intent, statements)
     exact = [letter for letter, option in intent.options.items() if text and option.lower() == text.lower()]
@@ -370,26 +294,20 @@ def answer_offline(intent: QuestionIntent, clue_text: str | None, clue_images: l
             reasoning=f"The program's output is option {exact[0]}'s text, {intent.options[exact[0]]!r}.",
             method="offline_text",
         )
-    return _no_answer(_unreadable_clue(text, clue_images))
+    return no_answer(unreadable_clue(text, clue_images))
 
 
-def _no_answer(reason: str) -> AnswerResult:
-    return AnswerResult(answer=None, method="none", reason=reason)
-
-
-def _answer_from_motion(intent: QuestionIntent, statements: list[_Motion]) -> AnswerResult:
+def _answer_from_motion(intent: QuestionIntent, statements: list[MotionStatement]) -> AnswerResult:
     """The option that states the motion the program's output describes for the asked pair."""
-    if intent.family != "self_movement":
-        return _no_answer(
-            "the program's output describes camera motion, but this is a "
-            f"{intent.family.replace('_', ' ')} question, which a motion sentence does not answer"
-        )
-    statement, why = _pick_statement(intent, statements)
+    why = not_a_motion_question(intent)
+    if why is not None:
+        return no_answer(why)
+    statement, why = pick_statement(intent, statements)
     if statement is None:
-        return _no_answer(why)
+        return no_answer(why)
     letter, why = _match_motion(intent, statement, intent.options)
     if letter is None:
-        return _no_answer(why)
+        return no_answer(why)
     return AnswerResult(
         answer=letter,
         reasoning=f"The program's output says: {statement.sentence!r}. "
@@ -398,23 +316,8 @@ def _answer_from_motion(intent: QuestionIntent, statements: list[_Motion]) -> An
     )
 
 
-def _unreadable_clue(text: str, clue_images: list[bytes]) -> str:
-    """Why the offline answerer cannot read a clue that is no motion sentence and no option's text."""
-    if clue_images:
-        count = len(clue_images)
-        return (
-            f"the clue is {count} rendered view{'s' if count != 1 else ''}; answering from images "
-            f"needs a vision model: {VISION_MODEL_HINT}"
-        )
-    if text:
-        return (
-            "the offline answerer only reads camera-motion sentences, and the program's output "
-            f"is not one: {text[:200]!r}"
-        )
-    return "the program produced no clue (no text, no images)"
-
-
 __all__ = [
+    "VISION_MODEL_HINT",
     "AnswerMethod",
     "AnswerResult",
     "answer_from_images",

@@ -14,14 +14,15 @@ import anyio
 from fastapi import FastAPI, Request
 from fastapi.responses import JSONResponse
 from fastapi.staticfiles import StaticFiles
+from starlette_compress import CompressMiddleware
 
 from services.agent.errors import SolveError
 from services.agent.infrastructure import InfrastructureFailure, recon_error_status
 from services.agent.llm import LLMError
 from services.agent.pipeline import SolvePipeline
 from services.agent.routes import ROUTERS
-from services.agent.routes.web import WEB_DIR
 from services.agent.sandbox.jail import announce, remove_stale_workdirs
+from services.agent.web_page import WEB_DIR, SecurityHeaders, build_page
 from shared.wire.access import docs_urls, install_access_control
 from shared.wire.bodies import install_input_error_handlers
 from shared.wire.client import ServiceError, ServiceUnreachable
@@ -43,6 +44,7 @@ def create_app(settings: AgentSettings | None = None) -> FastAPI:
     )
     app.state.settings = settings
     app.state.pipeline = SolvePipeline(settings)
+    app.state.web_page = build_page()
     install_error_shape(app)
     install_access_control(app, settings)
     app.add_exception_handler(SolveError, _solve_error)
@@ -54,6 +56,10 @@ def create_app(settings: AgentSettings | None = None) -> FastAPI:
     for router in ROUTERS:
         app.include_router(router)
     app.mount("/web", StaticFiles(directory=WEB_DIR), name="web")
+    # Outermost: every response (errors included) gets the security headers, then is compressed
+    # (zstd, brotli or gzip as the client accepts; the solve's event stream is flushed per event).
+    app.add_middleware(SecurityHeaders, page_policy=app.state.web_page.content_security_policy)
+    app.add_middleware(CompressMiddleware)
     return app
 
 

@@ -27,6 +27,8 @@ from typing import Any
 import openai
 from pydantic import BaseModel, Field, SecretStr
 
+from services.agent import cancellation
+
 # Local servers (vLLM, Ollama, llama.cpp) ignore the key, but the openai package insists on one.
 _PLACEHOLDER_KEY = "not-needed"
 
@@ -219,7 +221,12 @@ class ChatClient:
         api_key = config.api_key.get_secret_value() if config.api_key else _PLACEHOLDER_KEY
         self._secrets = (api_key,) if config.api_key else ()
         self._client = openai.OpenAI(
-            base_url=config.base_url, api_key=api_key, timeout=config.timeout_s, max_retries=0
+            base_url=config.base_url,
+            api_key=api_key,
+            timeout=config.timeout_s,
+            max_retries=0,
+            # one connection per call, so a cancelled solve can abandon it (services/agent/cancellation.py)
+            http_client=cancellation.abortable_http_client(config.timeout_s),
         )
 
     def close(self) -> None:
@@ -261,8 +268,11 @@ class ChatClient:
         started = time.perf_counter()
         total_attempts = config.max_retries + 1
         last_reason = ""
+        stop = cancellation.current()
         for attempt in range(1, total_attempts + 1):
             wait_s: float | None = None
+            if stop is not None:
+                stop.check()
             try:
                 completion = self._client.chat.completions.create(
                     model=config.model, messages=messages, **options
@@ -270,6 +280,8 @@ class ChatClient:
             except openai.APITimeoutError:
                 last_reason = f"timed out after {config.timeout_s:g}s"
             except openai.APIConnectionError as error:
+                if stop is not None:
+                    stop.check()  # the solve was cancelled: its socket was shut down on purpose
                 last_reason = self.scrub(f"connection failed ({error.__cause__ or error.message})")
             except openai.APIStatusError as error:
                 last_reason = self.scrub(_status_detail(error))
@@ -286,7 +298,10 @@ class ChatClient:
                 break
             # A server's Retry-After wins; a little jitter keeps clients from returning in lockstep.
             delay = wait_s * (1.0 + 0.1 * random.random()) if wait_s is not None else self._backoff_s(attempt)
-            self._sleep(delay)
+            if stop is None:
+                self._sleep(delay)
+            elif stop.wait(delay):
+                stop.check()
         raise ModelUnavailable(f"{config.label} failed after {total_attempts} attempt(s): {last_reason}")
 
     def _raise_if_final(self, error: openai.APIStatusError, reason: str, sent_parts: bool) -> None:

@@ -9,6 +9,8 @@ the response is made from them (services/agent/response.py).
 
 from __future__ import annotations
 
+from services.agent import cancellation as solve_cancellation
+from services.agent.cancellation import Cancellation
 from services.agent.errors import SolveError
 from services.agent.infrastructure import FailureRecordingClient
 from services.agent.llm import ChatClient, ChatModelConfig
@@ -94,11 +96,27 @@ class SolvePipeline:
         backbone: str | None,
         max_repairs: int | None,
         progress: ProgressCallback | None = None,
+        cancellation: Cancellation | None = None,
     ) -> SolveResponse:
-        """Figure 2 of the paper: scene → reconstruction → program, run and repaired → answer."""
-        log = SolveLog()
+        """Figure 2 of the paper: scene → reconstruction → program, run and repaired → answer.
+
+        `cancellation` (the client went away) stops the work: SolveCancelled is raised.
+        """
+        log = SolveLog(cancellation=cancellation)
         if progress is not None:
             StageReporter(progress).watch(log.callbacks)
+        with solve_cancellation.bound(log.cancellation):  # the model clients abandon their calls
+            return self._solve(log, question, image_files, scene_id, backbone, max_repairs)
+
+    def _solve(
+        self,
+        log: SolveLog,
+        question: str,
+        image_files: list[bytes] | None,
+        scene_id: str | None,
+        backbone: str | None,
+        max_repairs: int | None,
+    ) -> SolveResponse:
         self._check_ready(backbone)
         with log.record(SceneStep(uploaded_images=len(image_files or []), scene_id=scene_id)) as scene:
             upload(scene, image_files, self.recon, self.settings)

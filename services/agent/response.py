@@ -34,6 +34,7 @@ def respond(
     answered = answer.answer is not None
     return SolveResponse(
         answer=answer.answer,
+        answer_format=answer.answer_format,
         answer_reason=None if answered else answer.error,
         reasoning=answer.reasoning,
         program=written.program,

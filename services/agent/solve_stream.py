@@ -20,6 +20,7 @@ import anyio
 from pydantic import BaseModel
 from starlette.responses import StreamingResponse
 
+from services.agent.cancellation import CLIENT_GONE, Cancellation
 from services.agent.errors import SolveError
 from services.agent.infrastructure import InfrastructureFailure, recon_error_status
 from services.agent.llm import LLMError
@@ -60,16 +61,23 @@ def sse(event: BaseModel) -> bytes:
     return f"event: {event.type}\ndata: {event.model_dump_json()}\n\n".encode()
 
 
-def event_stream(run: Callable[[ProgressCallback], SolveResponse]) -> StreamingResponse:
-    """Run `run(progress)` in a worker thread and stream its progress, then its result or error."""
+def event_stream(
+    run: Callable[[ProgressCallback], SolveResponse], cancellation: Cancellation
+) -> StreamingResponse:
+    """Run `run(progress)` in a worker thread and stream its progress, then its result or error.
+
+    When the client goes away (Starlette stops the stream), `cancellation` fires: the solve stops.
+    """
     return StreamingResponse(
-        _events(run),
+        _events(run, cancellation),
         media_type=EVENT_STREAM,
         headers={"Cache-Control": "no-store", "X-Accel-Buffering": "no"},  # nginx: do not buffer
     )
 
 
-async def _events(run: Callable[[ProgressCallback], SolveResponse]) -> AsyncIterator[bytes]:
+async def _events(
+    run: Callable[[ProgressCallback], SolveResponse], cancellation: Cancellation
+) -> AsyncIterator[bytes]:
     loop = asyncio.get_running_loop()
     queue: asyncio.Queue[StageEvent] = asyncio.Queue()
     started = time.perf_counter()
@@ -85,7 +93,9 @@ async def _events(run: Callable[[ProgressCallback], SolveResponse]) -> AsyncIter
         async for chunk in _until_done(solve, queue, current):
             yield chunk
     finally:
-        if not solve.done():  # the client went away: the solve finishes unobserved
+        if not solve.done():  # the client went away: stop the solve's work
+            cancellation.cancel()
+            log.warning("solve cancelled: %s", CLIENT_GONE)
             solve.add_done_callback(lambda future: future.cancelled() or future.exception())
     error = solve.exception()
     if error is None:

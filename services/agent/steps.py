@@ -14,6 +14,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Literal, TypeVar
 
+from services.agent.cancellation import Cancellation, SolveCancelled
 from shared.wire.schemas import StepRecord
 
 # "aborted": the step raised; the solve stops there and the error it raised says what failed.
@@ -38,12 +39,19 @@ class StepCallbacks:
 
 
 class SolveLog:
-    """The steps of one solve as they happen, timed from the solve's start."""
+    """The steps of one solve as they happen, timed from the solve's start.
 
-    def __init__(self, callbacks: StepCallbacks | None = None) -> None:
+    With a `cancellation`, no step starts once it has fired, and the step running when it fires
+    ends as aborted (SolveCancelled), whatever the work inside made of its stopped process.
+    """
+
+    def __init__(
+        self, callbacks: StepCallbacks | None = None, cancellation: Cancellation | None = None
+    ) -> None:
         self.started = time.perf_counter()
         self.steps: list[StepRecord] = []
         self.callbacks = callbacks or StepCallbacks()
+        self.cancellation = cancellation or Cancellation()
 
     def elapsed_ms(self) -> float:
         return round((time.perf_counter() - self.started) * 1e3, 2)
@@ -51,14 +59,17 @@ class SolveLog:
     @contextmanager
     def record(self, step: Step) -> Iterator[Step]:
         """Keep `step`, time the block that fills it, and tell the callbacks when it starts and ends."""
+        self.cancellation.check()
         step.started_ms = self.elapsed_ms()
         self.steps.append(step)
         self.callbacks.notify(step, "started")
         try:
             yield step
+            self.cancellation.check()
         except BaseException as error:
             step.duration_ms = round(self.elapsed_ms() - step.started_ms, 2)
-            step.error = step.error or f"{type(error).__name__}: {error}"
+            cancelled = isinstance(error, SolveCancelled)  # not what the step's own work said
+            step.error = str(error) if cancelled else step.error or f"{type(error).__name__}: {error}"
             self.callbacks.notify(step, "aborted")
             raise
         step.duration_ms = round(self.elapsed_ms() - step.started_ms, 2)

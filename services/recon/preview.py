@@ -1,4 +1,7 @@
-"""A small, fixed subsample of a reconstruction for a viewer (the web page's 3D view)."""
+"""A small, fixed subsample of a reconstruction for a viewer (the web page's 3D view).
+
+With per-point confidence the subsample is sorted by it, most confident first: a viewer hides the
+least confident points by drawing a shorter prefix (no filtering on its side)."""
 
 from __future__ import annotations
 
@@ -23,6 +26,11 @@ def point_cloud_preview(
     scene_id: str, recon: Reconstruction, cameras: list[CameraInfo], up: list[float], max_points: int
 ) -> PointCloudPreview:
     keep = subsample_indices(recon.num_points, max_points)
+    confidence = None
+    if recon.point_confidence is not None:
+        scores = recon.point_confidence[keep]
+        keep = keep[np.argsort(-scores, kind="stable")]  # most confident first; ties keep their order
+        confidence = _base64(np.ascontiguousarray(recon.point_confidence[keep], dtype="<f4"))
     positions = np.ascontiguousarray(recon.points[keep], dtype="<f4")
     colors = np.ascontiguousarray(recon.colors[keep], dtype=np.uint8)
     return PointCloudPreview(
@@ -30,8 +38,13 @@ def point_cloud_preview(
         backbone=recon.backbone,
         num_points_total=recon.num_points,
         num_points=len(keep),
-        positions=base64.b64encode(positions.tobytes()).decode("ascii"),
-        colors=base64.b64encode(colors.tobytes()).decode("ascii"),
+        positions=_base64(positions),
+        colors=_base64(colors),
+        confidence=confidence,
         cameras=cameras,
         up=up,
     )
+
+
+def _base64(array: np.ndarray) -> str:
+    return base64.b64encode(array.tobytes()).decode("ascii")

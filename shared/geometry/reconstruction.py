@@ -8,15 +8,18 @@ from __future__ import annotations
 import io
 import json
 import math
+from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
 # 2: per-view intrinsics source and confidence, per-pair confidence. Version 1 files still read
 # (their confidence is unknown and their intrinsics source follows from the backbone).
-# 3: `units`. Older files get the units their backbone always had (see `default_units`).
-FORMAT_VERSION = 3
-READABLE_VERSIONS = (1, 2, 3)
+# 3: per-point confidence (optional). Versions 1 and 2 read with none.
+# 4: `units`. Older files get the units their backbone always had (see `default_units`).
+FORMAT_VERSION = 4
+READABLE_VERSIONS = (1, 2, 3, 4)
+PLY_CHUNK_POINTS = 65_536
 
 # What one unit of the world frame is: "metres" (Pi3X's metric head, posed RGB-D in metres) or
 # "relative" (scale-free: classical SfM, VGGT, Pi3; only ratios of lengths mean something).
@@ -76,6 +79,9 @@ class Reconstruction:
     intrinsics_source: list[str] | None = None  # per view, one of INTRINSICS_SOURCES
     view_confidence: list[ViewConfidence] | None = None  # per view; None = not assessed
     pair_confidence: list[PairConfidence] = field(default_factory=list)
+    # Per point, higher is surer; its scale is the backbone's (classical: how many views support the
+    # point; vggt: the network's confidence). None: the backbone gives none (posed-rgbd).
+    point_confidence: np.ndarray | None = None
     units: str | None = None  # one of UNITS; None: what the backbone always gives (default_units)
 
     def __post_init__(self) -> None:
@@ -92,6 +98,10 @@ class Reconstruction:
         views = len(self.extrinsics)
         if len(self.points) != len(self.colors):
             raise ValueError(f"{len(self.points)} points but {len(self.colors)} colours")
+        if self.point_confidence is not None:
+            self.point_confidence = np.ascontiguousarray(self.point_confidence, dtype=np.float32).reshape(-1)
+            if len(self.point_confidence) != len(self.points):
+                raise ValueError(f"{len(self.point_confidence)} confidences for {len(self.points)} points")
         for name in ("intrinsics", "image_sizes", "registered"):
             if len(getattr(self, name)) != views:
                 raise ValueError(f"{name} has {len(getattr(self, name))} entries for {views} views")
@@ -167,6 +177,8 @@ class Reconstruction:
             if maps is not None:
                 for index, depth_map in enumerate(maps):
                     arrays[f"{name}_{index}"] = np.asarray(depth_map, dtype=np.float16)
+        if self.point_confidence is not None:
+            arrays["point_confidence"] = self.point_confidence
         buffer = io.BytesIO()
         np.savez_compressed(buffer, **arrays)
         return buffer.getvalue()
@@ -215,12 +227,25 @@ class Reconstruction:
                 intrinsics_source=sources,
                 view_confidence=view_confidence or None,
                 pair_confidence=pair_confidence,
+                point_confidence=archive["point_confidence"] if "point_confidence" in archive else None,
                 units=str(archive["units"]) if "units" in archive else None,
             )
 
     def to_ply(self) -> bytes:
         """Binary little-endian PLY of the coloured point cloud."""
-        header = (
+        return b"".join(self.ply_chunks())
+
+    def ply_size(self) -> int:
+        return len(self._ply_header()) + 15 * self.num_points
+
+    def ply_chunks(self, points_per_chunk: int = PLY_CHUNK_POINTS) -> Iterator[bytes]:
+        """The PLY as its header, then the vertices `points_per_chunk` at a time (for streaming)."""
+        yield self._ply_header()
+        for start in range(0, self.num_points, points_per_chunk):
+            yield self._ply_vertices(start, min(start + points_per_chunk, self.num_points))
+
+    def _ply_header(self) -> bytes:
+        return (
             "ply\nformat binary_little_endian 1.0\n"
             f"comment backbone {self.backbone} {self.backbone_version}\n"
             f"element vertex {self.num_points}\n"
@@ -228,10 +253,12 @@ class Reconstruction:
             "property uchar red\nproperty uchar green\nproperty uchar blue\n"
             "end_header\n"
         ).encode("ascii")
+
+    def _ply_vertices(self, start: int, stop: int) -> bytes:
         vertex = np.empty(
-            self.num_points,
+            stop - start,
             dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("r", "u1"), ("g", "u1"), ("b", "u1")],
         )
-        vertex["x"], vertex["y"], vertex["z"] = self.points.T
-        vertex["r"], vertex["g"], vertex["b"] = self.colors.T
-        return header + vertex.tobytes()
+        vertex["x"], vertex["y"], vertex["z"] = self.points[start:stop].T
+        vertex["r"], vertex["g"], vertex["b"] = self.colors[start:stop].T
+        return vertex.tobytes()

@@ -5,7 +5,8 @@ from __future__ import annotations
 import base64
 import io
 import json
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from urllib.parse import quote
 
@@ -205,6 +206,25 @@ class ReconClient(_ServiceClient):
         params = {"backbone": backbone} if backbone else {}
         response = self._request("GET", f"/v1/scenes/{_segment(scene_id)}/reconstruction", params=params)
         return Reconstruction.from_bytes(response.content)
+
+    @contextmanager
+    def export(self, scene_id: str, fmt: str, backbone: str | None = None) -> Iterator[httpx.Response]:
+        """The reconstruction as a file (`fmt`: ply, glb or npz), streamed: read `iter_bytes()` inside
+        the block. A refusal (404, 422, ...) raises ServiceError before the block runs."""
+        path = f"/v1/scenes/{_segment(scene_id)}/reconstruction"
+        params = {"format": fmt, **({"backbone": backbone} if backbone else {})}
+        try:
+            with self._http.stream("GET", self.base_url + path, params=params) as response:
+                if response.status_code >= 300:
+                    response.read()
+                    self._raise_for_status(response, "GET", path)
+                yield response
+        except httpx.TimeoutException as error:
+            raise ServiceTimeout(f"the {self.service_name} at {self.base_url} timed out ({error})") from error
+        except httpx.TransportError as error:
+            raise ServiceUnreachable(
+                f"cannot reach the {self.service_name} at {self.base_url}: {error}"
+            ) from error
 
     def ply(self, scene_id: str, backbone: str | None = None) -> bytes:
         params = {"format": "ply", **({"backbone": backbone} if backbone else {})}

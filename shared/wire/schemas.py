@@ -187,8 +187,38 @@ class PointCloudPreview(_Model):
     num_points: int
     positions: str = Field(..., description="base64 of little-endian float32 (num_points, 3), world frame.")
     colors: str = Field(..., description="base64 of uint8 RGB (num_points, 3).")
+    confidence: str | None = Field(
+        None,
+        description="base64 of little-endian float32 (num_points,): each point's confidence (the "
+        "backbone's scale, higher is surer); the points are then sorted by it, most confident first. "
+        "Null when the reconstruction has none (the points are in their stored order).",
+    )
     cameras: list[CameraInfo]
     up: list[float]
+
+
+class ExampleQuestion(_Model):
+    text: str
+    expected_answer: str | None = Field(None, description="The option letter the data determine.")
+    expected_words: str | None = Field(None, description="Free-form: words the right answer contains.")
+    free_form: bool = Field(False, description="No lettered options: it is answered in words.")
+
+
+class ExampleInfo(_Model):
+    """One bundled example of the page's gallery."""
+
+    name: str
+    title: str
+    description: str
+    source: Literal["synthetic", "real"]
+    citation: str | None = Field(None, description="Where real photos come from, to cite them.")
+    thumbnail: str = Field(..., description="URL of a small picture of it (a JPEG of its first photo).")
+    images: list[str] = Field(..., description="URLs of its photos, in order.")
+    questions: list[ExampleQuestion]
+
+
+class ExampleList(_Model):
+    examples: list[ExampleInfo]
 
 
 class Readiness(_Model):
@@ -386,6 +416,9 @@ class AnswerStep(StepRecord):
     answered_by: str | None = Field(
         None, description="What the response names as `answer_model` (e.g. '<model> (text only)')."
     )
+    answer_format: Literal["choice", "free_form"] = Field(
+        "choice", description="'choice': `answer` is an option letter; 'free_form': words (no options)."
+    )
     answer: str | None = None
     method: str | None = None
     reasoning: str = ""
@@ -399,7 +432,17 @@ SolveStep = Annotated[
 
 
 class SolveResponse(_Model):
-    answer: str | None = Field(..., description="The option letter, or null when no honest answer exists.")
+    answer: str | None = Field(
+        ...,
+        description="The option letter (answer_format 'choice'), the answer in words (answer_format "
+        "'free_form'), or null when no honest answer exists.",
+    )
+    answer_format: Literal["choice", "free_form"] = Field(
+        "choice",
+        description="'choice' when the question has lettered options (A. ... B. ...); 'free_form' when it "
+        "has none, so `answer` is free text (a model's words, or the offline answerer's reading of the "
+        "camera-motion sentence).",
+    )
     answer_reason: str | None = Field(None, description="Why answer is null.")
     reasoning: str
     program: str | None = Field(..., description="The exact code that ran.")

@@ -4,7 +4,8 @@ It is the one stand-in the tests use: a FastAPI app under a real uvicorn process
 by the real `openai` package. Each POST /v1/chat/completions takes the next entry of the script
 (the queue of the requested model, else the default queue) and records the request, so tests can
 assert on prompts. An entry is a text reply, an HTTP error (429 with Retry-After, 500, 400, ...)
-and/or a delay before answering (longer than the client timeout to provoke one). An entry may
+and/or a delay before answering (longer than the client timeout to provoke one; a client that
+closes the connection during it is recorded, `client_left`). An entry may
 carry the `finish_reason` and `usage` a real server reported (the recorded replies of
 tests/support/model_replies.py replay that way), and an error message may contain
 "{authorization}", which becomes the request's Authorization header, as servers that echo it do.
@@ -78,6 +79,7 @@ class RecordedRequest(BaseModel):
     response_format: dict[str, Any] | None
     body: dict[str, Any]
     received_at: float
+    client_left: bool = Field(False, description="The client closed the connection while we delayed.")
 
 
 class _State:
@@ -216,8 +218,9 @@ def create_app() -> FastAPI:
         entry = state.next_entry(model)
         if entry is None:
             return _error(409, f"the scripted LLM has no reply left for model {model!r}")
-        if entry.delay_s:
-            await asyncio.sleep(entry.delay_s)
+        if entry.delay_s and await _client_left_during(request, entry.delay_s):
+            state.requests[-1].client_left = True  # as a real server stops generating
+            return _error(499, "the client closed the connection")
         if entry.status != 200:
             headers = {"Retry-After": f"{entry.retry_after:g}"} if entry.retry_after is not None else None
             message = entry.error_message or f"scripted HTTP {entry.status}"
@@ -226,6 +229,16 @@ def create_app() -> FastAPI:
         return JSONResponse(_completion(model or "scripted", entry, body["messages"]))
 
     return app
+
+
+async def _client_left_during(request: Request, seconds: float) -> bool:
+    """Wait `seconds`, watching the connection; True as soon as the client closes it."""
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        if await request.is_disconnected():
+            return True
+        await asyncio.sleep(min(0.05, max(0.0, deadline - time.monotonic())))
+    return False
 
 
 class ScriptedLLM:

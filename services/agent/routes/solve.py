@@ -11,10 +11,11 @@ import base64
 
 import anyio
 import pydantic_core
-from fastapi import APIRouter, Request
+from fastapi import APIRouter, Request, Response
 from pydantic import ValidationError
 from starlette.datastructures import UploadFile
 
+from services.agent.cancellation import Cancellation, SolveCancelled, cancel_when_client_leaves
 from services.agent.errors import SolveError
 from services.agent.routes.dependencies import PipelineDep, SettingsDep
 from services.agent.solve_stream import event_stream, wants_event_stream
@@ -74,15 +75,18 @@ async def solve(request: Request, pipeline: PipelineDep, settings: SettingsDep) 
     """Answer a question; with `Accept: text/event-stream`, stream the stages (SSE) then the result."""
     body = await _read_solve_request(request, settings)
     files = [decode_base64(text, f"image {i + 1}") for i, text in enumerate(body.images or [])]
+    cancellation = Cancellation()  # fired when the client goes away: the solve's work stops
+
+    def run(progress=None) -> SolveResponse:
+        given = (body.question, files or None, body.scene_id, body.backbone, body.max_repairs)
+        return pipeline.solve(*given, progress, cancellation)
+
     if wants_event_stream(request.headers.get("accept", "")):
-        return event_stream(
-            lambda progress: pipeline.solve(
-                body.question, files or None, body.scene_id, body.backbone, body.max_repairs, progress
-            )
-        )
-    return await anyio.to_thread.run_sync(
-        pipeline.solve, body.question, files or None, body.scene_id, body.backbone, body.max_repairs
-    )
+        return event_stream(run, cancellation)
+    try:
+        return await cancel_when_client_leaves(request.receive, anyio.to_thread.run_sync(run), cancellation)
+    except SolveCancelled:
+        return Response(status_code=499)  # nginx's "client closed request": only the logs read it
 
 
 async def _read_solve_request(request: Request, settings: AgentSettings) -> SolveRequest:

@@ -1,33 +1,32 @@
-"""The web page (`/`) and the reads it needs besides /v1/solve (its static files are mounted at `/web`).
+"""The web page (`/`) and the reads it needs besides /v1/solve (its static files are mounted at `/web`;
+the examples of its gallery are in examples.py).
 
 - `/v1/scenes/{scene_id}/points`: a subsample of the reconstruction for the 3D view, read from
   the recon service (the page talks to the agent only, so one origin serves everything);
-- `/v1/backbones`: the recon service's backbones, for the page's menu;
-- `/v1/example`: the bundled example (question + images) when the checkout has it.
+- `/v1/scenes/{scene_id}/reconstruction?format=ply|glb`: the reconstruction's points as a file,
+  streamed from recon as it arrives (PLY is streamed by recon too);
+- `/v1/backbones`: the recon service's backbones, for the page's menu.
 """
 
 from __future__ import annotations
 
-import json
-from pathlib import Path as FilePath
+from contextlib import ExitStack
 
 import anyio
-from fastapi import APIRouter, HTTPException, Path, Query
-from fastapi.responses import FileResponse
+from fastapi import APIRouter, Path, Query, Request
+from fastapi.responses import Response, StreamingResponse
 
 from services.agent.routes.dependencies import PipelineDep
 from shared.wire.errors import error_responses
 from shared.wire.schemas import SCENE_ID_PATTERN, PointCloudPreview
 
-WEB_DIR = FilePath(__file__).resolve().parents[1] / "web"
-EXAMPLE_DIR = FilePath(__file__).resolve().parents[3] / "examples" / "living_room"
-
 router = APIRouter()
 
 
 @router.get("/", include_in_schema=False)
-async def page() -> FileResponse:
-    return FileResponse(WEB_DIR / "index.html", headers={"Cache-Control": "no-cache"})
+async def page(request: Request) -> Response:
+    """index.html with Subresource Integrity (services/agent/web_page.py); headers by SecurityHeaders."""
+    return Response(request.app.state.web_page.html, media_type="text/html")
 
 
 @router.get(
@@ -53,31 +52,31 @@ async def backbones(pipeline: PipelineDep) -> dict:
     return await anyio.to_thread.run_sync(pipeline.recon.backbones)
 
 
-@router.get("/v1/example", tags=["web"], responses=error_responses(401, 404, 429))
-async def example() -> dict:
-    """The bundled example: its question and the URLs of its images."""
-    spec = _example_spec()
-    return {
-        "question": spec["question"],
-        "expected_answer": spec.get("expected_answer"),
-        "images": [f"/v1/example/images/{name}" for name in spec["images"]],
-    }
-
-
 @router.get(
-    "/v1/example/images/{name}",
-    tags=["web"],
-    response_class=FileResponse,
-    responses=error_responses(401, 404, 429),
+    "/v1/scenes/{scene_id}/reconstruction",
+    tags=["scenes"],
+    response_class=StreamingResponse,
+    responses={
+        200: {"content": {"application/x-ply": {}, "model/gltf-binary": {}}},
+        **error_responses(401, 404, 422, 429, 502, 503, 504),
+    },
 )
-async def example_image(name: str) -> FileResponse:
-    if name not in _example_spec()["images"]:
-        raise HTTPException(404, f"the example has no image {name!r}")
-    return FileResponse(EXAMPLE_DIR / name)
+async def reconstruction_file(
+    pipeline: PipelineDep,
+    scene_id: str = Path(pattern=SCENE_ID_PATTERN),
+    backbone: str | None = None,
+    format: str = Query("ply", pattern="^(ply|glb)$", description="ply (binary) or glb (binary glTF)"),
+) -> StreamingResponse:
+    """The reconstruction's coloured points as a PLY or GLB file, streamed from the recon service."""
+    stream = ExitStack()  # recon's response stays open while its bytes are passed on
+    export = pipeline.recon.export(scene_id, format, backbone)
+    upstream = await anyio.to_thread.run_sync(stream.enter_context, export)  # errors map before any byte
 
+    def chunks():
+        with stream:
+            yield from upstream.iter_bytes()
 
-def _example_spec() -> dict:
-    path = EXAMPLE_DIR / "example.json"
-    if not path.is_file():
-        raise HTTPException(404, "this installation has no bundled example (examples/living_room)")
-    return json.loads(path.read_text())
+    headers = {"Content-Disposition": f'attachment; filename="{scene_id}.{format}"'}
+    if "content-length" in upstream.headers:
+        headers["Content-Length"] = upstream.headers["content-length"]
+    return StreamingResponse(chunks(), media_type=upstream.headers.get("content-type"), headers=headers)

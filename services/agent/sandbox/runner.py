@@ -20,6 +20,7 @@ from services.agent.sandbox.validation import MAX_PROGRAM_CHARS, ProgramRejected
 from services.agent.sandbox.worker_process import (
     BOOT,
     MAX_TOOL_ERROR_CHARS,
+    CancelSignal,
     ExecutionResult,
     SandboxLimits,
     ToolFailure,
@@ -164,11 +165,13 @@ def run_program(
     limits: SandboxLimits | None = None,
     jail_status: JailStatus | None = None,
     python_checks: bool = True,
+    cancel: CancelSignal | None = None,
 ) -> ExecutionResult:
     """Run `def program(input_scene)` from `source` in a sandbox process and collect its clue.
 
     `jail_status` defaults to the probed OS jail (PYSPATIAL_SANDBOX_JAIL=required): without a working
     jail nothing runs. `python_checks=False` is a test-only mode that proves the jail on its own.
+    `cancel` fired while the program runs kills its process group at once (the solve's client left).
     """
     limits = limits or SandboxLimits()
     jail_status = jail_status or jail.probe(JailMode.REQUIRED)
@@ -190,11 +193,12 @@ def run_program(
     broker = _ToolBroker(tools, num_images, limits)
     job = job_message(source, question, num_images, limits, python_checks)
     if jail_status.jailed:
-        result = run_worker(jail.jailed_worker_command(), "/", child_environment("/tmp"), job, broker, limits)
+        command, environment = jail.jailed_worker_command(), child_environment("/tmp")
+        result = run_worker(command, "/", environment, job, broker, limits, cancel)
     else:  # operator opt-out: a host temporary directory, Python-level walls and rlimits only
         with tempfile.TemporaryDirectory(prefix=jail.workdir_prefix()) as workdir:
             command = [sys.executable, "-I", "-c", BOOT]
-            result = run_worker(command, workdir, child_environment(workdir), job, broker, limits)
+            result = run_worker(command, workdir, child_environment(workdir), job, broker, limits, cancel)
     result.tool_calls = list(broker.calls)
     result.duration_ms = _ms_since(started)
     return _cleaned(result)

@@ -8,11 +8,14 @@ imports the other.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import signal
 import subprocess
 import time
+from collections.abc import Callable
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
@@ -75,6 +78,14 @@ class ToolServer(Protocol):
         """PNG of an image handle the program returned; ProtocolError for a handle never given out."""
 
 
+class CancelSignal(Protocol):
+    """Something that can say, from another thread, that the run is no longer wanted (the agent's
+    `Cancellation`): the worker's process group is killed the moment it fires."""
+
+    def on_cancel(self, callback: Callable[[], None]) -> AbstractContextManager[None]:
+        """Call `callback` if the signal fires while the block runs."""
+
+
 def job_message(
     source: str, question: str, num_images: int, limits: SandboxLimits, python_checks: bool
 ) -> dict[str, Any]:
@@ -118,6 +129,7 @@ def run_worker(
     job: dict[str, Any],
     server: ToolServer,
     limits: SandboxLimits,
+    cancel: CancelSignal | None = None,
 ) -> ExecutionResult:
     process = subprocess.Popen(
         command,
@@ -129,8 +141,10 @@ def run_worker(
         start_new_session=True,  # its own process group: one kill takes everything it started
         close_fds=True,
     )
+    stop_on_cancel = cancel.on_cancel(lambda: _kill_group(process)) if cancel else contextlib.nullcontext()
     try:
-        return _converse(process, job, server, limits)
+        with stop_on_cancel:
+            return _converse(process, job, server, limits)
     finally:
         _kill(process)
 
@@ -250,11 +264,15 @@ def _crash_site(stderr: str) -> str:
     return "".join(parts)
 
 
-def _kill(process: subprocess.Popen) -> None:
+def _kill_group(process: subprocess.Popen) -> None:
     try:
         os.killpg(process.pid, signal.SIGKILL)
     except (ProcessLookupError, PermissionError):
         pass
+
+
+def _kill(process: subprocess.Popen) -> None:
+    _kill_group(process)
     process.wait()
     for stream in (process.stdin, process.stdout, process.stderr):
         if stream is not None:

@@ -10,14 +10,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from services.agent.answer_result import AnswerResult
 from services.agent.answering import (
     VISION_MODEL_HINT,
-    AnswerResult,
     answer_from_images,
     answer_offline,
     answer_text_clue_with_model,
     answer_with_model,
 )
+from services.agent.free_form import answer_format
 from services.agent.llm import ChatClient
 from services.agent.stages.clue import ClueReading
 from services.agent.stages.program import WrittenProgram
@@ -50,6 +51,7 @@ def from_clue(
     reading: ClueReading,
 ) -> AnswerStep:
     """The answer to the clue of the program that ran (null with the reason when none ran)."""
+    step.answer_format = answer_format(intent)
     run, program = written.run, written.program
     if run is None or program is None:
         reason = f"no program ran successfully: {written.failure}; {NEEDS_ANSWER_MODEL}"
@@ -67,6 +69,7 @@ def from_photos(
     step: AnswerStep, answerers: Answerers, intent: QuestionIntent, photos: list[bytes], why: str
 ) -> AnswerStep:
     """No program ran: the answer model answers from the photos alone; without one, null and why."""
+    step.answer_format = answer_format(intent)
     if answerers.answer is None:
         result = AnswerResult(answer=None, method="none", reason=f"{why}; {NEEDS_ANSWER_MODEL}")
     else:

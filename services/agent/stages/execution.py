@@ -62,6 +62,7 @@ class SandboxRuns:
             self.limits,
             jail_status=self.jail,
             python_checks=self.python_checks,
+            cancel=self.log.cancellation,
         )
         latency_ms = round((time.perf_counter() - started) * 1e3, 2)
         self.attempts_so_far.append(AttemptRecord(program=source, error=result.error, latency_ms=latency_ms))

@@ -1,11 +1,31 @@
 // The 3D view: coloured points, input cameras and rendered clue views as labelled frustums.
 // World frame and poses are the service's: 3x4 camera-from-world [R|t], OpenCV axes.
+// Points arrive sorted by confidence, most confident first (when the reconstruction has one), so
+// hiding the least confident is a shorter draw range: no buffer is rebuilt when the slider moves.
+// Frames are drawn on demand (a change of view or of a control), never in a loop. Where WebGL runs
+// on the CPU (no GPU), a large cloud is drawn from an every-k-th-point copy while the view moves
+// (dragging, wheel, keys) and in full as soon as it stops: bench/web_viewer.py measures both.
 import * as THREE from "three";
-import { OrbitControls } from "/web/vendor/three/OrbitControls.js";
+import { OrbitControls } from "/web/vendor/three-0.187.0/OrbitControls.js";
 
 const INPUT_COLOR = 0x0b5cad;
-const RENDERED_COLOR = 0xd14f00;
+const RENDERED_COLOR = 0xb34000;
 const KEY_ROTATE = Math.PI / 36; // 5 degrees per arrow key press
+const MOVING_POINTS = 25000; // drawn while the view moves, in software WebGL
+const KEYS_SETTLE_MS = 250; // after the last key press the view is at rest again
+
+// Every `step`-th point of a cloud (positions, colours), in the cloud's confidence order.
+function strided(geometry, step) {
+  const out = new THREE.BufferGeometry();
+  for (const name of ["position", "color"]) {
+    const source = geometry.getAttribute(name);
+    const count = Math.ceil(source.count / step);
+    const values = new source.array.constructor(count * 3);
+    for (let i = 0; i < count; i++) values.set(source.array.subarray(i * step * 3, i * step * 3 + 3), i * 3);
+    out.setAttribute(name, new THREE.BufferAttribute(values, 3, source.normalized));
+  }
+  return out;
+}
 
 function decodeBase64(text) {
   const raw = atob(text);
@@ -46,7 +66,8 @@ export class SceneViewer {
     this.canvas = canvas;
     this.onPick = onPick;
     // Multisampling costs ~10x per frame in software WebGL (measured: bench/web_viewer.py).
-    const antialias = !softwareWebGL();
+    this.software = softwareWebGL();
+    const antialias = !this.software;
     this.renderer = new THREE.WebGLRenderer({ canvas, antialias, preserveDrawingBuffer: true });
     this.renderer.setPixelRatio(Math.min(window.devicePixelRatio, 2));
     this.scene = new THREE.Scene();
@@ -55,7 +76,11 @@ export class SceneViewer {
     this.controls = this.makeControls();
     this.pickables = [];
     this.content = new THREE.Group();
+    this.groups = { input: new THREE.Group(), rendered: new THREE.Group() };
     this.scene.add(this.content);
+    this.totalPoints = 0;
+    this.drawnPoints = 0;
+    this.confidence = null;
     canvas.addEventListener("keydown", (event) => this.onKey(event));
     canvas.addEventListener("pointerdown", (event) => { this.downAt = [event.clientX, event.clientY]; });
     canvas.addEventListener("pointerup", (event) => this.onPointerUp(event));
@@ -65,9 +90,14 @@ export class SceneViewer {
   // preview: PointCloudPreview; clueViews: [{index, extrinsic, width, height}] of rendered clue views.
   show(preview, clueViews) {
     this.content.clear();
+    this.groups.input.clear();
+    this.groups.rendered.clear();
+    this.content.add(this.groups.input, this.groups.rendered);
     this.pickables = [];
     const positions = new Float32Array(decodeBase64(preview.positions).buffer);
     const colors = decodeBase64(preview.colors);
+    this.confidence = preview.confidence ? new Float32Array(decodeBase64(preview.confidence).buffer) : null;
+    this.totalPoints = this.drawnPoints = preview.num_points;
     const cloud = new THREE.BufferGeometry();
     cloud.setAttribute("position", new THREE.BufferAttribute(positions, 3));
     cloud.setAttribute("color", new THREE.BufferAttribute(colors, 3, true));
@@ -77,8 +107,18 @@ export class SceneViewer {
     const box = new THREE.Box3().setFromPoints(centers);
     if (preview.num_points) box.union(new THREE.Box3().setFromBufferAttribute(cloud.getAttribute("position")));
     const size = Math.max(box.getSize(new THREE.Vector3()).length(), 1e-3);
-    const pointSize = size / 120;
-    this.content.add(new THREE.Points(cloud, new THREE.PointsMaterial({ size: pointSize, vertexColors: true })));
+    this.basePointSize = size / 120;
+    const material = new THREE.PointsMaterial({ size: this.basePointSize, vertexColors: true });
+    this.cloud = new THREE.Points(cloud, material);
+    this.content.add(this.cloud);
+    // The cloud drawn while the view moves: the same points, every `step`-th (null: always in full).
+    this.step = this.software && preview.num_points > 1.5 * MOVING_POINTS ? Math.ceil(preview.num_points / MOVING_POINTS) : 1;
+    this.moving = null;
+    if (this.step > 1) {
+      this.moving = new THREE.Points(strided(cloud, this.step), material);
+      this.moving.visible = false;
+      this.content.add(this.moving);
+    }
 
     const frustumDepth = size * 0.06;
     preview.cameras.forEach((c) => {
@@ -122,8 +162,18 @@ export class SceneViewer {
 
   makeControls() {
     const controls = new OrbitControls(this.camera, this.canvas);
+    controls.addEventListener("start", () => this.setMoving(true));
+    controls.addEventListener("end", () => this.setMoving(false));
     controls.addEventListener("change", () => this.draw());
     return controls;
+  }
+
+  // While the view moves, draw the thinned copy (where there is one); at rest, every point.
+  setMoving(moving) {
+    if (!this.moving || this.moving.visible === moving) return;
+    this.moving.visible = moving;
+    this.cloud.visible = !moving;
+    if (!moving) this.draw();
   }
 
   addFrustum(label, color, extrinsic, intrinsic, width, height, depth, pick) {
@@ -143,8 +193,35 @@ export class SceneViewer {
     sprite.position.copy(corners[0].clone().add(corners[1]).multiplyScalar(0.5));
     sprite.scale.set(depth * 0.8, depth * 0.4, 1);
     sprite.userData.pick = pick;
-    this.content.add(lines, mesh, sprite);
+    this.groups[pick.kind].add(lines, mesh, sprite);
     this.pickables.push(mesh, sprite);
+  }
+
+  get hasConfidence() {
+    return this.confidence !== null && this.totalPoints > 0;
+  }
+
+  // Hide the least confident `fraction` of the points; returns the confidence at the cut.
+  setHiddenFraction(fraction) {
+    if (!this.cloud) return null;
+    const keep = this.hasConfidence ? Math.max(1, Math.ceil(this.totalPoints * (1 - fraction))) : this.totalPoints;
+    this.drawnPoints = keep;
+    this.cloud.geometry.setDrawRange(0, keep);
+    if (this.moving) this.moving.geometry.setDrawRange(0, Math.ceil(keep / this.step));
+    this.draw();
+    return this.hasConfidence ? this.confidence[keep - 1] : null;
+  }
+
+  setPointScale(scale) {
+    if (!this.cloud) return;
+    this.cloud.material.size = this.basePointSize * scale;
+    this.draw();
+  }
+
+  // kind: "input" (the photos' cameras) or "rendered" (the clue's views).
+  setVisible(kind, visible) {
+    this.groups[kind].visible = visible;
+    this.draw();
   }
 
   resetView() {
@@ -170,7 +247,10 @@ export class SceneViewer {
     const action = actions[event.key];
     if (!action) return;
     event.preventDefault();
+    this.setMoving(true);
     action();
+    clearTimeout(this.settle);
+    this.settle = setTimeout(() => this.setMoving(false), KEYS_SETTLE_MS);
   }
 
   onPointerUp(event) {
@@ -183,7 +263,8 @@ export class SceneViewer {
       -((event.clientY - rect.top) / rect.height) * 2 + 1);
     const ray = new THREE.Raycaster();
     ray.setFromCamera(ndc, this.camera);
-    const hit = ray.intersectObjects(this.pickables, false)[0];
+    const visible = this.pickables.filter((object) => object.parent && object.parent.visible);
+    const hit = ray.intersectObjects(visible, false)[0];
     if (hit) this.onPick(hit.object.userData.pick);
   }
 

@@ -1,13 +1,14 @@
-"""A scene's reconstruction: reconstruct it (the summary), download it (npz or PLY), or read a
+"""A scene's reconstruction: reconstruct it (the summary), download it (npz, PLY streamed, GLB), or read a
 subsample of its points for a viewer. All three share one cached, single-flight job per scene and
 backbone (services/recon/service.py); a client that disconnects cancels only its own wait."""
 
 from __future__ import annotations
 
 from fastapi import APIRouter, Query, Request
-from fastapi.responses import Response
+from fastapi.responses import Response, StreamingResponse
 
 from services.recon.disconnect import until_disconnected
+from services.recon.exports import GLB_MEDIA_TYPE, PLY_MEDIA_TYPE, to_glb
 from services.recon.offload import run_cpu
 from services.recon.preview import MAX_PREVIEW_POINTS, point_cloud_preview
 from services.recon.routes.dependencies import ServiceDep
@@ -37,7 +38,7 @@ async def reconstruct(
 @router.get(
     "/v1/scenes/{scene_id}/reconstruction",
     responses={
-        200: {"content": {"application/octet-stream": {}, "application/x-ply": {}}},
+        200: {"content": {"application/octet-stream": {}, PLY_MEDIA_TYPE: {}, GLB_MEDIA_TYPE: {}}},
         **error_responses(401, 404, 409, 422, 429, 503),
     },
 )
@@ -46,15 +47,19 @@ async def reconstruction(
     scene_id: str,
     service: ServiceDep,
     backbone: str | None = None,
-    format: str = Query("npz", pattern="^(npz|ply)$", description="npz (shared.Reconstruction) or ply"),
+    format: str = Query(
+        "npz",
+        pattern="^(npz|ply|glb)$",
+        description="npz (shared.Reconstruction), ply (binary, streamed as written) or glb (binary glTF)",
+    ),
 ) -> Response:
     recon = (await until_disconnected(http, service.reconstruct(scene_id, backbone))).reconstruction
+    attachment = {"Content-Disposition": f'attachment; filename="{scene_id}.{format}"'}
     if format == "ply":
-        return Response(
-            await run_cpu(recon.to_ply),
-            media_type="application/x-ply",
-            headers={"Content-Disposition": f'attachment; filename="{scene_id}.ply"'},
-        )
+        headers = {**attachment, "Content-Length": str(recon.ply_size())}
+        return StreamingResponse(recon.ply_chunks(), media_type=PLY_MEDIA_TYPE, headers=headers)
+    if format == "glb":
+        return Response(await run_cpu(to_glb, recon), media_type=GLB_MEDIA_TYPE, headers=attachment)
     return Response(await run_cpu(recon.to_bytes), media_type="application/octet-stream")
 
 

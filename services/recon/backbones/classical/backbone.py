@@ -197,6 +197,7 @@ class ClassicalBackbone(Backbone):
             for view_index in sorted(extrinsics)
         ]
         depth_maps: dict[int, np.ndarray] | None = None
+        support = None  # per point, how many views agree on it (its confidence)
         if model.pure_rotation:
             warnings.append(
                 "the views only rotate about one point: depth is undefined, so the cloud lies on a unit "
@@ -205,10 +206,12 @@ class ClassicalBackbone(Backbone):
             points, colors = unit_sphere_cloud(samples)
         else:
             points, colors = sparse_points, _sparse_colors(views, model)
+            support = np.array([len(track) for track in model.tracks], dtype=np.float32)
             if use_densify:
                 dense = densify(samples)
                 points = np.concatenate([points, dense.points])
                 colors = np.concatenate([colors, dense.colors])
+                support = np.concatenate([support, dense.support.astype(np.float32)])
                 depth_maps = dense.depth_maps
             scale = _scale_to_unit_median_distance(points)
             points = points * scale
@@ -217,7 +220,7 @@ class ClassicalBackbone(Backbone):
             }
             if depth_maps is not None:
                 depth_maps = {view: depth * np.float32(scale) for view, depth in depth_maps.items()}
-        return self._reconstruction(views, extrinsics, points, colors, depth_maps, warnings)
+        return self._reconstruction(views, extrinsics, points, colors, depth_maps, warnings, support)
 
     def _reconstruction(
         self,
@@ -227,6 +230,7 @@ class ClassicalBackbone(Backbone):
         colors: np.ndarray,
         depth_maps: dict[int, np.ndarray] | None,
         warnings: list[str],
+        support: np.ndarray | None = None,
     ) -> Reconstruction:
         count = len(views)
         all_extrinsics = np.full((count, 3, 4), np.nan)
@@ -249,6 +253,7 @@ class ClassicalBackbone(Backbone):
             backbone_version=self.version,
             depths=depths,
             warnings=warnings,
+            point_confidence=support,
         )
 
 

@@ -47,6 +47,7 @@ class DenseResult:
     points: np.ndarray  # (N, 3)
     colors: np.ndarray  # (N, 3) uint8
     depth_maps: dict[int, np.ndarray]  # view -> verified z-depth grid, 0 = unknown
+    support: np.ndarray  # (N,) views that agree on each point: its own and the confirming ones
 
 
 def grid_size(original_size: tuple[int, int], scale: float) -> tuple[int, int]:
@@ -130,14 +131,15 @@ def _barycentric(corners: np.ndarray, points: np.ndarray) -> np.ndarray:
 def densify(views: list[ViewSamples]) -> DenseResult:
     """Interpolate each view's depth, keep what another view confirms, lift it to coloured points."""
     depth_maps = {samples.view: interpolate_depth(samples) for samples in views}
-    all_points, all_colors, verified_maps = [], [], {}
+    all_points, all_colors, all_support, verified_maps = [], [], [], {}
     for samples in views:
         depth = depth_maps[samples.view]
         points, grid_rows, grid_cols = _lift(samples, depth)
-        confirmed = np.zeros(len(points), dtype=bool)
+        agreeing = np.zeros(len(points), dtype=np.int32)
         for other in views:
             if other.view != samples.view:
-                confirmed |= _agrees_with(points, other, depth_maps[other.view])
+                agreeing += _agrees_with(points, other, depth_maps[other.view])
+        confirmed = agreeing > 0
         verified = np.zeros_like(depth)
         verified[grid_rows[confirmed], grid_cols[confirmed]] = depth[
             grid_rows[confirmed], grid_cols[confirmed]
@@ -146,9 +148,12 @@ def densify(views: list[ViewSamples]) -> DenseResult:
         working = _grid_pixels(samples, grid_rows[confirmed], grid_cols[confirmed])
         all_points.append(points[confirmed])
         all_colors.append(_sample_colors(samples.image, working))
+        all_support.append(1 + agreeing[confirmed])
     if not all_points:
-        return DenseResult(np.zeros((0, 3)), np.zeros((0, 3), np.uint8), verified_maps)
-    return DenseResult(np.concatenate(all_points), np.concatenate(all_colors), verified_maps)
+        return DenseResult(np.zeros((0, 3)), np.zeros((0, 3), np.uint8), verified_maps, np.zeros(0))
+    return DenseResult(
+        np.concatenate(all_points), np.concatenate(all_colors), verified_maps, np.concatenate(all_support)
+    )
 
 
 def _grid_pixels(samples: ViewSamples, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:

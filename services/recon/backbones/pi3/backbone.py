@@ -161,6 +161,7 @@ class Pi3FamilyBackbone(Backbone):
         return Reconstruction(
             points=outputs["points"][keep],
             colors=resized[keep],
+            point_confidence=confidence[keep].astype(np.float32),  # sigmoid of the logits, 0..1
             extrinsics=extrinsics,
             intrinsics=intrinsics,
             image_sizes=np.array([scale.original_size for scale in scales]),

@@ -112,7 +112,6 @@ class VGGTBackbone(Backbone):
                 f"bad options point_source={point_source!r} confidence_percentile={percentile}"
             )
         warnings = [f"vggt ignores option {name!r}" for name in sorted(options)]
-
         arrays, placements = self.predict(images)
         frame_hw = arrays["depth"].shape[1:3]
         problems = [_field_of_view_problem(intrinsic, frame_hw) for intrinsic in arrays["intrinsic"]]
@@ -128,7 +127,7 @@ class VGGTBackbone(Backbone):
             confidence = arrays["depth_conf"]
         else:
             world, confidence = arrays["world_points"], arrays["world_points_conf"]
-        points, colors = _confident_points(
+        points, colors, scores = _confident_points(
             world, confidence, arrays["depth"][..., 0], images, placements, percentile, usable
         )
 
@@ -162,6 +161,7 @@ class VGGTBackbone(Backbone):
             depth_confidence=depth_confidence,
             warnings=warnings,
             intrinsics_source=["predicted"] * len(placements),
+            point_confidence=scores,
         )
 
 
@@ -187,8 +187,9 @@ def _confident_points(
     placements: list[ViewPlacement],
     percentile: float,
     usable: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Points of every usable view's image window whose confidence reaches the given percentile.
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Points of every usable view's image window whose confidence reaches the given percentile,
+    their colours and their confidence.
 
     The percentile is taken over all views' valid pixels together, so confident views keep more.
     """
@@ -215,6 +216,6 @@ def _confident_points(
         np.concatenate(scores),
     )
     if len(all_scores) == 0:
-        return all_points.astype(np.float32), all_colors
+        return all_points.astype(np.float32), all_colors, all_scores.astype(np.float32)
     keep = all_scores >= np.percentile(all_scores, percentile)
-    return all_points[keep].astype(np.float32), all_colors[keep]
+    return all_points[keep].astype(np.float32), all_colors[keep], all_scores[keep].astype(np.float32)

@@ -1,0 +1,139 @@
+"""Free-form questions: a question without lettered options is answered in words, marked as such.
+
+The one place for the mechanism (the answerers in answering.py call it when the question has no
+options):
+- `answer_format(intent)`: "choice" when the question has options, else "free_form"; the response
+  and the answer step carry it, so a client knows whether `answer` is a letter or words;
+- the prompts a model is asked with: the free-form twin of each answer prompt (`template_for`),
+  which asks for a short phrase instead of a letter;
+- `read_reply`: a model's free-form reply (its JSON `answer`, else its whole text);
+- `answer_offline`: without a model, the camera-motion sentence about the asked pair of views, said
+  in its direction and turn words (`motion_in_words`); otherwise a null answer with the reason.
+  `motion_in_words` is where the offline vocabulary lives: extend it there.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Literal
+
+from services.agent.answer_result import AnswerResult, json_object, no_answer
+from services.agent.motion_clue import (
+    MotionStatement,
+    motion_statements,
+    not_a_motion_question,
+    pick_statement,
+    unreadable_clue,
+)
+from shared.questions.intent import QuestionIntent
+
+AnswerFormat = Literal["choice", "free_form"]
+CHOICE: AnswerFormat = "choice"
+FREE_FORM: AnswerFormat = "free_form"
+
+# Each multiple-choice answer prompt and its free-form twin (services/agent/prompts/).
+_TWINS = {
+    "answer_v1": "answer_free_form_v1",
+    "answer_text_v1": "answer_free_form_text_v1",
+    "answer_images_only_v1": "answer_free_form_images_only_v1",
+}
+
+
+def answer_format(intent: QuestionIntent) -> AnswerFormat:
+    return CHOICE if intent.options else FREE_FORM
+
+
+def is_free_form(intent: QuestionIntent) -> bool:
+    return answer_format(intent) == FREE_FORM
+
+
+def template_for(intent: QuestionIntent, template: str) -> str:
+    """The prompt to ask with: `template`, or its free-form twin when the question has no options."""
+    if not is_free_form(intent):
+        return template
+    if template not in _TWINS:
+        raise ValueError(f"the answer prompt {template!r} has no free-form twin")
+    return _TWINS[template]
+
+
+def read_reply(text: str) -> AnswerResult:
+    """A model's answer to a free-form question: its JSON `answer`, else the whole reply."""
+    data = json_object(text)
+    if data is not None and str(data.get("answer") or "").strip():
+        reasoning = str(data.get("reasoning") or "")
+        return AnswerResult(
+            answer=str(data["answer"]).strip(), reasoning=reasoning, raw=text, method="model_json"
+        )
+    if data is not None and "answer" in data:
+        reason = "the answer model gave an empty answer: " + str(data.get("reasoning") or "")[:300]
+        return AnswerResult(
+            answer=None, reasoning=str(data.get("reasoning") or ""), raw=text, method="none", reason=reason
+        )
+    if text.strip():
+        return AnswerResult(answer=text.strip(), reasoning="", raw=text, method="model_free_text")
+    return AnswerResult(answer=None, raw=text, method="none", reason="the answer model's reply was empty")
+
+
+def answer_offline(intent: QuestionIntent, clue_text: str | None, clue_images: list[bytes]) -> AnswerResult:
+    """The camera-motion sentence about the asked pair, in words; else None with the reason."""
+    text = (clue_text or "").strip()
+    statements = motion_statements(text) if text else []
+    if not statements:
+        return no_answer(unreadable_clue(text, clue_images))
+    why = not_a_motion_question(intent)
+    if why is not None:
+        return no_answer(why)
+    statement, why = pick_statement(intent, statements)
+    if statement is None:
+        return no_answer(why)
+    words = motion_in_words(statement, intent.asks_turn_only)
+    if words is None:
+        return no_answer(f"the offline answerer finds no direction or turn in {statement.sentence!r}")
+    return AnswerResult(
+        answer=words,
+        reasoning=f"The program's output says: {statement.sentence!r}.",
+        method="offline_text",
+    )
+
+
+def motion_in_words(statement: MotionStatement, asks_turn_only: bool) -> str | None:
+    """'moved right, without turning significantly', 'turned left by about 45 degrees', ... or None.
+
+    None when the sentence says the camera moved in a direction these words do not cover (e.g. up or
+    down): half an answer ("without turning") would read as the whole motion.
+    """
+    if asks_turn_only:
+        return _turn_words(statement, alone=True)
+    if statement.direction is not None:
+        moved = f"moved {statement.direction}"
+    elif re.search(r"\b(?:stayed in place|neither moved)\b", statement.sentence):
+        moved = "stayed in place"
+    else:
+        return None
+    turned = _turn_words(statement, alone=False)
+    return ", ".join(part for part in (moved, turned) if part)
+
+
+def _turn_words(statement: MotionStatement, alone: bool) -> str | None:
+    if statement.turn is None:
+        return None
+    if statement.turn == "no turn":
+        return "did not turn significantly" if alone else "without turning significantly"
+    if statement.turn == "turn around":
+        return "turned around"
+    side = statement.turn.removeprefix("turn ")
+    about = f" by about {statement.degrees:g} degrees" if statement.degrees is not None else ""
+    return f"turned {side}{about}"
+
+
+__all__ = [
+    "CHOICE",
+    "FREE_FORM",
+    "AnswerFormat",
+    "answer_format",
+    "answer_offline",
+    "is_free_form",
+    "motion_in_words",
+    "read_reply",
+    "template_for",
+]
