@@ -43,6 +43,11 @@ def random_vggt(config: VGGTConfig, device: torch.device, seed: int = 0) -> VGGT
     """VGGT-1B with plausible random weights, allocated once (no default init pass)."""
     with torch.device("meta"):
         model = VGGT(config)
+    return fill_random(model, device, seed)
+
+
+def fill_random(model: torch.nn.Module, device: torch.device, seed: int = 0) -> Any:
+    """Allocate a meta-device model on `device` with plausible random weights (fixed seed)."""
     model = model.to_empty(device=device)
     generator = torch.Generator(device=device).manual_seed(seed)
     with torch.no_grad():

@@ -1,4 +1,4 @@
-"""The `pyspatial` command: serve, solve, reconstruct, render, demo, synth, eval and bench."""
+"""The `pyspatial` command: serve, solve, reconstruct, render, demo, synth, eval, bench and weights."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ from cli.render import render
 from cli.serve import serve
 from cli.solve import solve
 from cli.synth import synth
+from cli.weights import weights_app
 
 app = typer.Typer(
     name="pyspatial",
@@ -27,6 +28,7 @@ app.command()(render)
 app.command()(demo)
 app.command()(synth)
 app.add_typer(eval_app, name="eval")
+app.add_typer(weights_app, name="weights")
 app.command(
     short_help="Run a benchmark from bench/ (pyspatial bench --help lists them).",
     context_settings={"allow_extra_args": True, "ignore_unknown_options": True},

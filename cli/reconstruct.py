@@ -9,6 +9,7 @@ import typer
 from rich.table import Table
 
 from cli.api_keys import recon_key_option
+from cli.backbones import BACKBONE_HELP, check_backbone
 from cli.console import console, fail, service_errors
 from cli.images import collect_images
 from cli.progress import spinner
@@ -22,6 +23,7 @@ DEFAULT_RECON_URL = f"http://127.0.0.1:{DEFAULT_RECON_PORT}"
 def show_summary(summary: ReconstructionSummary) -> None:
     console.print(
         f"[bold]scene[/] {summary.scene_id}  backbone {summary.backbone} ({summary.backbone_version})"
+        + f"  units {summary.units}"
         + ("  [dim](cached)[/]" if summary.cached else "")
     )
     table = Table(title="cameras", header_style="bold")
@@ -50,7 +52,7 @@ def show_summary(summary: ReconstructionSummary) -> None:
 
 def reconstruct(
     images: list[Path] = typer.Argument(..., help="Image files, or one folder (sorted by name)."),
-    backbone: str | None = typer.Option(None, help="classical, posed-rgbd or vggt (service default)."),
+    backbone: str | None = typer.Option(None, help=BACKBONE_HELP),
     ply: Path | None = typer.Option(None, help="Also save the point cloud as a PLY file here."),
     recon_url: str = typer.Option(DEFAULT_RECON_URL, envvar="PYSPATIAL_RECON_URL", help="Recon service."),
     timeout: float = typer.Option(900.0, help="Seconds to wait for the reconstruction."),
@@ -62,6 +64,7 @@ def reconstruct(
     except ValueError as error:
         raise fail(str(error)) from None
     with service_errors("--api-key"), ReconClient(recon_url, timeout=timeout, api_key=api_key) as client:
+        check_backbone(client.backbones(), backbone)
         with spinner(f"uploading {len(paths)} images to {recon_url}"):
             scene = client.upload_scene(paths)
         with spinner(f"reconstructing scene {scene.scene_id}"):

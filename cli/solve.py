@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 
 from cli.api_keys import agent_key_option
+from cli.backbones import BACKBONE_HELP, check_backbone
 from cli.console import fail, service_errors
 from cli.images import collect_images
 from cli.progress import solve_stages
@@ -21,7 +22,7 @@ def solve(
     images: list[Path] = typer.Argument(None, help="Image files, or one folder (sorted by name)."),
     question: str = typer.Option(..., "--question", "-q", help="The question, with its options."),
     scene_id: str | None = typer.Option(None, help="A scene already uploaded (instead of IMAGES)."),
-    backbone: str | None = typer.Option(None, help="classical, posed-rgbd or vggt (service default)."),
+    backbone: str | None = typer.Option(None, help=BACKBONE_HELP),
     agent_url: str = typer.Option(DEFAULT_AGENT_URL, envvar="PYSPATIAL_AGENT_URL", help="Agent service."),
     out: Path | None = typer.Option(None, help="Folder for clue images [default: pyspatial-out/SCENE]."),
     as_json: bool = typer.Option(False, "--json", help="Print only the SolveResponse JSON."),
@@ -38,6 +39,8 @@ def solve(
     elif not scene_id:
         raise fail("give IMAGES or --scene-id")
     with service_errors(), AgentClient(agent_url, timeout=timeout, api_key=api_key) as client:
+        if backbone is not None:
+            check_backbone(client.backbones(), backbone)
         with solve_stages() as on_stage:
             result = client.solve_with_progress(
                 question, images=paths or None, scene_id=scene_id, backbone=backbone, on_stage=on_stage

@@ -15,6 +15,19 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+import atexit  # noqa: E402
+import shutil  # noqa: E402
+import tempfile  # noqa: E402
+
+# Every service and command the tests start sees an empty hub cache and no hub: checkpoints a
+# developer pulled into ~/.cache/huggingface never change what a test sees. Tests that pull
+# (tests/test_weights_cli.py) set their own HF_HOME and HF_ENDPOINT.
+os.environ["HF_HOME"] = tempfile.mkdtemp(prefix="pyspatial-test-hf-")
+atexit.register(shutil.rmtree, os.environ["HF_HOME"], True)
+os.environ["HF_HUB_OFFLINE"] = "1"
+for _name in ("HF_HUB_CACHE", "HUGGINGFACE_HUB_CACHE", "HF_ENDPOINT"):
+    os.environ.pop(_name, None)
+
 from tests.support.processes import RedisServer, redis_answers, start_redis  # noqa: E402
 from tests.support.scripted_llm import ScriptedLLM, start_scripted_llm  # noqa: E402
 

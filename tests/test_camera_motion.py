@@ -253,3 +253,25 @@ def test_view_problems_and_scale_of_a_reconstruction() -> None:
     recon.colors = np.zeros((0, 3), np.uint8)
     assert motion_scene_scale(recon, [0, 1]) == pytest.approx(1.0)  # two centres 1 apart: their extent
     assert motion_scene_scale(recon, [0]) == 1.0  # one centre: no extent at all
+
+
+def test_metric_scenes_say_how_far_and_relative_ones_only_which_way():
+    from shared.geometry.camera_motion import describe_pairs
+
+    first = np.hstack([np.eye(3), np.zeros((3, 1))])
+    second = np.hstack([np.eye(3), np.array([[-0.1], [0.25], [-0.42]])])  # forward 0.42, right 0.1, up 0.25
+    metric = describe_camera_motion(np.stack([first, second]), scene_scale=1.0, units="metres")[0]
+    assert metric.units == "metres" and metric.distance == pytest.approx(np.hypot(0.42, 0.1))
+    assert metric.sentence == (
+        "From view 1 to view 2 the camera moved 0.43 m forward and 0.25 m up without turning significantly."
+    )
+    relative = describe_camera_motion(np.stack([first, second]), scene_scale=1.0)[0]
+    assert relative.units == "relative"
+    assert (
+        relative.sentence
+        == "From view 1 to view 2 the camera moved forward and up without turning significantly."
+    )
+    [pair] = describe_pairs(np.stack([first, second]), [None, None], scene_scale=1.0, units="metres")
+    assert pair.sentence == metric.sentence and pair.to_dict()["units"] == "metres"
+    with pytest.raises(ValueError, match="units"):
+        describe_camera_motion(np.stack([first, second]), units="feet")

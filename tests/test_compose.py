@@ -40,6 +40,8 @@ def dockerfile_command(path: Path) -> list[str]:
 def test_every_service_is_there_with_a_healthcheck():
     assert {"redis", "recon", "recon-gpu", "agent", "nginx"} <= set(SERVICES)
     for name, service in SERVICES.items():
+        if service.get("profiles") == ["tools"]:  # one-off commands (`docker compose run`)
+            continue
         assert service.get("healthcheck", {}).get("test"), f"{name} has no healthcheck"
     assert SERVICES["redis"]["image"].startswith("redis:7")
     assert "redis-cli" in SERVICES["redis"]["healthcheck"]["test"]
@@ -69,10 +71,17 @@ def test_start_order_waits_for_health():
 def test_recon_storage_and_models():
     recon = SERVICES["recon"]
     assert recon["environment"]["PYSPATIAL_DATA_DIR"] == "/data"
-    assert "./models:/models:ro" in recon["volumes"]
-    assert recon["environment"]["PYSPATIAL_VGGT_CHECKPOINT"].startswith("/models/")
     data_volume = next(v.split(":")[0] for v in recon["volumes"] if v.endswith(":/data"))
     assert data_volume in COMPOSE["volumes"]
+    # Checkpoints: the hub cache volume (the image's HF_HOME), read-only for the service and
+    # writable for the one-off `weights` tool that pulls into it.
+    dockerfile = (REPO_ROOT / "services" / "recon" / "Dockerfile").read_text()
+    assert "HF_HOME=/hf" in dockerfile
+    assert "hub-cache:/hf:ro" in [v.split("#")[0].strip() for v in recon["volumes"]]
+    weights = SERVICES["weights"]
+    assert weights["profiles"] == ["tools"] and weights["entrypoint"] == ["pyspatial", "weights"]
+    assert "hub-cache:/hf" in weights["volumes"] and "hub-cache" in COMPOSE["volumes"]
+    assert not any("CHECKPOINT" in name for name in recon["environment"])  # found in the cache
 
 
 def test_gpu_service_reserves_an_nvidia_device_under_a_profile():

@@ -118,3 +118,19 @@ def test_keys_come_from_the_secret_and_settings_exist():
     # recon accepts exactly the key the agent sends
     assert recon_env["PYSPATIAL_API_KEYS"]["valueFrom"] == agent_env["PYSPATIAL_RECON_API_KEY"]["valueFrom"]
     assert config["PYSPATIAL_RECON_URL"] == f"http://recon:{DEFAULT_RECON_PORT}"
+
+
+def test_recon_pods_read_pulled_checkpoints_from_the_hub_cache_a_job_fills():
+    claim = BY_KIND[("PersistentVolumeClaim", "pyspatial-hub-cache")]
+    assert claim["spec"]["accessModes"] == ["ReadWriteMany"]
+    for name in ("recon", "recon-gpu"):
+        pod = BY_KIND[("Deployment", name)]["spec"]["template"]["spec"]
+        volume = next(v for v in pod["volumes"] if v.get("persistentVolumeClaim"))
+        assert volume["persistentVolumeClaim"] == {"claimName": "pyspatial-hub-cache", "readOnly": True}
+        mount = next(m for m in pod["containers"][0]["volumeMounts"] if m["name"] == volume["name"])
+        assert mount == {"name": volume["name"], "mountPath": "/hf", "readOnly": True}  # the image's HF_HOME
+    job = BY_KIND[("Job", "pyspatial-weights-pull")]["spec"]["template"]["spec"]
+    (container,) = job["containers"]
+    assert container["command"] == ["pyspatial", "weights", "pull"] and container["args"] == ["pi3x"]
+    assert container["volumeMounts"] == [{"name": "hub-cache", "mountPath": "/hf"}]
+    assert job["securityContext"]["runAsUser"] == 10001

@@ -92,6 +92,8 @@ def start_all(app: str, environments: dict[str, dict]) -> dict[str, ServiceProce
 @pytest.fixture(scope="module")
 def stack(tmp_path_factory, redis_url):
     """Recons (keyed and ready; rate-limited; not ready) and agents in front of them."""
+    broken = tmp_path_factory.mktemp("weights") / "broken.safetensors"
+    broken.write_bytes(b"not a checkpoint")
     recons = {
         "recon": recon_env(
             tmp_path_factory,
@@ -107,7 +109,11 @@ def stack(tmp_path_factory, redis_url):
             PYSPATIAL_RATE_LIMIT_PER_MINUTE="1",
             PYSPATIAL_RATE_LIMIT_BURST="1",
         ),
-        "recon_unready": recon_env(tmp_path_factory, redis_url, PYSPATIAL_BACKBONE="vggt"),  # 503s
+        # A checkpoint that is there but broken: the backbone cannot be built, 503s (weights that are
+        # simply absent are the caller's 409 instead, provoked on `recon` by naming pi3x).
+        "recon_unready": recon_env(
+            tmp_path_factory, redis_url, PYSPATIAL_BACKBONE="vggt", PYSPATIAL_VGGT_CHECKPOINT=str(broken)
+        ),
     }
     services = {}
     # A port bound but never listening: connections to it are refused for as long as it is held.
@@ -270,6 +276,17 @@ def exercise_recon(observe: Observer, stack, views) -> None:
         if route not in ("/v1/backbones", "/v1/scenes/{scene_id}", "/v1/scenes/{scene_id}/images/{index}"):
             unready_body = body(unready_scene) if callable(body) else body
             send(method, route, path(unready_scene), unready_body, 503, url=unready, headers={})
+            # Naming a backbone whose weights are not present: 409 with the command that gets them.
+            if method == "GET":
+                send(
+                    method,
+                    route,
+                    path(scene) + ("&" if "?" in path(scene) else "?") + "backbone=pi3x",
+                    None,
+                    409,
+                )
+            else:
+                send(method, route, path(scene), {**(scene_body or {}), "backbone": "pi3x"}, 409)
     recon("POST", "/v1/scenes", "/v1/scenes", 401, **upload_files(views))
     recon("POST", "/v1/scenes", "/v1/scenes", 429, url=limited, headers=key, **upload_files(views))
 
@@ -294,12 +311,15 @@ def exercise_agent(observe: Observer, stack, views, scene_id: str) -> None:
     solve(404, json={**solve_body, "scene_id": UNKNOWN_SCENE})
     solve(413, headers={**key, "content-type": "application/json"}, content=b" " * 3_100_000)
     solve(422, json={**solve_body, "scene_id": "../../healthz"})
+    refused = solve(409, json={**solve_body, "backbone": "pi3x"})  # its weights are not present
+    assert "run `pyspatial weights pull pi3x`" in refused.json()["detail"]
     pngs = [base64.b64encode(png).decode() for png in views.pngs()]
     solve(503, name="agent_of_unready", headers={}, json={"question": question, "images": pngs})
 
     points = "/v1/scenes/{scene_id}/points"
     agent("GET", points, f"/v1/scenes/{scene_id}/points?max_points=50", 200)
     agent("GET", points, f"/v1/scenes/{UNKNOWN_SCENE}/points", 404)
+    agent("GET", points, f"/v1/scenes/{scene_id}/points?backbone=pi3x", 409)
     agent("GET", points, "/v1/scenes/%23x/points", 422)  # "#x"
     download = "/v1/scenes/{scene_id}/reconstruction"
     agent("GET", download, f"/v1/scenes/{scene_id}/reconstruction?format=ply&backbone=posed-rgbd", 200)

@@ -352,7 +352,7 @@ def moved(pose: np.ndarray, step_world: np.ndarray) -> np.ndarray:
         ),
         (
             lambda first: moved(first, np.array([0.0, 0.0, 0.5])),
-            "From view 1 to view 2 the camera moved up without turning significantly.",
+            "From view 1 to view 2 the camera moved 0.50 m up without turning significantly.",  # metres
         ),
     ],
     ids=["turn-with-drift", "straight-up"],

@@ -248,7 +248,8 @@ def test_unknown_and_unready_backbones(client, rgbd_scene):
     assert unknown.value.status_code == 422 and "available" in unknown.value.message
     with pytest.raises(ServiceError) as unready:
         client.reconstruct(rgbd_scene, backbone="vggt")
-    assert unready.value.status_code == 503 and "checkpoint" in unready.value.message
+    # No weights present: a 409 that says how to get them, not an outage.
+    assert unready.value.status_code == 409 and "run `pyspatial weights pull vggt`" in unready.value.message
 
 
 def test_posed_rgbd_without_geometry_is_a_clear_error(client, views):

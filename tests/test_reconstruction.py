@@ -149,6 +149,22 @@ def test_unknown_intrinsics_source_is_rejected():
         Reconstruction(**{**sample(num_points=4).__dict__, "intrinsics_source": ["guess"] * 3})
 
 
+def test_units_round_trip_and_format_2_files_keep_their_backbones_units():
+    metric = Reconstruction(**{**sample().__dict__, "backbone": "pi3x", "units": "metres"})
+    assert Reconstruction.from_bytes(metric.to_bytes()).units == "metres"
+    assert sample().units == "relative"  # a backbone that does not say: relative
+    for backbone, units in (("posed-rgbd", "metres"), ("vggt", "relative"), ("classical", "relative")):
+        recon = Reconstruction(**{**sample().__dict__, "backbone": backbone, "units": None})
+        with np.load(io.BytesIO(recon.to_bytes())) as archive:
+            arrays = {k: archive[k] for k in archive if k != "units"}
+        arrays["format_version"] = np.array(2, dtype=np.int32)  # written before units existed
+        buffer = io.BytesIO()
+        np.savez(buffer, **arrays)
+        assert Reconstruction.from_bytes(buffer.getvalue()).units == units
+    with pytest.raises(ValueError, match="unknown units"):
+        Reconstruction(**{**sample(num_points=4).__dict__, "units": "feet"})
+
+
 def test_point_confidence_round_trips_and_older_files_have_none():
     recon = sample()
     recon = Reconstruction(**{**recon.__dict__, "point_confidence": np.arange(recon.num_points) % 4 + 2})

@@ -15,6 +15,7 @@ import torch
 from safetensors.torch import load_file, save_file
 
 from services.recon.backbones.base import BackboneError
+from services.recon.backbones.transformer.layers import RotaryEmbedding2D
 from services.recon.backbones.vggt.checkpoint import load_vggt, read_state_dict
 from services.recon.backbones.vggt.config import VGGTConfig, VGGTConfigError
 from services.recon.backbones.vggt.geometry import (
@@ -22,7 +23,6 @@ from services.recon.backbones.vggt.geometry import (
     quaternion_to_rotation,
     unproject_depth_maps,
 )
-from services.recon.backbones.vggt.layers import RotaryEmbedding2D
 from services.recon.backbones.vggt.model import VGGT
 
 DATA = Path(__file__).parent / "data" / "vggt"

@@ -196,6 +196,10 @@ def test_solve_the_example_and_inspect_it(stack, llm, browser, shots, downloads)
         "image 3",
     ]
     browser.find_element(By.ID, "question").send_keys(spec["question"])
+    # The backbone menu offers only what recon can run: no learned backbone without its weights.
+    WebDriverWait(browser, 30).until(lambda d: len(d.find_elements(By.CSS_SELECTOR, "#backbone option")) > 1)
+    offered = [e.text for e in browser.find_elements(By.CSS_SELECTOR, "#backbone option")]
+    assert offered[1:] == ["auto (classical)", "classical", "posed-rgbd"], offered
 
     # The upload shows its percentage: uploads slowed to ~100 kB/s make ~2.5 s of progress to watch.
     throttle_upload(browser, 100_000)

@@ -155,10 +155,15 @@ class SolvePipeline:
         return respond(log, intent, scene, recon, written, answer, fallback_reason=why)
 
     def _check_ready(self, backbone: str | None) -> None:
-        """An unknown backbone is bad input (422); a sandbox that cannot run programs is a 503."""
+        """An unknown backbone is bad input (422), a known one that cannot run here is a 409 that
+        says what to run; a sandbox that cannot run programs is a 503."""
         if backbone is not None:
-            available = self.recon.backbones()["available"]
+            menu = self.recon.backbones()
+            available = menu["available"]
             if backbone not in available:
+                reasons = {entry["name"]: entry.get("reason") for entry in menu.get("backbones", [])}
+                if reasons.get(backbone):
+                    raise SolveError(409, f"backbone {backbone} is not available here: {reasons[backbone]}")
                 raise SolveError(422, f"unknown backbone {backbone!r}; available: {', '.join(available)}")
         if not self.jail.runs_programs:
             raise SolveError(503, f"the program sandbox is unavailable: {self.jail.detail}")

@@ -36,6 +36,7 @@ class ReconToolProvider:
             "registered": [c.registered for c in summary.cameras],
             "up": summary.up,
             "warnings": summary.warnings,
+            "units": summary.units,
         }
 
     def describe_camera_motion(self) -> list[str]:

@@ -8,11 +8,13 @@ routes through `routes/dependencies.py`), middleware, error handlers, and one ro
 from __future__ import annotations
 
 import logging
+import threading
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI, Request
 from fastapi.responses import JSONResponse
 
+from services.recon.backbone_menu import backbone_menu
 from services.recon.errors import ReconServiceError
 from services.recon.routes import ROUTERS
 from services.recon.service import ReconService
@@ -56,6 +58,11 @@ async def _service_error(_: Request, error: ReconServiceError) -> JSONResponse:
 async def _lifespan(app: FastAPI):
     service: ReconService = app.state.service
     await _log_start_up(service)
+    # The backbone menu needs torch (for the device) and reads checkpoint headers: do that now, off
+    # the event loop and without delaying start-up, so the first /v1/backbones answers quickly.
+    threading.Thread(
+        target=backbone_menu, args=(service.settings,), name="warm backbone menu", daemon=True
+    ).start()
     yield
     app.state.uploads.close()
     # SIGTERM: uvicorn stops accepting and gives requests `drain_s` (--timeout-graceful-shutdown);

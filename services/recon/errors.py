@@ -26,6 +26,13 @@ class BackboneUnavailable(ReconServiceError):
     status_code = 503
 
 
+class BackboneNotInstalled(ReconServiceError):
+    """The request names a backbone this installation cannot run (its weights are not present):
+    the caller's choice conflicts with what is installed, and the message says what to run."""
+
+    status_code = 409
+
+
 class Overloaded(ReconServiceError):
     """Admission limits are full (queued reconstructions, images being decoded): retry later."""
 

@@ -11,10 +11,13 @@ from dataclasses import dataclass
 import anyio
 import numpy as np
 
+from services.recon.backbone_menu import AUTO, availability, resolve_auto
 from services.recon.backbones import Backbone, BackboneError, create_backbone
+from services.recon.backbones.base import BackboneLoadError
 from services.recon.cache import ReconstructionCache
 from services.recon.camera_inputs import INPUTS_VERSION, view_intrinsics
-from services.recon.errors import BackboneUnavailable, InvalidInput, SceneNotFound
+from services.recon.checkpoints import CATALOGUE, WEIGHTS_ABSENT, locate
+from services.recon.errors import BackboneNotInstalled, BackboneUnavailable, InvalidInput, SceneNotFound
 from services.recon.jobs import ReconstructionJobs
 from services.recon.motion_inputs import motion_scene_scale, view_pose_problems
 from services.recon.offload import run_cpu, run_in_daemon_thread
@@ -74,9 +77,23 @@ class ReconService:
 
     # ---- backbones ---------------------------------------------------------------------------
 
-    def backbone(self, name: str | None = None) -> Backbone:
-        """The named backbone (default from settings), built once per process."""
+    def resolve_backbone_name(self, name: str | None) -> str:
+        """The backbone a request means: its name, else the default; `auto` resolved now."""
         name = name or self.settings.backbone
+        return resolve_auto(self.settings) if name == AUTO else name
+
+    def backbone(self, name: str | None = None) -> Backbone:
+        """The named backbone (default from settings), built once per process.
+
+        A learned backbone whose weights are not present is refused (409, with the command that
+        gets them) before anything is built or loaded; weights that are present but do not fit
+        are an installation fault (503, from building it).
+        """
+        name = self.resolve_backbone_name(name)
+        if name in CATALOGUE and name not in self._backbones:
+            state = availability(name, self.settings)
+            if not state.available and state.reason and state.reason.startswith(WEIGHTS_ABSENT):
+                raise BackboneNotInstalled(state.refusal)
         with self._backbone_lock:
             if name in self._backbones:
                 return self._backbones[name]
@@ -92,19 +109,27 @@ class ReconService:
             return backbone
 
     def _backbone_settings(self, name: str) -> dict:
+        settings = self.settings
+        if name not in CATALOGUE:
+            return {}
+        path, _ = locate(name, getattr(settings, f"{name}_checkpoint"), settings.weights_revision)
+        config = getattr(settings, f"{name}_config")
+        common = {"checkpoint": str(path) if path else None, "config": str(config) if config else None}
         if name == "vggt":
-            return {
-                "checkpoint": str(self.settings.vggt_checkpoint) if self.settings.vggt_checkpoint else None,
-                "config": str(self.settings.vggt_config) if self.settings.vggt_config else None,
-                "device": self.settings.device,
-            }
-        return {}
+            return {**common, "device": settings.device}
+        return {
+            **common,
+            "device": settings.device,
+            "revision": settings.weights_revision,
+            "pixel_limit": settings.pi3_pixel_limit,
+            "max_views": settings.pi3_max_views,
+        }
 
     def backbone_status(self) -> tuple[bool, str]:
         name = self.settings.backbone
         try:
             return self.backbone(name).ready()
-        except (BackboneUnavailable, InvalidInput) as error:
+        except (BackboneUnavailable, BackboneNotInstalled, InvalidInput) as error:
             return False, error.message
 
     # ---- scenes ----------------------------------------------------------------------------
@@ -190,8 +215,14 @@ class ReconService:
                 }
             elif backbone.accepts_intrinsics and known.known_views:
                 options = {"intrinsics": known.intrinsics, "intrinsics_sources": known.sources}
+            if backbone.accepts_posed_depth and scene.depths is not None and scene.extrinsics is not None:
+                options.update(depths=scene.depths, extrinsics=scene.extrinsics)
             try:
                 reconstruction = backbone.reconstruct(scene.images, **options)
+            except BackboneLoadError as error:
+                raise BackboneUnavailable(
+                    f"backbone {backbone.name} cannot load its weights: {error}"
+                ) from error
             except BackboneError as error:
                 raise InvalidInput(
                     f"backbone {backbone.name} cannot reconstruct this scene: {error}"
@@ -264,7 +295,9 @@ class ReconService:
         usable = [index for index, problem in enumerate(problems) if problem is None]
         up = estimate_up_axis(recon.extrinsics[usable]) if usable else None
         scale = motion_scene_scale(recon, usable)
-        motions = describe_pairs(recon.extrinsics, problems, pairs=pairs, up=up, scene_scale=scale)
+        motions = describe_pairs(
+            recon.extrinsics, problems, pairs=pairs, up=up, scene_scale=scale, units=recon.units or "relative"
+        )
         return motions, scale
 
 

@@ -59,6 +59,7 @@ def reconstruction_summary(
         bounds_min=low.tolist(),
         bounds_max=high.tolist(),
         up=scene_up(recon).tolist(),
+        units=recon.units or "relative",
         warnings=recon.warnings,
         pairs=[finite_only(asdict(pair)) for pair in recon.pair_confidence],
         cached=cached,

@@ -20,6 +20,10 @@ Unknown motion: `describe_pairs` takes a reason per view that has no trustworthy
 registered, uncertain) and returns, per pair, either a `CameraMotion` or an `UnknownMotion` that
 says why; the motion of the other pairs is still described.
 
+Units: in a metric reconstruction (`units="metres"`: Pi3X, posed RGB-D) the sentence says how far
+("moved 0.42 m forward", "and 0.15 m up"); in a relative one (`units="relative"`) only the
+direction, since a length in scene units means nothing to a reader.
+
 Turn: the signed angle about up from camera i's flat viewing direction to camera j's, positive =
 left. It is rounded to 5 degrees below 30 degrees and to 15 degrees from there on (so 43 -> 45,
 88 -> 90); below `rotation_threshold_deg` (10) it is "no significant rotation".
@@ -45,6 +49,7 @@ DIRECTIONS = (
     "diagonally forward and left",
 )
 NO_MOVEMENT = "no significant movement"
+UNITS = ("metres", "relative")
 NO_ROTATION = "no significant rotation"
 _COINCIDENT = 1e-9
 _LEVEL_DEG = 22.5  # steeper than this, the vertical step is named
@@ -57,7 +62,7 @@ class CameraMotion:
     to_view: int
     direction: str  # horizontal: one of DIRECTIONS or NO_MOVEMENT
     angle_deg: float  # horizontal heading of the move in the first camera, 0 forward, +90 right
-    distance: float  # horizontal distance, scene units
+    distance: float  # horizontal distance, in `units`
     vertical: float  # displacement along up, positive = up
     displacement_in_first_camera: tuple[float, float, float]  # (x right, y down, z forward)
     yaw_deg: float  # turn about up, positive = left
@@ -65,6 +70,7 @@ class CameraMotion:
     sentence: str
     vertical_direction: str | None = None  # "up", "down", or None when not significant
     described: bool = True
+    units: str = "relative"  # of distance and vertical: "metres" or "relative" (scene units)
 
     def to_dict(self) -> dict[str, object]:
         """JSON-able dictionary (plain floats, ints, strings and lists)."""
@@ -124,9 +130,24 @@ def _signed_angle(first: np.ndarray, second: np.ndarray, axis: np.ndarray) -> fl
     return float(np.degrees(np.arctan2(np.dot(axis, np.cross(first, second)), np.dot(first, second))))
 
 
-def _sentence(from_view: int, to_view: int, direction: str, turn: str, vertical: str | None = None) -> str:
+def _metres(length: float) -> str:
+    return f"{abs(length):.2f} m"
+
+
+def _sentence(
+    from_view: int,
+    to_view: int,
+    direction: str,
+    turn: str,
+    vertical: str | None = None,
+    lengths: tuple[float, float] | None = None,
+) -> str:
+    """`lengths` (horizontal, vertical) in metres, said when given (metric reconstructions)."""
     turned = turn != NO_ROTATION
     head = f"From view {from_view + 1} to view {to_view + 1} the camera"
+    if lengths is not None:
+        direction = direction if direction == NO_MOVEMENT else f"{_metres(lengths[0])} {direction}"
+        vertical = vertical if vertical is None else f"{_metres(lengths[1])} {vertical}"
     if vertical is not None:
         way = vertical if direction == NO_MOVEMENT else f"{direction} and {vertical}"
         if turned:
@@ -149,6 +170,7 @@ def _motion(
     up: np.ndarray,
     min_distance: float,
     rotation_threshold_deg: float,
+    units: str = "relative",
 ) -> CameraMotion:
     rotation = first[:3, :3]
     center_first = -rotation.T @ first[:3, 3]
@@ -178,9 +200,18 @@ def _motion(
         displacement_in_first_camera=(float(displacement[0]), float(displacement[1]), float(displacement[2])),
         yaw_deg=yaw_deg,
         turn=turn,
-        sentence=_sentence(indices[0], indices[1], direction, turn, vertical_direction),
+        sentence=_sentence(
+            indices[0], indices[1], direction, turn, vertical_direction, _lengths(units, distance, vertical)
+        ),
         vertical_direction=vertical_direction,
+        units=units,
     )
+
+
+def _lengths(units: str, distance: float, vertical: float) -> tuple[float, float] | None:
+    if units not in UNITS:
+        raise ValueError(f"units must be one of {UNITS}, not {units!r}")
+    return (distance, vertical) if units == "metres" else None
 
 
 def describe_camera_motion(
@@ -190,6 +221,7 @@ def describe_camera_motion(
     scene_scale: float | None = None,
     threshold: float = 0.05,
     rotation_threshold_deg: float = 10.0,
+    units: str = "relative",
 ) -> list[CameraMotion]:
     """Motion for each pair of views (default: consecutive views), see the module docstring."""
     stack = np.asarray(extrinsics, dtype=np.float64)
@@ -217,7 +249,7 @@ def describe_camera_motion(
         raise ValueError(f"scene_scale must be positive and finite, got {scene_scale}")
     min_distance = threshold * scene_scale
     return [
-        _motion(poses[i], poses[j], (int(i), int(j)), up_axis, min_distance, rotation_threshold_deg)
+        _motion(poses[i], poses[j], (int(i), int(j)), up_axis, min_distance, rotation_threshold_deg, units)
         for i, j in pairs
     ]
 
@@ -245,6 +277,7 @@ def describe_pairs(
     scene_scale: float | None = None,
     threshold: float = 0.05,
     rotation_threshold_deg: float = 10.0,
+    units: str = "relative",
 ) -> list[CameraMotion | UnknownMotion]:
     """Per pair a description, or why there is none (`view_problems[i]`: why view i has no usable pose).
 
@@ -273,14 +306,12 @@ def describe_pairs(
             scene_scale=scene_scale,
             threshold=threshold,
             rotation_threshold_deg=rotation_threshold_deg,
+            units=units,
         )
         for (i, j), motion in zip(good_pairs, motions, strict=True):
-            described[(i, j)] = replace(
-                motion,
-                from_view=i,
-                to_view=j,
-                sentence=_sentence(i, j, motion.direction, motion.turn, motion.vertical_direction),
-            )
+            lengths = _lengths(units, motion.distance, motion.vertical)
+            sentence = _sentence(i, j, motion.direction, motion.turn, motion.vertical_direction, lengths)
+            described[(i, j)] = replace(motion, from_view=i, to_view=j, sentence=sentence)
     for i, j in pairs:
         i, j = int(i), int(j)
         if (i, j) in described:
@@ -295,6 +326,7 @@ __all__ = [
     "DIRECTIONS",
     "NO_MOVEMENT",
     "NO_ROTATION",
+    "UNITS",
     "CameraMotion",
     "UnknownMotion",
     "default_pairs",

@@ -16,13 +16,24 @@ import numpy as np
 # 2: per-view intrinsics source and confidence, per-pair confidence. Version 1 files still read
 # (their confidence is unknown and their intrinsics source follows from the backbone).
 # 3: per-point confidence (optional). Versions 1 and 2 read with none.
-FORMAT_VERSION = 3
-READABLE_VERSIONS = (1, 2, 3)
+# 4: `units`. Older files get the units their backbone always had (see `default_units`).
+FORMAT_VERSION = 4
+READABLE_VERSIONS = (1, 2, 3, 4)
 PLY_CHUNK_POINTS = 65_536
+
+# What one unit of the world frame is: "metres" (Pi3X's metric head, posed RGB-D in metres) or
+# "relative" (scale-free: classical SfM, VGGT, Pi3; only ratios of lengths mean something).
+UNITS = ("metres", "relative")
+_METRIC_BACKBONES = ("posed-rgbd", "pi3x")
 
 # Where a view's intrinsics came from, best first for the classical backbone.
 INTRINSICS_SOURCES = ("uploaded", "exif", "self-calibrated", "prior", "given", "predicted")
 _V1_INTRINSICS_SOURCE = {"classical": "prior", "posed-rgbd": "given", "vggt": "predicted"}
+
+
+def default_units(backbone: str) -> str:
+    """The units of a backbone that does not say (files before format 3)."""
+    return "metres" if backbone in _METRIC_BACKBONES else "relative"
 
 
 class ReconstructionFormatError(ValueError):
@@ -71,8 +82,13 @@ class Reconstruction:
     # Per point, higher is surer; its scale is the backbone's (classical: how many views support the
     # point; vggt: the network's confidence). None: the backbone gives none (posed-rgbd).
     point_confidence: np.ndarray | None = None
+    units: str | None = None  # one of UNITS; None: what the backbone always gives (default_units)
 
     def __post_init__(self) -> None:
+        if self.units is None:
+            self.units = default_units(self.backbone)
+        if self.units not in UNITS:
+            raise ValueError(f"unknown units {self.units!r}; expected one of {UNITS}")
         self.points = np.ascontiguousarray(self.points, dtype=np.float32).reshape(-1, 3)
         self.colors = np.ascontiguousarray(self.colors, dtype=np.uint8).reshape(-1, 3)
         self.extrinsics = np.asarray(self.extrinsics, dtype=np.float64).reshape(-1, 3, 4)
@@ -146,6 +162,7 @@ class Reconstruction:
             "backbone_version": np.array(self.backbone_version),
             "warnings": np.array(self.warnings, dtype=np.str_),
             "intrinsics_source": np.array(self.intrinsics_source, dtype=np.str_),
+            "units": np.array(self.units),
             "confidence": np.array(
                 json.dumps(
                     {
@@ -211,6 +228,7 @@ class Reconstruction:
                 view_confidence=view_confidence or None,
                 pair_confidence=pair_confidence,
                 point_confidence=archive["point_confidence"] if "point_confidence" in archive else None,
+                units=str(archive["units"]) if "units" in archive else None,
             )
 
     def to_ply(self) -> bytes:

@@ -78,6 +78,8 @@ class Reconstruction:
         self.intrinsics_source = [camera.intrinsics_source for camera in summary.cameras]
         self.image_sizes = [(camera.width, camera.height) for camera in summary.cameras]
         self.up = np.asarray(summary.up, dtype=float)
+        # "metres" (pi3x, posed-rgbd) or "relative": what move_forward's distance is measured in.
+        self.units = summary.units
         self.num_points = summary.num_points
         self.warnings = list(summary.warnings)
 

@@ -24,6 +24,8 @@ STATUS_MEANINGS = {
     400: "The input cannot be read (e.g. an image that does not decode).",
     401: "Missing or invalid bearer API key (only when API keys are configured).",
     404: "The scene is not known.",
+    409: "The named backbone cannot run on this installation (its weights are not present); the "
+    "message says what to run (`pyspatial weights pull NAME`).",
     413: "The body, an image or a count is over a limit.",
     422: "The request does not match the schema or asks for something impossible.",
     429: "Rate limit exceeded; see the Retry-After header.",

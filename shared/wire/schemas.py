@@ -10,6 +10,11 @@ from shared.questions.intent import QuestionIntent
 
 Matrix = list[list[float]]
 ImageFormat = Literal["png", "jpeg"]
+Units = Literal["metres", "relative"]
+UNITS_DESCRIPTION = (
+    "What one unit of the world frame is: metres (pi3x's metric head; posed-rgbd, whose depths are "
+    "metres) or relative (classical, vggt, pi3: an arbitrary scale, only ratios of lengths mean anything)."
+)
 SCENE_ID_PATTERN = r"^[0-9a-f]{24}$"  # content hash prefix, see services/recon/scene_store.py
 
 
@@ -84,7 +89,7 @@ class CameraInfo(_Model):
         None,
         description="Where the intrinsics came from: uploaded, exif, self-calibrated (classical: "
         "estimated from the views), prior (a guessed field of view), given (posed-rgbd), predicted "
-        "(vggt); null when not reported.",
+        "(vggt; pi3 and pi3x: fitted to the predicted points); null when not reported.",
     )
     width: int
     height: int
@@ -101,6 +106,7 @@ class ReconstructionSummary(_Model):
     bounds_min: list[float]
     bounds_max: list[float]
     up: list[float] = Field(..., description="Scene up axis estimated from the cameras (world frame).")
+    units: Units = Field("relative", description=UNITS_DESCRIPTION)
     warnings: list[str]
     pairs: list[PairConfidenceInfo] = Field(
         default_factory=list, description="Support of each pair of registered views (classical)."
@@ -128,6 +134,22 @@ class CameraMotionRequest(_Model):
     backbone: str | None = None
 
 
+class BackboneEntry(_Model):
+    name: str
+    available: bool = Field(..., description="Whether a request naming it can run now.")
+    reason: str | None = Field(None, description="Why not, with what to run; null when available.")
+    units: Units = Field(..., description=UNITS_DESCRIPTION)
+    device: str = Field(..., description="Where it would run: cpu, cuda, ...")
+    note: str | None = Field(None, description="What it needs from an upload, where that matters.")
+
+
+class BackboneMenu(_Model):
+    default: str = Field(..., description="The backbone a request without one gets (may be auto).")
+    auto: str = Field(..., description="What `auto` stands for now: pi3x, else vggt, else classical.")
+    backbones: list[BackboneEntry]
+    available: list[str] = Field(..., description="Names a request may use now (auto included).")
+
+
 class CameraMotionItem(_Model):
     """One pair of views: a description, or (described = false) the reason there is none."""
 
@@ -144,6 +166,7 @@ class CameraMotionItem(_Model):
     yaw_deg: float | None = Field(None, description="Turn about the up axis between the views; + = left.")
     turn: str | None = Field(None, description="The turn in words, e.g. 'turned left by about 90 degrees'.")
     sentence: str = Field(..., description="The motion in one sentence, or that it is unknown and why.")
+    units: Units | None = Field(None, description="Units of distance and vertical (null when unknown).")
 
 
 class CameraMotionResponse(_Model):

@@ -41,9 +41,36 @@ class AccessSettings(_Settings):
 
 
 class ReconSettings(AccessSettings):
-    backbone: str = Field("classical", description="Default backbone: classical, posed-rgbd or vggt.")
-    vggt_checkpoint: Path | None = Field(None, description="Local VGGT-1B checkpoint (.pt or .safetensors).")
+    backbone: str = Field(
+        "classical",
+        description="Default backbone: classical, posed-rgbd, vggt, pi3, pi3x, or auto (Pi3X when its "
+        "weights are present, then VGGT, then classical).",
+    )
+    vggt_checkpoint: Path | None = Field(
+        None, description="VGGT-1B checkpoint (.pt or .safetensors); when unset, the hub cache's `model.pt`."
+    )
     vggt_config: Path | None = Field(None, description="JSON model config; VGGT-1B sizes when unset.")
+    pi3_checkpoint: Path | None = Field(
+        None, description="Pi3 checkpoint; when unset, the hub cache's `yyfz233/Pi3` `model.safetensors`."
+    )
+    pi3_config: Path | None = Field(
+        None, description="Pi3 config (fixture JSON format); full size when unset."
+    )
+    pi3x_checkpoint: Path | None = Field(
+        None, description="Pi3X checkpoint; when unset, the hub cache's `yyfz233/Pi3X` `model.safetensors`."
+    )
+    pi3x_config: Path | None = Field(
+        None, description="Pi3X config (fixture JSON format); full size when unset."
+    )
+    weights_revision: str = Field(
+        "main", description="Hub revision (branch, tag or commit) whose pulled checkpoints the service uses."
+    )
+    pi3_max_views: int = Field(
+        64, ge=1, description="Most views Pi3 / Pi3X take in one scene (more is a 413 before the model runs)."
+    )
+    pi3_pixel_limit: int = Field(
+        255_000, ge=14 * 14, description="Pixels per view Pi3 / Pi3X resize to (the published 255,000)."
+    )
     device: str | None = Field(None, description="torch device for learned backbones; cuda when present.")
     redis_url: str | None = Field(
         None,

@@ -69,7 +69,7 @@ router = APIRouter(tags=["solve"])
     "/v1/solve",
     response_model=SolveResponse,
     openapi_extra=_SOLVE_DOC,
-    responses=error_responses(400, 401, 404, 413, 422, 429, 502, 503, 504),
+    responses=error_responses(400, 401, 404, 409, 413, 422, 429, 502, 503, 504),
 )
 async def solve(request: Request, pipeline: PipelineDep, settings: SettingsDep) -> SolveResponse:
     """Answer a question; with `Accept: text/event-stream`, stream the stages (SSE) then the result."""

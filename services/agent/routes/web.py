@@ -33,7 +33,7 @@ async def page(request: Request) -> Response:
     "/v1/scenes/{scene_id}/points",
     tags=["scenes"],
     response_model=PointCloudPreview,
-    responses=error_responses(401, 404, 422, 429, 502, 503, 504),
+    responses=error_responses(401, 404, 409, 422, 429, 502, 503, 504),
 )
 async def points(
     pipeline: PipelineDep,
@@ -47,7 +47,8 @@ async def points(
 
 @router.get("/v1/backbones", tags=["web"], responses=error_responses(401, 429, 502, 503, 504))
 async def backbones(pipeline: PipelineDep) -> dict:
-    """The recon service's backbones and its default (for the page's backbone menu)."""
+    """The recon service's backbones: each with availability (and why not), units and device; the
+    default, what `auto` stands for now, and the names a request may use (for the page's menu)."""
     return await anyio.to_thread.run_sync(pipeline.recon.backbones)
 
 

@@ -112,7 +112,7 @@ class Scene(_Frozen):
 class Reconstruction(_Frozen):
     """Cameras of the reconstructed scene (the point cloud stays with the reconstruction service)."""
 
-    __slots__ = ("_extrinsics", "_intrinsics", "_image_sizes", "_registered", "_up", "_warnings")
+    __slots__ = ("_extrinsics", "_intrinsics", "_image_sizes", "_registered", "_up", "_warnings", "_units")
 
     def __init__(self, payload: dict[str, Any]) -> None:
         extrinsics = [np.asarray(matrix, dtype=np.float64).reshape(3, 4) for matrix in payload["extrinsics"]]
@@ -126,6 +126,7 @@ class Reconstruction(_Frozen):
         object.__setattr__(self, "_registered", registered)
         object.__setattr__(self, "_up", _scene_up(payload.get("up"), extrinsics, registered))
         object.__setattr__(self, "_warnings", [str(text) for text in payload.get("warnings") or []])
+        object.__setattr__(self, "_units", str(payload.get("units") or "relative"))
 
     @property
     def extrinsics(self) -> list[np.ndarray]:
@@ -135,6 +136,14 @@ class Reconstruction(_Frozen):
     @property
     def intrinsics(self) -> list[np.ndarray]:
         return [matrix.copy() for matrix in self._intrinsics]
+
+    @property
+    def units(self) -> str:
+        """ "metres" (a metric reconstruction: pi3x, posed-rgbd) or "relative" (arbitrary scale).
+
+        `move_forward(pose, 0.3)` moves 0.3 of these: 0.3 m in a metric scene.
+        """
+        return self._units
 
     @property
     def image_sizes(self) -> list[tuple[int, int]]:
@@ -278,6 +287,7 @@ class PySpatial(_Frozen):
         return poses.rotate_right(pose, _number(angle, "angle"), up=self._up)
 
     def move_forward(self, extrinsic: Any, distance: float = 0.3) -> np.ndarray:
+        """Move `distance` along the view, in the reconstruction's units (`recon.units`)."""
         pose = _extrinsic(extrinsic, "move_forward")
         return poses.move_forward(pose, _number(distance, "distance"), up=self._up)
 

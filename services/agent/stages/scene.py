@@ -57,7 +57,10 @@ def reconstruct(step: ReconstructionStep, scene_id: str, recon: ReconClient) -> 
     except ServiceError as error:
         if error.status_code != 422:
             raise
-        used = step.requested_backbone or recon.backbones().get("default", "default")
+        menu = recon.backbones()
+        used = step.requested_backbone or menu.get("default", "default")
+        if used == "auto":  # say which backbone auto stood for
+            used = menu.get("auto", used)
         step.backbone = used
         step.error = f"the {used} backbone could not reconstruct the scene: {error.message}"
         return step

@@ -14,9 +14,12 @@ async function loadBackbones() {
   try {
     const response = await apiFetch("/v1/backbones");
     if (!response.ok) return;
-    const { available, default: fallback } = await response.json();
-    $("backbone").replaceChildren(element("option", { value: "", textContent: `service default (${fallback})` }),
-      ...available.map((name) => element("option", { value: name, textContent: name })));
+    // Only what the service can run now: `available` leaves out backbones whose weights are absent.
+    const { available, default: fallback, auto } = await response.json();
+    const label = (name) => (name === "auto" && auto ? `auto (${auto})` : name);
+    const select = $("backbone");
+    select.replaceChildren(element("option", { value: "", textContent: `service default (${label(fallback)})` }),
+      ...available.map((name) => element("option", { value: name, textContent: label(name) })));
   } catch { /* the default stays selectable */ }
 }
 

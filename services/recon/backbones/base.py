@@ -16,6 +16,10 @@ class BackboneError(RuntimeError):
     """A backbone cannot run (bad configuration, missing checkpoint) or cannot use the input."""
 
 
+class BackboneLoadError(BackboneError):
+    """A backbone's weights could not be loaded when it first ran (an installation fault, not the input's)."""
+
+
 class Backbone(ABC):
     """Turns RGB images of one scene into a `Reconstruction`.
 
@@ -28,6 +32,9 @@ class Backbone(ABC):
     # True when `reconstruct` takes `intrinsics` (per view a 3x3 in the image's pixels, or None)
     # and `intrinsics_sources` (per view "uploaded" / "exif", or None) and uses them.
     accepts_intrinsics: bool = False
+    # True when `reconstruct` also takes a posed RGB-D upload's `depths` (per view (h, w) z-depth)
+    # and `extrinsics` ((V, 3, 4) camera-from-world) as conditions.
+    accepts_posed_depth: bool = False
 
     @abstractmethod
     def reconstruct(self, images: Sequence[np.ndarray], **options: Any) -> Reconstruction: ...
@@ -37,11 +44,29 @@ class Backbone(ABC):
         return True, "ok"
 
 
+def check_rgb_images(images: Sequence[np.ndarray], backbone: str) -> None:
+    """At least one image, each a uint8 (H, W, 3) RGB array at least 2 pixels on a side."""
+    if len(images) == 0:
+        raise BackboneError(f"{backbone} needs at least one image")
+    for index, image in enumerate(images):
+        if (
+            not isinstance(image, np.ndarray)
+            or image.dtype != np.uint8
+            or image.ndim != 3
+            or image.shape[2] != 3
+        ):
+            raise BackboneError(f"image {index} is not a uint8 (H, W, 3) RGB array")
+        if min(image.shape[:2]) < 2:
+            raise BackboneError(f"image {index} is too small: {image.shape[1]}x{image.shape[0]}")
+
+
 # name -> "module:factory"; imported lazily so that e.g. torch loads only for backbones that need it.
 _REGISTRY: dict[str, str] = {
     "classical": "services.recon.backbones.classical:ClassicalBackbone",
     "posed-rgbd": "services.recon.backbones.posed_rgbd:PosedRGBDBackbone",
     "vggt": "services.recon.backbones.vggt.backbone:VGGTBackbone",
+    "pi3": "services.recon.backbones.pi3.backbone:Pi3Backbone",
+    "pi3x": "services.recon.backbones.pi3.backbone:Pi3XBackbone",
 }
 
 

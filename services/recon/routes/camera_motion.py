@@ -15,7 +15,7 @@ router = APIRouter(tags=["tools"])
 @router.post(
     "/v1/camera-motion",
     response_model=CameraMotionResponse,
-    responses=error_responses(401, 404, 422, 429, 503),
+    responses=error_responses(401, 404, 409, 422, 429, 503),
 )
 async def camera_motion(
     http: Request, request: CameraMotionRequest, service: ServiceDep

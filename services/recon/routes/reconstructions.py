@@ -22,7 +22,7 @@ router = APIRouter(tags=["scenes"])
 @router.post(
     "/v1/scenes/{scene_id}/reconstruct",
     response_model=ReconstructionSummary,
-    responses=error_responses(401, 404, 422, 429, 503),
+    responses=error_responses(401, 404, 409, 422, 429, 503),
 )
 async def reconstruct(
     http: Request, scene_id: str, service: ServiceDep, request: ReconstructRequest | None = None
@@ -39,7 +39,7 @@ async def reconstruct(
     "/v1/scenes/{scene_id}/reconstruction",
     responses={
         200: {"content": {"application/octet-stream": {}, PLY_MEDIA_TYPE: {}, GLB_MEDIA_TYPE: {}}},
-        **error_responses(401, 404, 422, 429, 503),
+        **error_responses(401, 404, 409, 422, 429, 503),
     },
 )
 async def reconstruction(
@@ -66,7 +66,7 @@ async def reconstruction(
 @router.get(
     "/v1/scenes/{scene_id}/points",
     response_model=PointCloudPreview,
-    responses=error_responses(401, 404, 422, 429, 503),
+    responses=error_responses(401, 404, 409, 422, 429, 503),
 )
 async def points(
     http: Request,

@@ -19,7 +19,7 @@ router = APIRouter(tags=["tools"])
     response_class=Response,
     responses={
         200: {"content": {"image/png": {}, "image/jpeg": {}}},
-        **error_responses(401, 404, 422, 429, 503),
+        **error_responses(401, 404, 409, 422, 429, 503),
     },
 )
 async def render(http: Request, request: RenderRequest, service: ServiceDep) -> Response:

@@ -5,9 +5,9 @@ from __future__ import annotations
 import torch
 from torch import nn
 
+from services.recon.backbones.transformer.dinov2 import DinoV2WithRegisters
+from services.recon.backbones.transformer.layers import Block, RotaryEmbedding2D, token_positions
 from services.recon.backbones.vggt.config import VGGTConfig
-from services.recon.backbones.vggt.dinov2 import DinoV2WithRegisters
-from services.recon.backbones.vggt.layers import Block, RotaryEmbedding2D, patch_grid_positions
 
 # ImageNet statistics the DINOv2 embedder was trained with.
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
@@ -66,11 +66,13 @@ class Aggregator(nn.Module):
         count, dim = tokens.shape[1], tokens.shape[2]
 
         # Patches sit at (row + 1, column + 1); camera and register tokens at (0, 0).
-        grid = patch_grid_positions(
-            batch * frames, height // self.patch_size, width // self.patch_size, images.device
+        positions = token_positions(
+            batch * frames,
+            self.patch_start_idx,
+            height // self.patch_size,
+            width // self.patch_size,
+            images.device,
         )
-        special = torch.zeros(batch * frames, self.patch_start_idx, 2, dtype=grid.dtype, device=grid.device)
-        positions = torch.cat((special, grid + 1), dim=1)
 
         outputs: list[torch.Tensor | None] = []
         for index, (frame_block, global_block) in enumerate(

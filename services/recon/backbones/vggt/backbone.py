@@ -21,8 +21,9 @@ from typing import Any, Literal
 import numpy as np
 import torch
 
-from services.recon.backbones.base import Backbone, BackboneError
-from services.recon.backbones.vggt.checkpoint import file_digest, load_vggt
+from services.recon.backbones.base import Backbone, BackboneError, check_rgb_images
+from services.recon.backbones.transformer.checkpoint import weights_id
+from services.recon.backbones.vggt.checkpoint import load_vggt
 from services.recon.backbones.vggt.config import VGGTConfig, VGGTConfigError
 from services.recon.backbones.vggt.geometry import pose_encoding_to_cameras, unproject_depth_maps
 from services.recon.backbones.vggt.model import VGGT
@@ -72,7 +73,7 @@ class VGGTBackbone(Backbone):
         self.version = f"cfg{self.config.fingerprint()}-unloaded"
         if checkpoint:
             self._model = load_vggt(checkpoint, self.config, self.device)
-            self.version = f"cfg{self.config.fingerprint()}-w{file_digest(checkpoint)[:12]}"
+            self.version = f"cfg{self.config.fingerprint()}-w{weights_id(checkpoint)}"
 
     def ready(self) -> tuple[bool, str]:
         if self._model is None:
@@ -103,7 +104,7 @@ class VGGTBackbone(Backbone):
         return arrays, placements
 
     def reconstruct(self, images: Sequence[np.ndarray], **options: Any) -> Reconstruction:
-        _check_images(images)
+        check_rgb_images(images, self.name)
         point_source = options.pop("point_source", self.point_source)
         percentile = float(options.pop("confidence_percentile", self.confidence_percentile))
         if point_source not in ("depth", "points") or not 0.0 <= percentile <= 100.0:
@@ -162,21 +163,6 @@ class VGGTBackbone(Backbone):
             intrinsics_source=["predicted"] * len(placements),
             point_confidence=scores,
         )
-
-
-def _check_images(images: Sequence[np.ndarray]) -> None:
-    if len(images) == 0:
-        raise BackboneError("vggt needs at least one image")
-    for index, image in enumerate(images):
-        if (
-            not isinstance(image, np.ndarray)
-            or image.dtype != np.uint8
-            or image.ndim != 3
-            or image.shape[2] != 3
-        ):
-            raise BackboneError(f"image {index} is not a uint8 (H, W, 3) RGB array")
-        if min(image.shape[:2]) < 2:
-            raise BackboneError(f"image {index} is too small: {image.shape[1]}x{image.shape[0]}")
 
 
 def _field_of_view_problem(intrinsic: np.ndarray, frame_hw: tuple[int, int]) -> str | None:

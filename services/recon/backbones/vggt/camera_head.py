@@ -10,8 +10,8 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from services.recon.backbones.transformer.layers import Block, Mlp
 from services.recon.backbones.vggt.config import CameraHeadConfig
-from services.recon.backbones.vggt.layers import Block, Mlp
 
 POSE_ENCODING_SIZE = 9
 

@@ -8,23 +8,16 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from services.recon.backbones.transformer.checkpoint import read_json_object
+from services.recon.backbones.transformer.sizes import DinoV2Config
+
 
 class VGGTConfigError(ValueError):
     """A configuration file or mapping does not describe a VGGT model this code can build."""
 
 
-@dataclass(frozen=True)
-class PatchEmbedConfig:
-    """The DINOv2-with-registers vision transformer that turns each image into patch tokens."""
-
-    kind: str = "dinov2_reg"
-    embed_dim: int = 1024
-    depth: int = 24
-    num_heads: int = 16
-    mlp_ratio: float = 4.0
-    init_values: float = 1.0
-    interpolate_antialias: bool = True
-    interpolate_offset: float = 0.0
+# The patch embedder is the shared DINOv2 encoder; its JSON keys are that description's fields.
+PatchEmbedConfig = DinoV2Config
 
 
 @dataclass(frozen=True)
@@ -91,12 +84,7 @@ class VGGTConfig:
 
     @classmethod
     def from_json(cls, path: str | Path) -> VGGTConfig:
-        try:
-            values = json.loads(Path(path).read_text())
-        except (OSError, json.JSONDecodeError) as error:
-            raise VGGTConfigError(f"cannot read VGGT config {path}: {error}") from error
-        if not isinstance(values, dict):
-            raise VGGTConfigError(f"VGGT config {path} is not a JSON object")
+        values = read_json_object(path, "VGGT config", VGGTConfigError)
         return cls.from_dict(values)
 
     def to_dict(self) -> dict[str, Any]:

@@ -10,23 +10,12 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from services.recon.backbones.transformer.layers import uv_grid
 from services.recon.backbones.vggt.config import DPTHeadConfig
 
 # Scale of the sinusoidal uv embedding added to the features.
 POSITION_EMBEDDING_RATIO = 0.1
 DECODER_HIDDEN = 32
-
-
-def uv_grid(width: int, height: int, aspect_ratio: float, dtype: torch.dtype, device: torch.device):
-    """(height, width, 2) normalized (u, v) coordinates of cell centres; the grid's diagonal is 1."""
-    diagonal = (aspect_ratio**2 + 1.0) ** 0.5
-    span_x, span_y = aspect_ratio / diagonal, 1.0 / diagonal
-    reach_x = span_x * (width - 1) / width
-    reach_y = span_y * (height - 1) / height
-    u = torch.linspace(-reach_x, reach_x, steps=width, dtype=dtype, device=device)
-    v = torch.linspace(-reach_y, reach_y, steps=height, dtype=dtype, device=device)
-    vv, uu = torch.meshgrid(v, u, indexing="ij")
-    return torch.stack((uu, vv), dim=-1)
 
 
 def sincos_embedding(values: torch.Tensor, channels: int, omega_0: float = 100.0) -> torch.Tensor:
