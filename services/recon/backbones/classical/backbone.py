@@ -34,7 +34,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from shared.geometry.reconstruction import Reconstruction, ViewConfidence
+from shared.geometry.reconstruction import PairConfidence, Reconstruction, ViewConfidence
 
 from ..base import Backbone, BackboneError
 from .densify import ViewSamples, densify, grid_size, unit_sphere_cloud
@@ -42,7 +42,7 @@ from .features import ViewFeatures, detect_features, match_features
 from .geometry import project
 from .incremental import SparseModel
 from .intrinsics import guess_intrinsics, intrinsics_after_resize, intrinsics_before_resize
-from .solve import solve_with_self_calibration
+from .solve import Solution, solve_with_self_calibration
 
 MIN_FEATURES = 30  # fewer keypoints than this: the image has no usable texture
 
@@ -125,36 +125,7 @@ class ClassicalBackbone(Backbone):
         for index, intrinsic in enumerate(given):
             if intrinsic is None:
                 sources[index] = solution.free_focal_source
-        reasons = dict(solution.unregistered_reasons)
-        for index in range(len(views)):
-            if index not in solution.model.extrinsics and index not in reasons:
-                reasons[index] = (
-                    "too little texture"
-                    if index not in textured
-                    else "too few reliable matches to placed views"
-                )
-        for index, reason in sorted(reasons.items()):
-            warnings.append(f"view {index} could not be registered ({reason}); its extrinsic is NaN")
-        confidence = [
-            solution.view_confidence.get(index, ViewConfidence(unregistered_reason=reasons.get(index)))
-            for index in range(len(views))
-        ]
-        for index, reason in reasons.items():
-            confidence[index] = replace(confidence[index], unregistered_reason=reason)
-        # Confidence was measured in working pixels; report original-image pixels.
-        confidence = [
-            replace(item, reprojection_error_px=item.reprojection_error_px / view.scale)
-            for item, view in zip(confidence, views, strict=True)
-        ]
-        pair_confidence = [
-            replace(
-                pair,
-                reprojection_error_px=pair.reprojection_error_px
-                * 2
-                / (views[pair.first].scale + views[pair.second].scale),
-            )
-            for pair in solution.pair_confidence
-        ]
+        confidence, pair_confidence = _confidence_in_image_pixels(views, solution, textured, warnings)
         recon = self._assemble(views, solution.model, use_densify, warnings)
         recon.intrinsics_source = sources
         recon.view_confidence = confidence
@@ -347,3 +318,46 @@ def _given_intrinsics(
         given.append(matrix)
         labels.append(label)
     return given, labels
+
+
+def _confidence_in_image_pixels(
+    views: Sequence[_PreparedView],
+    solution: Solution,
+    textured: Sequence[int],
+    warnings: list[str],
+) -> tuple[list[ViewConfidence], list[PairConfidence]]:
+    """Per-view and per-pair confidence of a solution, with a reason for every view left out.
+
+    The solver measures reprojection errors in working pixels (the downscaled images); these are
+    reported in original-image pixels. Appends one warning per unregistered view."""
+    reasons = dict(solution.unregistered_reasons)
+    for index in range(len(views)):
+        if index not in solution.model.extrinsics and index not in reasons:
+            reasons[index] = (
+                "too little texture"
+                if index not in textured
+                else "too few reliable matches to placed views"
+            )
+    for index, reason in sorted(reasons.items()):
+        warnings.append(f"view {index} could not be registered ({reason}); its extrinsic is NaN")
+    confidence = [
+        solution.view_confidence.get(index, ViewConfidence(unregistered_reason=reasons.get(index)))
+        for index in range(len(views))
+    ]
+    for index, reason in reasons.items():
+        confidence[index] = replace(confidence[index], unregistered_reason=reason)
+    # Confidence was measured in working pixels; report original-image pixels.
+    confidence = [
+        replace(item, reprojection_error_px=item.reprojection_error_px / view.scale)
+        for item, view in zip(confidence, views, strict=True)
+    ]
+    pair_confidence = [
+        replace(
+            pair,
+            reprojection_error_px=pair.reprojection_error_px
+            * 2
+            / (views[pair.first].scale + views[pair.second].scale),
+        )
+        for pair in solution.pair_confidence
+    ]
+    return confidence, pair_confidence

@@ -43,9 +43,60 @@ def bundle_adjust(
 ) -> AdjustedModel:
     """Adjust poses, points and (where `free_focal[view]` and `refine_focal`) the shared focal.
 
-    keypoints, image_sizes (width, height) and intrinsics are per view, in working-image pixels.
+    keypoints, image_sizes (width, height) and intrinsics are per view, in working-image pixels;
+    extrinsics are 3x4 camera-from-world [R|t] (OpenCV axes), as pycolmap's cam_from_world.
     """
     reconstruction = pycolmap.Reconstruction()
+    camera_of_view = _add_cameras(reconstruction, image_sizes, intrinsics, free_focal, extrinsics)
+    for view in sorted(extrinsics):
+        image = pycolmap.Image(
+            name=str(view),
+            keypoints=np.asarray(keypoints[view], dtype=np.float64).reshape(-1, 2),
+            camera_id=camera_of_view[view],
+            image_id=view + 1,
+        )
+        reconstruction.add_image_with_trivial_frame(image, pycolmap.Rigid3d(extrinsics[view]))
+    point_ids = []
+    for point, track in zip(points, tracks, strict=True):
+        colmap_track = pycolmap.Track()
+        for view, keypoint in track.items():
+            colmap_track.add_element(view + 1, keypoint)
+        point_ids.append(reconstruction.add_point3D(np.asarray(point, dtype=np.float64), colmap_track))
+
+    config = pycolmap.BundleAdjustmentConfig()
+    for view in sorted(extrinsics):
+        config.add_image(view + 1)
+    for view, camera_id in camera_of_view.items():
+        if not free_focal[view]:
+            config.set_constant_cam_intrinsics(camera_id)
+    config.fix_gauge(pycolmap.BundleAdjustmentGauge.TWO_CAMS_FROM_WORLD)
+    options = _adjuster_options(refine_focal)
+    adjuster = pycolmap.create_default_bundle_adjuster(options, config, reconstruction)
+    summary = adjuster.solve()
+
+    adjusted_extrinsics = {
+        view: np.asarray(reconstruction.image(view + 1).cam_from_world().matrix(), dtype=np.float64)
+        for view in extrinsics
+    }
+    adjusted_intrinsics = {
+        view: np.asarray(reconstruction.camera(camera_of_view[view]).calibration_matrix(), dtype=np.float64)
+        for view in extrinsics
+    }
+    adjusted_points = np.array([reconstruction.point3D(pid).xyz for pid in point_ids]).reshape(-1, 3)
+    return AdjustedModel(
+        adjusted_extrinsics, adjusted_intrinsics, adjusted_points, bool(summary.is_solution_usable())
+    )
+
+
+def _add_cameras(
+    reconstruction: pycolmap.Reconstruction,
+    image_sizes: list[tuple[int, int]],
+    intrinsics: list[np.ndarray],
+    free_focal: list[bool],
+    extrinsics: dict[int, np.ndarray],
+) -> dict[int, int]:
+    """One SIMPLE_PINHOLE camera per view, except that views of unknown focal and the same image
+    size share one camera (so they share the one focal being refined). Returns view -> camera id."""
     camera_of_view: dict[int, int] = {}
     shared_cameras: dict[tuple[int, int], int] = {}
     for view in sorted(extrinsics):
@@ -68,23 +119,10 @@ def bundle_adjust(
         camera_of_view[view] = camera_id
         if free_focal[view]:
             shared_cameras[key] = camera_id
+    return camera_of_view
 
-    for view in sorted(extrinsics):
-        image = pycolmap.Image(
-            name=str(view),
-            keypoints=np.asarray(keypoints[view], dtype=np.float64).reshape(-1, 2),
-            camera_id=camera_of_view[view],
-            image_id=view + 1,
-        )
-        reconstruction.add_image_with_trivial_frame(image, pycolmap.Rigid3d(extrinsics[view]))
 
-    point_ids = []
-    for point, track in zip(points, tracks, strict=True):
-        colmap_track = pycolmap.Track()
-        for view, keypoint in track.items():
-            colmap_track.add_element(view + 1, keypoint)
-        point_ids.append(reconstruction.add_point3D(np.asarray(point, dtype=np.float64), colmap_track))
-
+def _adjuster_options(refine_focal: bool) -> pycolmap.BundleAdjustmentOptions:
     options = pycolmap.BundleAdjustmentOptions()
     options.refine_focal_length = refine_focal
     options.refine_principal_point = False
@@ -97,30 +135,7 @@ def bundle_adjust(
     # Stop once a step improves the cost by less than a millionth: sub-pixel poses are long
     # settled by then, and the default (0) keeps iterating to the cap.
     options.ceres.solver_options.function_tolerance = 1e-6
-
-    config = pycolmap.BundleAdjustmentConfig()
-    for view in sorted(extrinsics):
-        config.add_image(view + 1)
-    for view, camera_id in camera_of_view.items():
-        if not free_focal[view]:
-            config.set_constant_cam_intrinsics(camera_id)
-    config.fix_gauge(pycolmap.BundleAdjustmentGauge.TWO_CAMS_FROM_WORLD)
-
-    adjuster = pycolmap.create_default_bundle_adjuster(options, config, reconstruction)
-    summary = adjuster.solve()
-
-    adjusted_extrinsics = {
-        view: np.asarray(reconstruction.image(view + 1).cam_from_world().matrix(), dtype=np.float64)
-        for view in extrinsics
-    }
-    adjusted_intrinsics = {
-        view: np.asarray(reconstruction.camera(camera_of_view[view]).calibration_matrix(), dtype=np.float64)
-        for view in extrinsics
-    }
-    adjusted_points = np.array([reconstruction.point3D(pid).xyz for pid in point_ids]).reshape(-1, 3)
-    return AdjustedModel(
-        adjusted_extrinsics, adjusted_intrinsics, adjusted_points, bool(summary.is_solution_usable())
-    )
+    return options
 
 
 def robust_cost(

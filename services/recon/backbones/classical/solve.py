@@ -70,6 +70,7 @@ def relate_pairs(
     return pairs
 
 
+# Long on purpose: the alternation of model building and focal refinement reads as one loop.
 def solve_with_self_calibration(
     keypoints: list[np.ndarray],
     image_sizes: list[tuple[int, int]],
@@ -240,6 +241,7 @@ def _adjusted_model(model: SparseModel, adjusted) -> SparseModel:
     )
 
 
+# Long on purpose: the verification steps in their order, each with its reason for a refusal.
 def _verified(
     keypoints: list[np.ndarray],
     image_sizes: list[tuple[int, int]],
