@@ -63,7 +63,10 @@ async def _lifespan(app: FastAPI):
     threading.Thread(
         target=backbone_menu, args=(service.settings,), name="warm backbone menu", daemon=True
     ).start()
+    collector = service.start_store_gc()
     yield
+    if collector is not None:
+        collector.stop()
     app.state.uploads.close()
     # SIGTERM: uvicorn stops accepting and gives requests `drain_s` (--timeout-graceful-shutdown);
     # then queued reconstructions are dropped and running ones stopped, releasing their leases
@@ -77,11 +80,12 @@ async def _log_start_up(service: ReconService) -> None:
     settings = service.settings
     ready, detail = service.backbone_status()
     log.warning(
-        "recon service: backbone=%s (%s), cache=%s, data=%s",
+        "recon service: backbone=%s (%s), cache=%s, data=%s, store=%s",
         settings.backbone,
         detail,
         await service.cache.check(),
         settings.data_dir,
+        settings.store_dir or "none (Redis and the data dir only)",
     )
     if not ready:  # no silent fallback: the service answers, /readyz says 503 and why
         log.error("backbone %s is NOT ready: %s", settings.backbone, detail)

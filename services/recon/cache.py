@@ -1,7 +1,8 @@
-"""Two-tier cache of serialized reconstructions: an in-process LRU in front of Redis.
+"""Serialized reconstructions: an in-process LRU in front of Redis, in front of the durable store.
 
-Redis may be absent (no REDIS_URL) or go down. The service then keeps answering from memory,
-remembers what it could not write, and writes it back once Redis answers again ("catch up").
+Redis may be absent (no REDIS_URL), go down, or forget keys (eviction, restart). The service then
+keeps answering from memory, and from the durable store (PYSPATIAL_STORE_DIR) when it has one,
+remembers what it could not write to Redis, and writes it back once Redis answers ("catch up").
 """
 
 from __future__ import annotations
@@ -12,8 +13,11 @@ import time
 import uuid
 from collections import OrderedDict
 
+import anyio
 import redis
 from redis import asyncio as aioredis
+
+from services.recon.durable import DurableStore
 
 log = logging.getLogger("pyspatial.recon.cache")
 
@@ -62,9 +66,15 @@ class MemoryLRU:
 
 class ReconstructionCache:
     def __init__(
-        self, redis_url: str | None, ttl_s: int, memory_bytes: int, namespace: str = "default"
+        self,
+        redis_url: str | None,
+        ttl_s: int,
+        memory_bytes: int,
+        namespace: str = "default",
+        durable: DurableStore | None = None,
     ) -> None:
         self.redis_url = redis_url
+        self.durable = durable
         self.key_prefix = f"pyspatial:{namespace}:recon:"
         self.ttl_s = ttl_s
         self.memory = MemoryLRU(memory_bytes)
@@ -108,20 +118,40 @@ class ReconstructionCache:
 
     async def get(self, key: str) -> bytes | None:
         value = self.memory.get(key)
-        if value is not None or not self._available():
+        if value is not None:
             return value
+        value = await self._redis_get(key)
+        if value is None and self.durable is not None:
+            value = await self._durable_get(key)
+        if value is not None:
+            self.memory.set(key, value)
+        return value
+
+    async def _redis_get(self, key: str) -> bytes | None:
+        if not self._available():
+            return None
         try:
             value = await self._redis.get(self.key_prefix + key)
             await self._recovered()
         except (redis.RedisError, OSError) as error:
             self._failed(error)
             return None
-        if value is not None:
-            self.memory.set(key, value)
         return value
+
+    async def _durable_get(self, key: str) -> bytes | None:
+        try:
+            return await anyio.to_thread.run_sync(self.durable.get_blob, key)
+        except OSError as error:  # the store of record unreadable: recompute rather than fail
+            log.warning("durable store: cannot read %s (%s)", key, error)
+            return None
 
     async def set(self, key: str, value: bytes) -> None:
         self.memory.set(key, value)
+        if self.durable is not None:
+            try:
+                await anyio.to_thread.run_sync(self.durable.put_blob, key, value)
+            except OSError as error:  # the result is still served; a later request recomputes it
+                log.warning("durable store: cannot write %s (%s)", key, error)
         if self._redis is None:
             return
         if not self._available():

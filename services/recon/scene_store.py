@@ -1,7 +1,10 @@
 """Uploaded scenes on disk, content-addressed, written atomically so a crash never leaves half a scene.
 
-With a `SharedScenes` mirror (Redis), every stored scene is also published there and a scene this
-replica has not seen is fetched from there, so any replica can serve any scene.
+The data dir is this replica's working copy. With a `DurableStore` (PYSPATIAL_STORE_DIR, a volume
+every replica mounts) every scene is also written there before the upload is answered: that is the
+store of record. With a `SharedScenes` mirror (Redis) it is published there too, as a hot copy. A
+scene this replica has not seen is fetched from Redis, else from the durable store, so any replica
+serves any scene, and Redis may forget any of them.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from services.recon.durable import DurableStore
 from services.recon.errors import InvalidInput, SceneNotFound, StorageFull, StorageUnavailable
 from services.recon.shared_scenes import SharedScenes
 
@@ -77,9 +81,12 @@ def storage_error(action: str, error: OSError) -> StorageFull | StorageUnavailab
 
 
 class SceneStore:
-    def __init__(self, root: Path, shared: SharedScenes | None = None) -> None:
+    def __init__(
+        self, root: Path, shared: SharedScenes | None = None, durable: DurableStore | None = None
+    ) -> None:
         self.root = Path(root) / "scenes"
         self.shared = shared
+        self.durable = durable
         self.setup_error: str | None = None
         try:
             self.root.mkdir(parents=True, exist_ok=True)
@@ -93,18 +100,23 @@ class SceneStore:
         return self._ensure_local(scene_id)
 
     def _ensure_local(self, scene_id: str) -> bool:
-        """True when the scene is in the data dir, fetching it from the shared store if needed."""
-        final = self._path(scene_id)
-        if (final / "meta.json").exists():
+        """True when the scene is in the data dir, fetching it from Redis or the durable store if needed."""
+        if (self._path(scene_id) / "meta.json").exists():
             return True
-        if self.shared is None:
-            return False
+        sources = [source.fetch for source in (self.shared,) if source is not None]
+        if self.durable is not None:
+            sources.append(self.durable.get_scene)
+        return any(self._copy_in(scene_id, fetch) for fetch in sources)
+
+    def _copy_in(self, scene_id: str, fetch) -> bool:
+        """Let `fetch(scene_id, staging)` fill a staging dir, then rename it into place."""
+        final = self._path(scene_id)
         try:
             staging = Path(tempfile.mkdtemp(prefix=".fetching-", dir=self.root))
         except OSError as error:
             raise storage_error("copy a shared scene into the data dir", error) from error
         try:
-            if not self.shared.fetch(scene_id, staging):
+            if not fetch(scene_id, staging):
                 return False
             try:
                 os.rename(staging, final)
@@ -122,16 +134,20 @@ class SceneStore:
         """None when a scene could be stored now; else what is wrong (for /readyz)."""
         if self.setup_error:
             return self.setup_error
-        probe = self.root / f".probe-{os.getpid()}"
-        try:
-            probe.write_bytes(b"ok")
-            probe.unlink()
-            stats = os.statvfs(self.root)
-        except OSError as error:
-            return storage_error("write to the data dir", error).message
-        free = stats.f_bavail * stats.f_frsize
-        if free < 16 * 2**20:
-            return f"the data dir {self.root} has only {free // 2**20} MiB free"
+        folders = [("data dir", self.root)]
+        if self.durable is not None:
+            folders.append(("durable store", self.durable.tmp))
+        for label, folder in folders:
+            probe = folder / f".probe-{os.getpid()}"
+            try:
+                probe.write_bytes(b"ok")
+                probe.unlink()
+                stats = os.statvfs(folder)
+            except OSError as error:
+                return storage_error(f"write to the {label}", error).message
+            free = stats.f_bavail * stats.f_frsize
+            if free < 16 * 2**20:
+                return f"the {label} {folder} has only {free // 2**20} MiB free"
         return None
 
     def save(self, scene: SceneInput) -> tuple[str, bool]:
@@ -143,6 +159,11 @@ class SceneStore:
             created = self._save_local(scene_id, scene)
         except OSError as error:
             raise storage_error("store the scene", error) from error
+        if self.durable is not None:  # the store of record has it before the client hears of it
+            try:
+                created = self.durable.put_scene(scene_id, self._path(scene_id)) and created
+            except OSError as error:
+                raise storage_error("store the scene in the durable store", error) from error
         if self.shared is not None:
             self.shared.publish(scene_id, self._path(scene_id))
         return scene_id, created

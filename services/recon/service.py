@@ -17,12 +17,20 @@ from services.recon.backbones.base import BackboneLoadError
 from services.recon.cache import ReconstructionCache
 from services.recon.camera_inputs import INPUTS_VERSION, view_intrinsics
 from services.recon.checkpoints import CATALOGUE, WEIGHTS_ABSENT, locate
+from services.recon.durable import DurableStore
 from services.recon.errors import BackboneNotInstalled, BackboneUnavailable, InvalidInput, SceneNotFound
 from services.recon.jobs import ReconstructionJobs
 from services.recon.motion_inputs import motion_scene_scale, view_pose_problems
 from services.recon.offload import run_cpu, run_in_daemon_thread
-from services.recon.scene_store import SceneInput, SceneStore, check_scene_id, validate_geometry
+from services.recon.scene_store import (
+    SceneInput,
+    SceneStore,
+    check_scene_id,
+    storage_error,
+    validate_geometry,
+)
 from services.recon.shared_scenes import SharedScenes
+from services.recon.store_gc import StoreCollector
 from shared.geometry.camera_motion import CameraMotion, UnknownMotion, describe_pairs
 from shared.geometry.poses import estimate_up_axis, validate_extrinsic
 from shared.geometry.reconstruction import Reconstruction
@@ -56,12 +64,15 @@ class ReconService:
             if settings.redis_url and settings.shared_scenes
             else None
         )
-        self.store = SceneStore(settings.data_dir, shared)
+        durable, durable_error = _durable_store(settings)
+        self.store = SceneStore(settings.data_dir, shared, durable)
+        self.store.setup_error = self.store.setup_error or durable_error
         self.cache = ReconstructionCache(
             settings.redis_url,
             settings.cache_ttl_s,
             settings.memory_cache_mb * 2**20,
             settings.cache_namespace,
+            durable,
         )
         self._backbones: dict[str, Backbone] = {}
         self._backbone_errors: dict[str, str] = {}
@@ -146,6 +157,20 @@ class ReconService:
                 f"{shared.pending} scenes are stored on this replica only (shared store: {shared.last_error})"
             )
         return StorageStatus(True, "ok", warnings)
+
+    def start_store_gc(self) -> StoreCollector | None:
+        """The durable store's periodic GC, when there is a store and a limit (see store_gc.py)."""
+        settings, durable = self.settings, self.store.durable
+        if durable is None or not (settings.store_max_age_days or settings.store_max_gb):
+            return None
+        collector = StoreCollector(
+            durable,
+            max_age_s=settings.store_max_age_days * 86400,
+            max_bytes=int(settings.store_max_gb * 2**30),
+            interval_s=settings.store_gc_interval_s,
+        )
+        collector.start()
+        return collector
 
     def decode(self, data: bytes, label: str) -> np.ndarray:
         return decode_image(
@@ -299,6 +324,16 @@ class ReconService:
             recon.extrinsics, problems, pairs=pairs, up=up, scene_scale=scale, units=recon.units or "relative"
         )
         return motions, scale
+
+
+def _durable_store(settings: ReconSettings) -> tuple[DurableStore | None, str | None]:
+    """The store of record when one is configured, or why it cannot be used (for /readyz, uploads)."""
+    if settings.store_dir is None:
+        return None, None
+    try:
+        return DurableStore(settings.store_dir), None
+    except OSError as error:
+        return None, storage_error("create the durable store", error).message
 
 
 def _validated_pose(extrinsic: list[list[float]]) -> np.ndarray:

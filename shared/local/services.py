@@ -47,8 +47,11 @@ class RedisServer:
             self.process.wait(timeout=10)
 
 
-def start_redis(port: int | None = None) -> RedisServer:
-    """Start a throwaway redis-server (no persistence) on a free port and wait until it answers."""
+def start_redis(port: int | None = None, extra_args: tuple[str, ...] = ()) -> RedisServer:
+    """Start a throwaway redis-server (no persistence) on a free port and wait until it answers.
+
+    `extra_args` go to redis-server as they are, e.g. ("--maxmemory", "6mb").
+    """
     binary = shutil.which("redis-server")
     if binary is None:
         raise RuntimeError(
@@ -56,7 +59,7 @@ def start_redis(port: int | None = None) -> RedisServer:
         )
     port = port or free_port()
     process = subprocess.Popen(
-        [binary, "--port", str(port), "--bind", "127.0.0.1", "--save", "", "--appendonly", "no"],
+        [binary, "--port", str(port), "--bind", "127.0.0.1", "--save", "", "--appendonly", "no", *extra_args],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
     )

@@ -81,6 +81,20 @@ class ReconSettings(AccessSettings):
     cache_ttl_s: int = Field(7 * 24 * 3600, ge=1, description="Lifetime of cached reconstructions.")
     memory_cache_mb: int = Field(512, ge=1, description="In-process cache size (also the Redis-down buffer).")
     data_dir: Path = Field(DEFAULT_DATA_DIR, description="Where uploaded scenes are stored.")
+    store_dir: Path | None = Field(
+        None,
+        description="Durable store of record for scenes and reconstructions, on a volume every replica "
+        "mounts (Redis is then only a cache); unset: the data dir and Redis only.",
+    )
+    store_max_age_days: float = Field(
+        0.0, ge=0, description="The store's GC removes scenes unused for this long; 0 = no age limit."
+    )
+    store_max_gb: float = Field(
+        0.0, ge=0, description="The store's GC removes least recently used scenes above this size; 0 = off."
+    )
+    store_gc_interval_s: float = Field(
+        3600.0, gt=0, description="How often each replica runs the store's GC (when a limit is set)."
+    )
     max_images: int = Field(32, ge=1, le=256, description="Most images in one scene.")
     max_image_bytes: int = Field(25 * 2**20, ge=1024, description="Largest encoded image file.")
     max_image_pixels: int = Field(40_000_000, ge=1, description="Largest decoded image (width x height).")

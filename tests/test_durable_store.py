@@ -1,0 +1,230 @@
+"""The durable store of record: scenes survive Redis forgetting them (restart, FLUSHALL, eviction).
+
+Two recon replicas with their own data dirs share one store dir (the volume every replica mounts)
+and a throwaway Redis; the agent solves by scene id against the replica that did not take the
+uploads, so every scene it serves comes from Redis or, once Redis has forgotten it, the store.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import threading
+import time
+import uuid
+
+import numpy as np
+import pytest
+import redis
+
+from services.recon.durable import DurableStore
+from services.recon.store_gc import STALE_TMP_S, collect
+from shared.wire.client import AgentClient, ReconClient
+from tests.support.processes import running_service, start_redis
+from tests.support.scenes import orbit_views
+from tests.test_agent_service import motion_question
+from tests.test_recon_runtime import jittered
+
+RECON_APP = "services.recon.app:create_app"
+AGENT_APP = "services.agent.app:create_app"
+
+
+def replica_env(tmp_path, name: str, redis_url: str, namespace: str) -> dict[str, str]:
+    return {
+        "PYSPATIAL_DATA_DIR": str(tmp_path / name),
+        "PYSPATIAL_STORE_DIR": str(tmp_path / "store"),
+        "REDIS_URL": redis_url,
+        "PYSPATIAL_CACHE_NAMESPACE": namespace,
+        "PYSPATIAL_BACKBONE": "classical",
+    }
+
+
+class Stack:
+    """A throwaway Redis (restartable on its port) and two replicas sharing one store dir."""
+
+    def __init__(self, tmp_path) -> None:
+        self.redis = start_redis()
+        self.port = int(self.redis.url.rsplit(":", 1)[1].split("/")[0])
+        namespace = f"durable-{uuid.uuid4().hex[:8]}"
+        self._services = contextlib.ExitStack()
+        self.first, self.second = (
+            self._services.enter_context(
+                running_service(RECON_APP, replica_env(tmp_path, name, self.redis.url, namespace))
+            )
+            for name in "ab"
+        )
+
+    def restart_redis_empty(self, down_s: float = 1.0) -> None:
+        self.redis.stop()
+        time.sleep(down_s)
+        self.redis = start_redis(self.port)
+
+    def close(self) -> None:
+        self._services.close()
+        self.redis.stop()
+
+
+@pytest.fixture(scope="module")
+def stack(tmp_path_factory):
+    stack = Stack(tmp_path_factory.mktemp("durable"))
+    try:
+        yield stack
+    finally:
+        stack.close()
+
+
+@pytest.fixture(scope="module")
+def views():
+    return orbit_views(seed=5, num_views=3)
+
+
+def _upload_and_reconstruct(url: str, views, seeds) -> list[str]:
+    with ReconClient(url, timeout=120) as client:
+        ids = [client.upload_scene(jittered(views.images, seed)).scene_id for seed in seeds]
+        for scene_id in ids:
+            client.reconstruct(scene_id)
+    return ids
+
+
+def _by_id_under_load(url: str, scene_ids: list[str], fault) -> tuple[list[str], int]:
+    """What a solve asks of recon (reconstruct, camera motion) for every scene, in a loop, while
+    `fault()` runs; returns the failures and how many requests were made."""
+    failures: list[str] = []
+    count = 0
+    done = threading.Event()
+
+    def load() -> None:
+        nonlocal count
+        with ReconClient(url, timeout=60) as client:
+            while not done.is_set() or count < 2 * len(scene_ids):
+                scene_id = scene_ids[count % len(scene_ids)]
+                try:
+                    client.reconstruct(scene_id)
+                    client.camera_motion(scene_id, [(0, 1)])
+                except Exception as error:  # noqa: BLE001 - every failure is counted
+                    failures.append(f"{scene_id}: {error}")
+                count += 1
+
+    worker = threading.Thread(target=load)
+    worker.start()
+    try:
+        fault()
+    finally:
+        done.set()
+        worker.join(timeout=120)
+    return failures, count
+
+
+def test_redis_restarted_empty_and_flushed_under_load_fails_nothing(stack, views):
+    scene_ids = _upload_and_reconstruct(stack.first.url, views, range(300, 304))
+
+    def faults() -> None:
+        time.sleep(0.2)
+        stack.restart_redis_empty()
+        time.sleep(0.5)
+        redis.Redis.from_url(stack.redis.url).flushall()
+        time.sleep(0.5)
+
+    failures, count = _by_id_under_load(stack.second.url, scene_ids, faults)
+    assert failures == [] and count >= 2 * len(scene_ids)
+    # the replica that took the uploads was restarted-from too: a fresh upload lands, and it solves
+    late = _upload_and_reconstruct(stack.first.url, views, [399])
+    with ReconClient(stack.second.url, timeout=60) as client:
+        assert client.camera_motion(late[0], [(0, 1)]).motions
+
+
+def test_a_6mb_allkeys_lru_redis_over_two_dozen_scenes_fails_nothing_by_id(stack):
+    control = redis.Redis.from_url(stack.redis.url)
+    control.config_set("maxmemory-policy", "allkeys-lru")
+    control.config_set("maxmemory", "6mb")
+    big = orbit_views(seed=5, num_views=3, width=320, height=240)  # noisy PNGs: ~0.5 MB a scene
+    try:
+        with ReconClient(stack.first.url, timeout=120) as client:
+            ids = [client.upload_scene(jittered(big.images, seed)).scene_id for seed in range(500, 524)]
+        assert control.info("stats")["evicted_keys"] > 0  # Redis did forget scenes
+        with ReconClient(stack.second.url, timeout=120) as other:
+            infos = [other.scene_info(scene_id) for scene_id in ids]
+            images = [other.scene_image(scene_id, 2) for scene_id in ids[:3]]
+            motion = [other.camera_motion(scene_id, [(0, 1)]) for scene_id in (ids[0], ids[-1])]
+    finally:
+        control.config_set("maxmemory", "0")
+    assert [info.num_images for info in infos] == [3] * 24
+    assert all(image[:8] == b"\x89PNG\r\n\x1a\n" for image in images)
+    assert all(m.motions for m in motion)
+
+
+@pytest.mark.slow
+def test_agent_solves_by_id_while_redis_restarts_empty(stack, views):
+    """The same through the agent (slow: the agent's start-up and a sandboxed program a solve)."""
+    scene_ids = _upload_and_reconstruct(stack.first.url, views, range(600, 612))
+    question, truth = motion_question(views)
+    answers: list[str] = []
+    failures: list[str] = []
+    with running_service(AGENT_APP, {"PYSPATIAL_RECON_URL": stack.second.url}) as agent_service:
+
+        def solve_all() -> None:
+            with AgentClient(agent_service.url, timeout=120) as agent:
+                for scene_id in scene_ids:
+                    try:
+                        answers.append(agent.solve(question, scene_id=scene_id).answer)
+                    except Exception as error:  # noqa: BLE001 - every failure is counted
+                        failures.append(f"{scene_id}: {error}")
+
+        worker = threading.Thread(target=solve_all)
+        worker.start()
+        time.sleep(0.3)
+        stack.restart_redis_empty()
+        worker.join(timeout=240)
+    assert failures == []
+    assert answers == [truth] * len(scene_ids)
+
+
+# ---- the store itself and its GC (no processes) --------------------------------------------------
+
+
+def _scene_dir(tmp_path, name: str, size: int):
+    folder = tmp_path / "local" / name
+    folder.mkdir(parents=True)
+    (folder / "image_000").write_bytes(np.random.default_rng(size).bytes(size))
+    (folder / "meta.json").write_text('{"num_images": 1}')
+    return folder
+
+
+def test_store_writes_whole_scenes_once_and_reads_them_back(tmp_path):
+    store = DurableStore(tmp_path / "store")
+    source = _scene_dir(tmp_path, "s1", 1000)
+    assert store.put_scene("a" * 24, source) is True
+    assert store.put_scene("a" * 24, source) is False  # immutable: the second writer drops its copy
+    staging = tmp_path / "staging"
+    staging.mkdir()
+    assert store.get_scene("a" * 24, staging)
+    assert (staging / "image_000").read_bytes() == (source / "image_000").read_bytes()
+    assert not store.get_scene("b" * 24, staging)
+    store.put_blob("a" * 24 + ":classical:1", b"payload")
+    assert store.get_blob("a" * 24 + ":classical:1") == b"payload"
+    assert store.get_blob("a" * 24 + ":classical:2") is None
+    assert list(store.tmp.iterdir()) == []  # nothing left half-written
+
+
+def test_gc_by_age_and_by_size_keeps_the_recently_used(tmp_path):
+    store = DurableStore(tmp_path / "store")
+    now = time.time()
+    ids = [f"{index:024x}" for index in range(4)]
+    for index, scene_id in enumerate(ids):  # 0 oldest ... 3 newest, 10 kB each
+        store.put_scene(scene_id, _scene_dir(tmp_path, scene_id, 10_000))
+        store.put_blob(f"{scene_id}:classical:1", b"x" * 1000)
+        for path in (store.scenes / scene_id, store.reconstructions / scene_id):
+            os.utime(path, (now - (4 - index) * 86400, now - (4 - index) * 86400))
+    half_written = store.tmp / "scene-crashed"
+    half_written.mkdir()
+    os.utime(half_written, (now - STALE_TMP_S - 1, now - STALE_TMP_S - 1))
+
+    report = collect(store, max_age_s=3.5 * 86400, now=now)
+    assert report.removed == [ids[0]] and report.stale_temporaries == 1
+    assert not (store.reconstructions / ids[0]).exists() and not half_written.exists()
+
+    report = collect(store, max_bytes=25_000, now=now)  # three scenes of ~11 kB: one must go
+    assert report.removed == [ids[1]]
+    assert report.kept_bytes <= 25_000
+    assert sorted(p.name for p in store.scenes.iterdir()) == ids[2:]
+    assert store.get_blob(f"{ids[3]}:classical:1") == b"x" * 1000
