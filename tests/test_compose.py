@@ -73,6 +73,12 @@ def test_recon_storage_and_models():
     assert recon["environment"]["PYSPATIAL_DATA_DIR"] == "/data"
     data_volume = next(v.split(":")[0] for v in recon["volumes"] if v.endswith(":/data"))
     assert data_volume in COMPOSE["volumes"]
+    # the store of record: a named volume every replica mounts read-write; Redis a bounded LRU cache
+    assert recon["environment"]["PYSPATIAL_STORE_DIR"] == "/store"
+    assert "recon-store:/store" in recon["volumes"] and "recon-store" in COMPOSE["volumes"]
+    assert "recon-store:/store" in SERVICES["recon-gpu"]["volumes"]
+    redis_command = SERVICES["redis"]["command"]
+    assert redis_command[redis_command.index("--maxmemory-policy") + 1] == "allkeys-lru"
     # Checkpoints: the hub cache volume (the image's HF_HOME), read-only for the service and
     # writable for the one-off `weights` tool that pulls into it.
     dockerfile = (REPO_ROOT / "services" / "recon" / "Dockerfile").read_text()

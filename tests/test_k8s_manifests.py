@@ -134,3 +134,23 @@ def test_recon_pods_read_pulled_checkpoints_from_the_hub_cache_a_job_fills():
     assert container["command"] == ["pyspatial", "weights", "pull"] and container["args"] == ["pi3x"]
     assert container["volumeMounts"] == [{"name": "hub-cache", "mountPath": "/hf"}]
     assert job["securityContext"]["runAsUser"] == 10001
+
+
+STORE_CLAIM = "pyspatial-store"
+
+
+def test_recon_pods_share_a_readwritemany_store_of_record():
+    claim = BY_KIND[("PersistentVolumeClaim", STORE_CLAIM)]
+    assert claim["spec"]["accessModes"] == ["ReadWriteMany"]
+    config = BY_KIND[("ConfigMap", "pyspatial-config")]["data"]
+    for deployment in ("recon", "recon-gpu"):
+        pod = BY_KIND[("Deployment", deployment)]["spec"]["template"]["spec"]
+        (volume,) = [
+            v for v in pod["volumes"] if v.get("persistentVolumeClaim", {}).get("claimName") == STORE_CLAIM
+        ]
+        assert not volume["persistentVolumeClaim"].get("readOnly")
+        mount = next(m for m in pod["containers"][0]["volumeMounts"] if m["name"] == volume["name"])
+        assert mount["mountPath"] == config["PYSPATIAL_STORE_DIR"] and not mount.get("readOnly")
+    # the GC keeps the store below its claim
+    claim_gb = int(claim["spec"]["resources"]["requests"]["storage"].removesuffix("Gi"))
+    assert 0 < float(config["PYSPATIAL_STORE_MAX_GB"]) < claim_gb
