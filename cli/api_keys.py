@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import typer
 
-from shared.wire.access import parse_keys
+from shared.wire.access import SERVICE_TENANT, parse_tenant_keys
 from shared.wire.settings import AccessSettings, AgentSettings
 
 AGENT_KEY_ENV = "PYSPATIAL_API_KEY"
@@ -31,13 +31,15 @@ def recon_key_option(flag: str = "--api-key", annotated: bool = False):
 
 
 def started_services_key() -> str | None:
-    """The first of PYSPATIAL_API_KEYS, which services started from this environment will demand.
+    """The service key, else the first of PYSPATIAL_API_KEYS, which services started here will demand.
 
     `serve all` and `demo` start both services with this environment, so with keys set the agent
     (and the demo's own client) must send one of them.
     """
-    keys = parse_keys(AccessSettings())
-    return keys[0].decode() if keys else None
+    keys = parse_tenant_keys(AccessSettings())
+    # with tenants, the agent needs the service key (`*:key`): it acts for each caller's tenant
+    chosen = [key for key, tenant in keys.items() if tenant == SERVICE_TENANT] or list(keys)
+    return chosen[0].decode() if chosen else None
 
 
 def sibling_recon_env() -> dict[str, str]:

@@ -26,6 +26,7 @@ from services.agent.stages.program import OFFLINE_PLANNER, WrittenProgram, write
 from services.agent.stages.scene import reconstruct, upload
 from services.agent.steps import SolveLog
 from shared.questions.intent import QuestionIntent, parse_question
+from shared.wire.access import DEFAULT_TENANT
 from shared.wire.client import ReconClient
 from shared.wire.schemas import AnswerStep, ReconstructionStep, SceneStep, SolveResponse
 from shared.wire.settings import AgentSettings
@@ -97,38 +98,41 @@ class SolvePipeline:
         max_repairs: int | None,
         progress: ProgressCallback | None = None,
         cancellation: Cancellation | None = None,
+        tenant: str = DEFAULT_TENANT,
     ) -> SolveResponse:
         """Figure 2 of the paper: scene → reconstruction → program, run and repaired → answer.
 
-        `cancellation` (the client went away) stops the work: SolveCancelled is raised.
+        `cancellation` (the client went away) stops the work: SolveCancelled is raised. Every call
+        to recon names `tenant` (the caller's), so the solve sees that tenant's scenes only.
         """
         log = SolveLog(cancellation=cancellation)
         if progress is not None:
             StageReporter(progress).watch(log.callbacks)
         with solve_cancellation.bound(log.cancellation):  # the model clients abandon their calls
-            return self._solve(log, question, image_files, scene_id, backbone, max_repairs)
+            recon = self.recon.for_tenant(tenant)
+            return self._solve(log, recon, question, image_files, (scene_id, backbone, max_repairs))
 
     def _solve(
         self,
         log: SolveLog,
+        recon_client: ReconClient,
         question: str,
         image_files: list[bytes] | None,
-        scene_id: str | None,
-        backbone: str | None,
-        max_repairs: int | None,
+        options: tuple[str | None, str | None, int | None],
     ) -> SolveResponse:
+        scene_id, backbone, max_repairs = options
         self._check_ready(backbone)
         with log.record(SceneStep(uploaded_images=len(image_files or []), scene_id=scene_id)) as scene:
-            upload(scene, image_files, self.recon, self.settings)
+            upload(scene, image_files, recon_client, self.settings)
         intent = parse_question(question, scene.num_images)  # parsed once: every stage takes the intent
         _check_views(intent, scene.num_images)
         with log.record(ReconstructionStep(requested_backbone=backbone)) as recon:
-            reconstruct(recon, scene.scene_id, self.recon)
+            reconstruct(recon, scene.scene_id, recon_client)
         if recon.error is not None:  # the backbone cannot use these photos: answer from them alone
             return self._from_photos(
                 log, intent, scene, recon, WrittenProgram(self.code_model_name), recon.error
             )
-        runs = self._sandbox_runs(log, intent, scene, backbone)
+        runs = self._sandbox_runs(log, recon_client, intent, scene, backbone)
         written = write_and_run(runs, scene.input_pngs, self.code_client, self.settings, max_repairs)
         if written.run is None and self.answer_client is not None:
             why = f"no program ran successfully: {written.failure}"
@@ -169,10 +173,15 @@ class SolvePipeline:
             raise SolveError(503, f"the program sandbox is unavailable: {self.jail.detail}")
 
     def _sandbox_runs(
-        self, log: SolveLog, intent: QuestionIntent, scene: SceneStep, backbone: str | None
+        self,
+        log: SolveLog,
+        recon_client: ReconClient,
+        intent: QuestionIntent,
+        scene: SceneStep,
+        backbone: str | None,
     ) -> SandboxRuns:
         """How this solve's programs run: its own recon client (recording failures) behind the tools."""
-        recon_of_this_solve = FailureRecordingClient(self.recon)
+        recon_of_this_solve = FailureRecordingClient(recon_client)
         scene_id = scene.scene_id or ""
         tools = ReconToolProvider(recon_of_this_solve, scene_id, backbone, scene.input_pngs)
         return SandboxRuns(

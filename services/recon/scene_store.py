@@ -25,6 +25,7 @@ import numpy as np
 from services.recon.durable import DurableStore
 from services.recon.errors import InvalidInput, SceneNotFound, StorageFull, StorageUnavailable
 from services.recon.shared_scenes import SharedScenes
+from shared.wire.access import DEFAULT_TENANT
 
 _SCENE_ID = re.compile(r"^[0-9a-f]{24}$")
 
@@ -96,8 +97,13 @@ class SceneStore:
     def _path(self, scene_id: str) -> Path:
         return self.root / check_scene_id(scene_id)
 
-    def exists(self, scene_id: str) -> bool:
-        return self._ensure_local(scene_id)
+    def exists(self, scene_id: str, tenant: str = DEFAULT_TENANT) -> bool:
+        """Whether the tenant has this scene (fetched into the data dir when it is elsewhere)."""
+        try:
+            self.info(scene_id, tenant)
+        except SceneNotFound:
+            return False
+        return True
 
     def _ensure_local(self, scene_id: str) -> bool:
         """True when the scene is in the data dir, fetching it from Redis or the durable store if needed."""
@@ -150,13 +156,18 @@ class SceneStore:
                 return f"the {label} {folder} has only {free // 2**20} MiB free"
         return None
 
-    def save(self, scene: SceneInput) -> tuple[str, bool]:
-        """Store the scene (and publish it to the shared store); returns (scene_id, created)."""
-        scene_id = scene.content_id()
+    def save(
+        self, scene: SceneInput, scene_id: str | None = None, tenant: str = DEFAULT_TENANT
+    ) -> tuple[str, bool]:
+        """Store the scene (durable store, then Redis); returns (scene_id, created).
+
+        `scene_id` defaults to the content hash (the default tenant's id); other tenants' ids come
+        from `services/recon/tenants.py`, and the scene records its tenant."""
+        scene_id = scene_id or scene.content_id()
         if self.setup_error:
             raise StorageUnavailable(self.setup_error)
         try:
-            created = self._save_local(scene_id, scene)
+            created = self._save_local(scene_id, scene, tenant)
         except OSError as error:
             raise storage_error("store the scene", error) from error
         if self.durable is not None:  # the store of record has it before the client hears of it
@@ -168,7 +179,7 @@ class SceneStore:
             self.shared.publish(scene_id, self._path(scene_id))
         return scene_id, created
 
-    def _save_local(self, scene_id: str, scene: SceneInput) -> bool:
+    def _save_local(self, scene_id: str, scene: SceneInput, tenant: str) -> bool:
         final = self._path(scene_id)
         if (final / "meta.json").exists():
             return False
@@ -191,6 +202,8 @@ class SceneStore:
                 "has_depth": scene.depths is not None,
                 "has_cameras": scene.extrinsics is not None and has_all_intrinsics(scene),
             }
+            if tenant != DEFAULT_TENANT:  # scenes without it (and from before tenants) are the default's
+                meta["tenant"] = tenant
             (staging / "meta.json").write_text(json.dumps(meta))  # written last: marks the scene complete
             try:
                 os.rename(staging, final)
@@ -203,24 +216,30 @@ class SceneStore:
                 shutil.rmtree(staging, ignore_errors=True)
         return True
 
-    def info(self, scene_id: str) -> dict:
-        """The scene's metadata: num_images, image_sizes, has_depth, has_cameras."""
-        path = self._path(scene_id)
-        if not self._ensure_local(scene_id):
-            raise SceneNotFound(f"scene {scene_id} is not known here: upload its images with POST /v1/scenes")
-        return json.loads((path / "meta.json").read_text())
+    def info(self, scene_id: str, tenant: str = DEFAULT_TENANT) -> dict:
+        """The scene's metadata: num_images, image_sizes, has_depth, has_cameras.
 
-    def image_file(self, scene_id: str, index: int) -> bytes:
+        Another tenant's scene is as unknown as one that does not exist (same 404, same message)."""
         path = self._path(scene_id)
-        count = self.info(scene_id)["num_images"]
+        unknown = SceneNotFound(f"scene {scene_id} is not known here: upload its images with POST /v1/scenes")
+        if not self._ensure_local(scene_id):
+            raise unknown
+        meta = json.loads((path / "meta.json").read_text())
+        if meta.pop("tenant", DEFAULT_TENANT) != tenant:
+            raise unknown
+        return meta
+
+    def image_file(self, scene_id: str, index: int, tenant: str = DEFAULT_TENANT) -> bytes:
+        path = self._path(scene_id)
+        count = self.info(scene_id, tenant)["num_images"]
         if not 0 <= index < count:
             raise SceneNotFound(f"scene {scene_id} has images 0..{count - 1}; there is no image {index}")
         return (path / f"image_{index:03d}").read_bytes()
 
-    def load(self, scene_id: str, decode) -> SceneInput:
+    def load(self, scene_id: str, decode, tenant: str = DEFAULT_TENANT) -> SceneInput:
         """Read a stored scene; `decode(bytes, label)` turns files into RGB arrays."""
         path = self._path(scene_id)
-        meta = self.info(scene_id)
+        meta = self.info(scene_id, tenant)
         files = [(path / f"image_{i:03d}").read_bytes() for i in range(meta["num_images"])]
         scene = SceneInput(image_files=files, images=[decode(f, f"image {i}") for i, f in enumerate(files)])
         geometry = path / "geometry.npz"

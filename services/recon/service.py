@@ -31,11 +31,13 @@ from services.recon.scene_store import (
 )
 from services.recon.shared_scenes import SharedScenes
 from services.recon.store_gc import StoreCollector
+from services.recon.tenants import SceneIds, load_or_create_secret
 from shared.geometry.camera_motion import CameraMotion, UnknownMotion, describe_pairs
 from shared.geometry.poses import estimate_up_axis, validate_extrinsic
 from shared.geometry.reconstruction import Reconstruction
 from shared.geometry.rendering import synthesize_novel_view
 from shared.imaging.codecs import decode_image, encode_image
+from shared.wire.access import DEFAULT_TENANT
 from shared.wire.settings import ReconSettings
 
 log = logging.getLogger("pyspatial.recon")
@@ -77,6 +79,8 @@ class ReconService:
         self._backbones: dict[str, Backbone] = {}
         self._backbone_errors: dict[str, str] = {}
         self._backbone_lock = threading.Lock()
+        self._scene_ids: SceneIds | None = None
+        self._scene_ids_lock = threading.Lock()
         self._decoded: OrderedDict[str, Reconstruction] = OrderedDict()  # a few hot scenes, deserialized
         self.jobs = ReconstructionJobs(
             self.cache,
@@ -180,17 +184,39 @@ class ReconService:
             label=label,
         )
 
-    async def add_scene(self, scene: SceneInput) -> tuple[str, bool]:
+    def scene_ids(self) -> SceneIds:
+        """Per-tenant scene ids, under the configured secret or the one kept in the store."""
+        with self._scene_ids_lock:
+            if self._scene_ids is None:
+                secret = self.settings.scene_id_secret
+                if secret is not None:
+                    key = secret.get_secret_value().encode()
+                else:
+                    try:
+                        key = load_or_create_secret(self.settings.store_dir or self.settings.data_dir)
+                    except OSError as error:
+                        raise storage_error("read or create the scene id secret", error) from error
+                self._scene_ids = SceneIds(key)
+            return self._scene_ids
+
+    async def add_scene(self, scene: SceneInput, tenant: str = DEFAULT_TENANT) -> tuple[str, bool]:
         if not 1 <= scene.num_images <= self.settings.max_images:
             raise InvalidInput(f"a scene has 1 to {self.settings.max_images} images; got {scene.num_images}")
         validate_geometry(scene)
-        return await run_cpu(self.store.save, scene)
+
+        def save() -> tuple[str, bool]:
+            scene_id = self.scene_ids().scene_id(tenant, scene.content_id())
+            return self.store.save(scene, scene_id, tenant)
+
+        return await run_cpu(save)
 
     # ---- reconstruction ----------------------------------------------------------------------
 
-    async def reconstruct(self, scene_id: str, backbone_name: str | None = None) -> ReconstructOutcome:
+    async def reconstruct(
+        self, scene_id: str, backbone_name: str | None = None, tenant: str = DEFAULT_TENANT
+    ) -> ReconstructOutcome:
         check_scene_id(scene_id)
-        if not await run_cpu(self.store.exists, scene_id):
+        if not await run_cpu(self.store.exists, scene_id, tenant):
             raise SceneNotFound(f"scene {scene_id} is not known here: upload its images with POST /v1/scenes")
         backbone = await anyio.to_thread.run_sync(self.backbone, backbone_name)
         ready, detail = backbone.ready()
@@ -209,7 +235,7 @@ class ReconService:
             return ReconstructOutcome(reconstruction, True, False, {"cache_ms": _ms(started)})
 
         async def compute() -> tuple[Reconstruction, dict[str, float]]:
-            reconstruction, timings = await self._run_backbone(scene_id, backbone)
+            reconstruction, timings = await self._run_backbone(scene_id, backbone, tenant)
             await self.cache.set(key, await run_cpu(reconstruction.to_bytes))
             return reconstruction, timings
 
@@ -224,11 +250,11 @@ class ReconService:
         return ReconstructOutcome(reconstruction, False, False, {**timings, "total_ms": _ms(started)})
 
     async def _run_backbone(
-        self, scene_id: str, backbone: Backbone
+        self, scene_id: str, backbone: Backbone, tenant: str
     ) -> tuple[Reconstruction, dict[str, float]]:
         def work() -> tuple[Reconstruction, dict[str, float]]:
             started = time.perf_counter()
-            scene = self.store.load(scene_id, self.decode)
+            scene = self.store.load(scene_id, self.decode, tenant)
             loaded = time.perf_counter()
             options = {}
             known = view_intrinsics(scene)
@@ -280,12 +306,13 @@ class ReconService:
         zoom_out: float,
         fmt: str,
         backbone: str | None,
+        tenant: str = DEFAULT_TENANT,
     ) -> bytes:
         limit = self.settings.max_render_side
         if width > limit or height > limit:
             raise InvalidInput(f"render size {width}x{height} exceeds the limit of {limit} pixels a side")
         pose = _validated_pose(extrinsic)
-        outcome = await self.reconstruct(scene_id, backbone)
+        outcome = await self.reconstruct(scene_id, backbone, tenant)
         recon = outcome.reconstruction
 
         def work() -> bytes:
@@ -295,13 +322,17 @@ class ReconService:
         return await anyio.to_thread.run_sync(work)
 
     async def camera_motion(
-        self, scene_id: str, pairs: list[tuple[int, int]] | None, backbone: str | None
+        self,
+        scene_id: str,
+        pairs: list[tuple[int, int]] | None,
+        backbone: str | None,
+        tenant: str = DEFAULT_TENANT,
     ) -> tuple[Reconstruction, list[CameraMotion | UnknownMotion], float]:
         """Per pair a description or why there is none; (reconstruction, motions, scene scale)."""
         limit = self.settings.max_motion_pairs
         if pairs is not None and len(pairs) > limit:
             raise InvalidInput(f"{len(pairs)} view pairs; one camera-motion request takes at most {limit}")
-        outcome = await self.reconstruct(scene_id, backbone)
+        outcome = await self.reconstruct(scene_id, backbone, tenant)
         recon = outcome.reconstruction
         motions, scale = await run_cpu(self._describe_motion, recon, pairs)
         return recon, motions, scale

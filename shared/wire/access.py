@@ -1,4 +1,10 @@
-"""Access control shared by both services: bearer API keys, per-key rate limits, CORS, /docs switch.
+"""Access control shared by both services: bearer API keys, tenants, per-key rate limits, CORS, /docs.
+
+Tenants: each key belongs to one (`tenant:key` entries in PYSPATIAL_API_KEYS; a plain `key` is the
+default tenant's). The tenant of a request is put in `scope["state"]["tenant"]` for the routes. A
+service key (`*:key`, the agent's key for recon) acts for the tenant named in `X-PySpatial-Tenant`;
+so does every caller when no keys are configured (nothing is authenticated then). The header from
+any other key is ignored: a tenant key always means its own tenant.
 
 Only the API (`/v1/...`) is guarded: `/healthz` and `/readyz` stay open for probes and load
 balancers (they carry no data, only whether the service can work), and so do the docs when
@@ -12,6 +18,7 @@ import hashlib
 import hmac
 import json
 import math
+import re
 import threading
 import time
 from collections import OrderedDict
@@ -20,10 +27,14 @@ from fastapi import FastAPI
 from starlette.middleware.cors import CORSMiddleware
 from starlette.types import ASGIApp, Receive, Scope, Send
 
+from shared.wire.schemas import TENANT_HEADER
 from shared.wire.settings import AccessSettings
 
 GUARDED_PREFIX = "/v1/"
 MAX_TRACKED_CLIENTS = 10_000  # buckets kept in memory; the least recently used are forgotten
+DEFAULT_TENANT = "default"
+SERVICE_TENANT = "*"  # such a key acts for the tenant its request names (the agent's key for recon)
+TENANT_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 
 
 def docs_urls(settings: AccessSettings) -> dict:
@@ -33,9 +44,27 @@ def docs_urls(settings: AccessSettings) -> dict:
     return {"docs_url": None, "redoc_url": None, "openapi_url": None}
 
 
-def parse_keys(settings: AccessSettings) -> list[bytes]:
+def parse_tenant_keys(settings: AccessSettings) -> dict[bytes, str]:
+    """key -> tenant. `tenant:key` entries name the tenant (`*` a service key); a plain key (or one
+    whose text before the first colon is no tenant name) belongs to the default tenant."""
     raw = settings.api_keys.get_secret_value() if settings.api_keys else ""
-    return [key.strip().encode() for key in raw.split(",") if key.strip()]
+    keys: dict[bytes, str] = {}
+    for entry in filter(None, (part.strip() for part in raw.split(","))):
+        tenant, colon, key = entry.partition(":")
+        if colon and key and (tenant == SERVICE_TENANT or TENANT_NAME.match(tenant)):
+            keys[key.encode()] = tenant
+        else:
+            keys[entry.encode()] = DEFAULT_TENANT
+    return keys
+
+
+def parse_keys(settings: AccessSettings) -> list[bytes]:
+    return list(parse_tenant_keys(settings))
+
+
+def request_tenant(scope: Scope) -> str:
+    """The tenant AccessMiddleware found for this request (the default one outside /v1/)."""
+    return scope.get("state", {}).get("tenant", DEFAULT_TENANT)
 
 
 def parse_origins(settings: AccessSettings) -> list[str]:
@@ -67,19 +96,29 @@ class TokenBucket:
 class AccessMiddleware:
     """401 without a valid bearer key (when keys are configured), 429 + Retry-After over the rate."""
 
-    def __init__(self, app: ASGIApp, keys: list[bytes], limiter: TokenBucket | None) -> None:
+    def __init__(self, app: ASGIApp, keys: dict[bytes, str], limiter: TokenBucket | None) -> None:
         self.app = app
         self.keys = keys
         self.limiter = limiter
+
+    def _owner(self, key: bytes) -> str | None:
+        """The key's tenant, or None; every known key is compared (no early exit: constant time)."""
+        owner = None
+        for known, tenant in self.keys.items():
+            if hmac.compare_digest(key, known):
+                owner = tenant
+        return owner
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http" or not scope["path"].startswith(GUARDED_PREFIX):
             await self.app(scope, receive, send)
             return
         identity = self._client_identity(scope)
+        owner = None
         if self.keys:
             key = _bearer_token(scope)
-            if key is None or not any(hmac.compare_digest(key, known) for known in self.keys):
+            owner = self._owner(key) if key is not None else None
+            if owner is None:
                 reason = "missing bearer API key" if key is None else "invalid API key"
                 await _reply(
                     send,
@@ -89,6 +128,11 @@ class AccessMiddleware:
                 )
                 return
             identity = "key:" + hashlib.sha256(key).hexdigest()[:16]  # never keep the key itself
+        tenant = _tenant(scope, owner)
+        if tenant is None:
+            await _reply(send, 400, f"{TENANT_HEADER} must be a tenant name ({TENANT_NAME.pattern})", {})
+            return
+        scope.setdefault("state", {})["tenant"] = tenant
         if self.limiter is not None:
             wait = self.limiter.take(identity)
             if wait > 0:
@@ -106,6 +150,19 @@ class AccessMiddleware:
     def _client_identity(scope: Scope) -> str:
         client = scope.get("client")
         return f"address:{client[0] if client else 'unknown'}"
+
+
+def _tenant(scope: Scope, owner: str | None) -> str | None:
+    """A tenant key's own tenant; else (service key, no keys) the one named in the header, or the
+    default; None when the header names no valid tenant."""
+    if owner is not None and owner != SERVICE_TENANT:
+        return owner
+    header = TENANT_HEADER.lower().encode()
+    named = next((value for name, value in scope.get("headers", []) if name == header), None)
+    if named is None:
+        return DEFAULT_TENANT
+    text = named.decode("latin-1")
+    return text if TENANT_NAME.match(text) else None
 
 
 def _bearer_token(scope: Scope) -> bytes | None:
@@ -131,7 +188,7 @@ def install_access_control(app: FastAPI, settings: AccessSettings) -> None:
     limiter = None
     if settings.rate_limit_per_minute > 0:
         limiter = TokenBucket(settings.rate_limit_per_minute, settings.rate_limit_burst)
-    app.add_middleware(AccessMiddleware, keys=parse_keys(settings), limiter=limiter)
+    app.add_middleware(AccessMiddleware, keys=parse_tenant_keys(settings), limiter=limiter)
     origins = parse_origins(settings)
     if origins:
         app.add_middleware(

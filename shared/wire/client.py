@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import base64
+import copy
 import io
 import json
 from collections.abc import Callable, Iterator, Sequence
@@ -18,6 +19,7 @@ from pydantic import TypeAdapter
 from shared.geometry.reconstruction import Reconstruction
 from shared.imaging.codecs import encode_image
 from shared.wire.schemas import (
+    TENANT_HEADER,
     CameraMotionResponse,
     ErrorEvent,
     PointCloudPreview,
@@ -104,8 +106,22 @@ class _ServiceClient:
         self.base_url = base_url.rstrip("/")
         headers = {"Authorization": f"Bearer {api_key}"} if api_key else {}
         self._http = client or httpx.Client(base_url=self.base_url, timeout=timeout, headers=headers)
+        self._headers: dict[str, str] = {}  # sent with every request of this client (its tenant)
+        self._owns_http = True
+
+    def for_tenant(self, tenant: str):
+        """This client on the same connections, each request naming `tenant` (X-PySpatial-Tenant).
+
+        For a service key (`*:key`), which acts for the tenant of the caller it serves: the agent
+        calls recon so for each solve. Closing the copy leaves the connections open."""
+        view = copy.copy(self)
+        view._headers = {**self._headers, TENANT_HEADER: tenant}
+        view._owns_http = False
+        return view
 
     def _request(self, method: str, path: str, **kwargs) -> httpx.Response:
+        if self._headers:
+            kwargs["headers"] = {**self._headers, **kwargs.get("headers", {})}
         try:
             response = self._http.request(method, self.base_url + path, **kwargs)
         except httpx.TimeoutException as error:
@@ -133,7 +149,8 @@ class _ServiceClient:
             )
 
     def close(self) -> None:
-        self._http.close()
+        if self._owns_http:
+            self._http.close()
 
     def __enter__(self):
         return self
@@ -214,7 +231,9 @@ class ReconClient(_ServiceClient):
         path = f"/v1/scenes/{_segment(scene_id)}/reconstruction"
         params = {"format": fmt, **({"backbone": backbone} if backbone else {})}
         try:
-            with self._http.stream("GET", self.base_url + path, params=params) as response:
+            with self._http.stream(
+                "GET", self.base_url + path, params=params, headers=self._headers
+            ) as response:
                 if response.status_code >= 300:
                     response.read()
                     self._raise_for_status(response, "GET", path)

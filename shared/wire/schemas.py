@@ -16,6 +16,8 @@ UNITS_DESCRIPTION = (
     "metres) or relative (classical, vggt, pi3: an arbitrary scale, only ratios of lengths mean anything)."
 )
 SCENE_ID_PATTERN = r"^[0-9a-f]{24}$"  # content hash prefix, see services/recon/scene_store.py
+# Names the tenant a service key acts for (the agent's calls to recon); see shared/wire/access.py.
+TENANT_HEADER = "X-PySpatial-Tenant"
 
 
 class _Model(BaseModel):

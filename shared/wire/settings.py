@@ -86,6 +86,11 @@ class ReconSettings(AccessSettings):
         description="Durable store of record for scenes and reconstructions, on a volume every replica "
         "mounts (Redis is then only a cache); unset: the data dir and Redis only.",
     )
+    scene_id_secret: SecretStr | None = Field(
+        None,
+        description="Secret under which other tenants' scene ids are derived; unset: a random one kept in "
+        "the store (or data dir). Keep it: a new one gives the same uploads new ids.",
+    )
     store_max_age_days: float = Field(
         0.0, ge=0, description="The store's GC removes scenes unused for this long; 0 = no age limit."
     )

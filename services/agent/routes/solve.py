@@ -17,7 +17,7 @@ from starlette.datastructures import UploadFile
 
 from services.agent.cancellation import Cancellation, SolveCancelled, cancel_when_client_leaves
 from services.agent.errors import SolveError
-from services.agent.routes.dependencies import PipelineDep, SettingsDep
+from services.agent.routes.dependencies import PipelineDep, SettingsDep, TenantDep
 from services.agent.solve_stream import event_stream, wants_event_stream
 from shared.imaging.codecs import decode_base64
 from shared.wire.bodies import read_body_limited
@@ -71,7 +71,9 @@ router = APIRouter(tags=["solve"])
     openapi_extra=_SOLVE_DOC,
     responses=error_responses(400, 401, 404, 409, 413, 422, 429, 502, 503, 504),
 )
-async def solve(request: Request, pipeline: PipelineDep, settings: SettingsDep) -> SolveResponse:
+async def solve(
+    request: Request, pipeline: PipelineDep, settings: SettingsDep, tenant: TenantDep
+) -> SolveResponse:
     """Answer a question; with `Accept: text/event-stream`, stream the stages (SSE) then the result."""
     body = await _read_solve_request(request, settings)
     files = [decode_base64(text, f"image {i + 1}") for i, text in enumerate(body.images or [])]
@@ -79,7 +81,7 @@ async def solve(request: Request, pipeline: PipelineDep, settings: SettingsDep) 
 
     def run(progress=None) -> SolveResponse:
         given = (body.question, files or None, body.scene_id, body.backbone, body.max_repairs)
-        return pipeline.solve(*given, progress, cancellation)
+        return pipeline.solve(*given, progress, cancellation, tenant=tenant)
 
     if wants_event_stream(request.headers.get("accept", "")):
         return event_stream(run, cancellation)

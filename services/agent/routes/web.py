@@ -16,7 +16,7 @@ import anyio
 from fastapi import APIRouter, Path, Query, Request
 from fastapi.responses import Response, StreamingResponse
 
-from services.agent.routes.dependencies import PipelineDep
+from services.agent.routes.dependencies import PipelineDep, TenantReconDep
 from shared.wire.errors import error_responses
 from shared.wire.schemas import SCENE_ID_PATTERN, PointCloudPreview
 
@@ -36,13 +36,13 @@ async def page(request: Request) -> Response:
     responses=error_responses(401, 404, 409, 422, 429, 502, 503, 504),
 )
 async def points(
-    pipeline: PipelineDep,
+    recon: TenantReconDep,
     scene_id: str = Path(pattern=SCENE_ID_PATTERN),  # checked before it goes into a recon URL
     backbone: str | None = None,
     max_points: int = Query(30_000, ge=1, le=200_000),
 ) -> PointCloudPreview:
     """A subsample of the scene's points and its cameras (from the recon service), for viewers."""
-    return await anyio.to_thread.run_sync(pipeline.recon.points, scene_id, backbone, max_points)
+    return await anyio.to_thread.run_sync(recon.points, scene_id, backbone, max_points)
 
 
 @router.get("/v1/backbones", tags=["web"], responses=error_responses(401, 429, 502, 503, 504))
@@ -62,14 +62,14 @@ async def backbones(pipeline: PipelineDep) -> dict:
     },
 )
 async def reconstruction_file(
-    pipeline: PipelineDep,
+    recon: TenantReconDep,
     scene_id: str = Path(pattern=SCENE_ID_PATTERN),
     backbone: str | None = None,
     format: str = Query("ply", pattern="^(ply|glb)$", description="ply (binary) or glb (binary glTF)"),
 ) -> StreamingResponse:
     """The reconstruction's coloured points as a PLY or GLB file, streamed from the recon service."""
     stream = ExitStack()  # recon's response stays open while its bytes are passed on
-    export = pipeline.recon.export(scene_id, format, backbone)
+    export = recon.export(scene_id, format, backbone)
     upstream = await anyio.to_thread.run_sync(stream.enter_context, export)  # errors map before any byte
 
     def chunks():

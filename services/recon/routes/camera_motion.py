@@ -5,7 +5,7 @@ from __future__ import annotations
 from fastapi import APIRouter, Request
 
 from services.recon.disconnect import until_disconnected
-from services.recon.routes.dependencies import ServiceDep
+from services.recon.routes.dependencies import ServiceDep, TenantDep
 from shared.wire.errors import error_responses
 from shared.wire.schemas import CameraMotionItem, CameraMotionRequest, CameraMotionResponse
 
@@ -18,11 +18,11 @@ router = APIRouter(tags=["tools"])
     responses=error_responses(401, 404, 409, 422, 429, 503),
 )
 async def camera_motion(
-    http: Request, request: CameraMotionRequest, service: ServiceDep
+    http: Request, request: CameraMotionRequest, service: ServiceDep, tenant: TenantDep
 ) -> CameraMotionResponse:
     """Per pair of views a description, or (described = false) why there is none."""
     recon, motions, scale = await until_disconnected(
-        http, service.camera_motion(request.scene_id, request.pairs, request.backbone)
+        http, service.camera_motion(request.scene_id, request.pairs, request.backbone, tenant)
     )
     items = [CameraMotionItem.model_validate(m.to_dict()) for m in motions]
     return CameraMotionResponse(

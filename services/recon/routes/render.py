@@ -6,7 +6,7 @@ from fastapi import APIRouter, Request
 from fastapi.responses import Response
 
 from services.recon.disconnect import until_disconnected
-from services.recon.routes.dependencies import ServiceDep
+from services.recon.routes.dependencies import ServiceDep, TenantDep
 from shared.imaging.codecs import media_type
 from shared.wire.errors import error_responses
 from shared.wire.schemas import RenderRequest
@@ -22,7 +22,7 @@ router = APIRouter(tags=["tools"])
         **error_responses(401, 404, 409, 422, 429, 503),
     },
 )
-async def render(http: Request, request: RenderRequest, service: ServiceDep) -> Response:
+async def render(http: Request, request: RenderRequest, service: ServiceDep, tenant: TenantDep) -> Response:
     image = await until_disconnected(
         http,
         service.render(
@@ -33,6 +33,7 @@ async def render(http: Request, request: RenderRequest, service: ServiceDep) -> 
             request.zoom_out,
             request.format,
             request.backbone,
+            tenant,
         ),
     )
     return Response(image, media_type=media_type(request.format))

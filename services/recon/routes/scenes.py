@@ -7,7 +7,7 @@ from fastapi import APIRouter, Request
 from fastapi.responses import JSONResponse, Response
 
 from services.recon.offload import run_cpu
-from services.recon.routes.dependencies import ServiceDep, UploadsDep
+from services.recon.routes.dependencies import ServiceDep, TenantDep, UploadsDep
 from services.recon.scene_store import has_all_intrinsics
 from services.recon.uploads import UPLOAD_OPENAPI
 from shared.wire.errors import error_responses
@@ -26,9 +26,11 @@ router = APIRouter(tags=["scenes"])
         **error_responses(400, 401, 413, 422, 429, 503, 507),
     },
 )
-async def create_scene(request: Request, service: ServiceDep, uploads: UploadsDep) -> JSONResponse:
+async def create_scene(
+    request: Request, service: ServiceDep, uploads: UploadsDep, tenant: TenantDep
+) -> JSONResponse:
     scene = await uploads.read(request)
-    scene_id, created = await service.add_scene(scene)
+    scene_id, created = await service.add_scene(scene, tenant)
     body = SceneCreated(
         scene_id=scene_id,
         num_images=scene.num_images,
@@ -41,8 +43,8 @@ async def create_scene(request: Request, service: ServiceDep, uploads: UploadsDe
 
 
 @router.get("/v1/scenes/{scene_id}", response_model=SceneInfo, responses=error_responses(401, 404, 429))
-async def scene_info(scene_id: str, service: ServiceDep) -> SceneInfo:
-    return SceneInfo(scene_id=scene_id, **await run_cpu(service.store.info, scene_id))
+async def scene_info(scene_id: str, service: ServiceDep, tenant: TenantDep) -> SceneInfo:
+    return SceneInfo(scene_id=scene_id, **await run_cpu(service.store.info, scene_id, tenant))
 
 
 @router.get(
@@ -50,7 +52,7 @@ async def scene_info(scene_id: str, service: ServiceDep) -> SceneInfo:
     response_class=Response,
     responses={200: {"content": {"application/octet-stream": {}}}, **error_responses(401, 404, 422, 429)},
 )
-async def scene_image(scene_id: str, index: int, service: ServiceDep) -> Response:
+async def scene_image(scene_id: str, index: int, service: ServiceDep, tenant: TenantDep) -> Response:
     """One uploaded image file, byte for byte as it was uploaded."""
-    blob = await run_cpu(service.store.image_file, scene_id, index)
+    blob = await run_cpu(service.store.image_file, scene_id, index, tenant)
     return Response(blob, media_type="application/octet-stream")
