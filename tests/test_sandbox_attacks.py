@@ -23,6 +23,7 @@ from PIL import Image
 
 from services.agent.sandbox import SandboxLimits, run_program
 from services.agent.sandbox.builtins import OutputCapture, program_globals
+from services.agent.sandbox.jail import JailMode, JailStatus
 from services.agent.sandbox.worker_process import REPO_ROOT
 
 # The agent's own output, image and tool-call limits, so that the corpus ends the same way through
@@ -465,8 +466,8 @@ MEMORY_ATTACKS = [
     Attack(
         "astype_void_returned",
         wrap("return np.zeros(2).astype('V8')"),
-        OUT,
-        "output is not serializable: numpy arrays of dtype |V8 cannot be returned; return numbers",
+        E,
+        "TypeError: astype(|V8) is not available in the sandbox: arrays convert only to numeric dtypes",
     ),
     Attack("memoryview_name", wrap("return memoryview(bytearray(8))"), R, "'memoryview' is not available"),
     Attack("bytearray_name", wrap("return bytearray(8)"), E, "NameError: name 'bytearray' is not defined"),
@@ -642,6 +643,166 @@ MEMORY_ATTACKS = [
 ATTACKS += MEMORY_ATTACKS
 
 
+# --- the numpy allow-list: memory corruption, in-place and raw-memory routes, by every path -------
+def refused(label: str, name: str) -> str:
+    return f"AttributeError: {label}.{name} is not available in the sandbox"
+
+
+A, S = "array", "numpy scalar"
+VIEW = wrap("a = np.zeros(4)", "v = a[1:]")
+NUMPY_SURFACE_ATTACKS = [
+    # use-after-free: resize frees the buffer a view still points at
+    Attack(
+        "resize_refcheck",
+        VIEW + wrap("a.resize((1 << 20,), refcheck=False)", "return v[0]"),
+        E,
+        refused(A, "resize"),
+    ),
+    Attack(
+        "resize_via_reshape",
+        VIEW + wrap("a.reshape(4).resize(8, refcheck=False)", "return 1"),
+        E,
+        refused(A, "resize"),
+    ),
+    Attack(
+        "resize_transposed", VIEW + wrap("a.T.resize(8, refcheck=False)", "return 1"), E, refused(A, "resize")
+    ),
+    Attack(
+        "resize_ufunc_result",
+        wrap("b = np.ones(3) + 1", "b.resize(9, refcheck=False)", "return 1"),
+        E,
+        refused(A, "resize"),
+    ),
+    Attack(
+        "resize_matmul_result",
+        wrap("b = np.eye(2) @ np.eye(2)", "b.resize(9, refcheck=False)", "return 1"),
+        E,
+        refused(A, "resize"),
+    ),
+    Attack(
+        "resize_linalg_result",
+        wrap("u = np.linalg.svd(np.eye(2))[0]", "u.resize(9, refcheck=False)", "return 1"),
+        E,
+        refused(A, "resize"),
+    ),
+    Attack(
+        "resize_api_array",
+        wrap(
+            "e = pySpatial.reconstruct(input_scene).extrinsics[0]", "e.resize(99, refcheck=False)", "return 1"
+        ),
+        E,
+        refused(A, "resize"),
+    ),
+    Attack(
+        "resize_pose_tool_result",
+        wrap(
+            "e = pySpatial.reconstruct(input_scene).extrinsics[0]",
+            "pySpatial.turn_around(e).resize(9)",
+            "return 1",
+        ),
+        E,
+        refused(A, "resize"),
+    ),
+    Attack(
+        "resize_scalar_route",
+        wrap("s = np.zeros(2).sum()", "s.reshape(1).resize(9, refcheck=False)", "return 1"),
+        E,
+        refused(A, "resize"),
+    ),
+    Attack("resize_scalar", wrap("return np.float64(1).resize(3)"), E, refused(S, "resize")),
+    Attack("resize_index_scalar", wrap("return np.zeros(3)[0].resize(3)"), E, refused(S, "resize")),
+    # in-place writers and buffer flags
+    Attack("put", wrap("np.zeros(3).put([0], [1])", "return 1"), E, refused(A, "put")),
+    Attack("fill_view", VIEW + wrap("v.fill(7)", "return 1"), E, refused(A, "fill")),
+    Attack("sort_in_place", wrap("np.zeros(3).sort()", "return 1"), E, refused(A, "sort")),
+    Attack("partition", wrap("np.zeros(3).partition(1)", "return 1"), E, refused(A, "partition")),
+    Attack("byteswap_in_place", wrap("np.zeros(3).byteswap(True)", "return 1"), E, refused(A, "byteswap")),
+    Attack("scalar_byteswap", wrap("return np.int64(1).byteswap()"), E, refused(S, "byteswap")),
+    Attack("choose", wrap("return np.zeros(3, dtype=np.int64).choose([1, 2])"), E, refused(A, "choose")),
+    # raw memory: buffers, strides, flags, iterators
+    Attack("strides_read", wrap("return np.zeros(3).strides"), E, refused(A, "strides")),
+    Attack("flags_read", wrap("return np.zeros(3).flags"), E, refused(A, "flags")),
+    Attack("flat_iterator", wrap("return np.zeros(3).flat"), E, refused(A, "flat")),
+    Attack("nbytes", wrap("return np.zeros(3).nbytes"), E, refused(A, "nbytes")),
+    Attack("tofile_scalar", wrap("return np.float64(1).tofile"), R, "'.tofile' is not available"),
+    Attack("scalar_data", wrap("return np.float64(1).data"), R, "'.data' is not available"),
+    Attack(
+        "scalar_reshape_ptr",
+        wrap("return np.float64(1).reshape(1).searchsorted(0)"),
+        E,
+        refused(A, "searchsorted"),
+    ),
+    Attack("dump", wrap("return np.zeros(2).dump"), R, "'.dump' is not available"),
+    # dtypes: object, structured, raw records, strings, by every spelling of astype
+    Attack(
+        "astype_O", wrap("return np.zeros(2).astype('O')"), E, "TypeError: astype(object) is not available"
+    ),
+    Attack(
+        "astype_object_type",
+        wrap("return np.zeros(2).astype(dict)"),
+        E,
+        "TypeError: astype(object) is not available",
+    ),
+    Attack(
+        "astype_keyword",
+        wrap("return np.zeros(2).astype(dtype='O')"),
+        E,
+        "TypeError: astype(object) is not available",
+    ),
+    Attack(
+        "astype_structured",
+        wrap("return np.zeros(2).astype([('a', 'O')])"),
+        E,
+        "TypeError: astype([('a', 'O')]) is not available",
+    ),
+    Attack(
+        "astype_bytes", wrap("return np.zeros(2).astype('S8')"), E, "TypeError: astype(|S8) is not available"
+    ),
+    Attack(
+        "astype_datetime",
+        wrap("return np.zeros(2).astype('M8[s]')"),
+        E,
+        "TypeError: astype(datetime64[s]) is not available",
+    ),
+    Attack(
+        "scalar_astype_O",
+        wrap("return np.float64(1).astype('O')"),
+        E,
+        "TypeError: astype(object) is not available",
+    ),
+    Attack(
+        "item_astype_O",
+        wrap("return np.zeros((2, 2))[0].astype('O')"),
+        E,
+        "TypeError: astype(object) is not available",
+    ),
+    Attack(
+        "array_structured",
+        wrap("return np.array([(1,)], dtype=[('a', 'O')])"),
+        E,
+        "numpy arrays of dtype [('a', 'O')]",
+    ),
+    Attack(
+        "zeros_structured",
+        wrap("return np.zeros(2, dtype=[('a', 'i8'), ('b', 'f8')])"),
+        E,
+        "are not available in the sandbox",
+    ),
+    Attack("dtype_fields", wrap("return np.zeros(2).dtype.fields"), E, refused("dtype", "fields")),
+    Attack("dtype_type", wrap("return np.zeros(2).dtype.type"), E, refused("dtype", "type")),
+    Attack("dtype_descr", wrap("return np.zeros(2).dtype.descr"), E, refused("dtype", "descr")),
+    Attack("numpy_type_attribute", wrap("return np.float64.fromhex"), E, refused("np.float64", "fromhex")),
+    Attack("numpy_type_mro_walk", wrap("return np.float64.mro"), R, "'.mro' is not available"),
+    Attack(
+        "hasattr_resize",
+        wrap("return [hasattr(np.zeros(1), 'resize'), hasattr(np.zeros(1), 'shape')]"),
+        OK,
+        "False\nTrue",
+    ),
+]
+ATTACKS += NUMPY_SURFACE_ATTACKS
+
+
 def outcome_problem(attack: Attack, result) -> str | None:
     """None when `result` is exactly how `attack` must end, else what differs."""
     if attack.kind == "ok":  # harmless by construction (hidden addresses, replaced surrogates)
@@ -662,11 +823,17 @@ def outcome_problem(attack: Attack, result) -> str | None:
     return None
 
 
-def test_every_attack_ends_exactly_as_stated() -> None:
-    """The whole corpus through the runner, four programs at a time (each in its own process)."""
+PYTHON_LAYER_ALONE = JailStatus(JailMode.OFF, False, "the OS jail is off: the Python layer alone")
+
+
+@pytest.mark.parametrize("walls", ["python_and_os", "python_alone"])
+def test_every_attack_ends_exactly_as_stated(walls: str) -> None:
+    """The whole corpus through the runner, four programs at a time (each in its own process):
+    behind both layers, and behind the Python layer alone (the OS jail off), which must hold too."""
+    jail_status = PYTHON_LAYER_ALONE if walls == "python_alone" else None
 
     def run_one(attack: Attack) -> str | None:
-        result = run_program(attack.source, "What is left of me?", 2, TinyTools(), LIMITS)
+        result = run_program(attack.source, "What is left of me?", 2, TinyTools(), LIMITS, jail_status)
         problem = outcome_problem(attack, result)
         return f"{attack.name}: {problem}" if problem else None
 

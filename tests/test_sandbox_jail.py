@@ -336,3 +336,131 @@ def test_stale_workdirs_of_dead_agents_are_removed_and_live_ones_kept() -> None:
         (dead / "leftover.txt").write_text("x")
         assert remove_stale_workdirs(root) == 2
         assert sorted(p.name for p in Path(root).iterdir()) == sorted([mine.name, other.name])
+
+
+# --- the OS layer alone, by attack class: each class is one program (one worker) trying every route ---
+ROUTE_PROGRAM = """
+import ctypes, errno, json, mmap, os, stat, threading
+libc = ctypes.CDLL(None, use_errno=True)
+
+def raw(number, *arguments):
+    value = libc.syscall(number, *arguments)
+    if value == -1:
+        raise OSError(ctypes.get_errno(), 'refused')
+    return value
+
+def outcome(action):
+    try:
+        action()
+    except OSError as error:
+        return errno.errorcode.get(error.errno, str(error.errno))
+    except BaseException as error:
+        return type(error).__name__
+    return 'allowed'
+
+def many_threads(stack_mb, count):
+    threading.stack_size(stack_mb << 20)
+    gate = threading.Event()
+    started = []
+    try:
+        for _ in range(count):
+            thread = threading.Thread(target=gate.wait)
+            thread.start()
+            started.append(thread)
+    finally:
+        gate.set()
+        for thread in started:
+            thread.join()
+
+def fds():
+    kinds = {{}}
+    for fd in sorted(int(name) for name in os.listdir('/proc/self/fd')):
+        try:
+            mode = os.fstat(fd).st_mode
+        except OSError:
+            continue  # the listing's own descriptor, closed again
+        kinds[fd] = 'pipe' if stat.S_ISFIFO(mode) else 'char' if stat.S_ISCHR(mode) else 'other'
+    return kinds
+
+ROUTES = {routes}
+
+def program(input_scene):
+    return json.dumps({{name: outcome(action) for name, action in ROUTES.items()}})
+"""
+GiB = 1 << 30
+# x86-64 syscall numbers: raw syscalls reach what no Python module wraps
+ROUTE_CLASSES = {
+    "memory": {  # 512 MB limit: every route to 1 GiB fails, and 64 MB still works (the limit is real)
+        "small_allocation": ("lambda: bytearray(64 << 20)", "allowed"),
+        "bytearray": (f"lambda: bytearray({GiB})", "MemoryError"),
+        "mmap_private": (f"lambda: mmap.mmap(-1, {GiB})", "ENOMEM"),
+        "mmap_shared": (f"lambda: mmap.mmap(-1, {GiB}, flags=mmap.MAP_SHARED)", "ENOMEM"),
+        "sysv_shmget": (f"lambda: raw(29, 0, ctypes.c_size_t({GiB}), 0o1600 | 0o1000)", "EPERM"),
+        "sysv_shmget_small": ("lambda: raw(29, 0, ctypes.c_size_t(4096), 0o1600 | 0o1000)", "EPERM"),
+        "sysv_shmat": ("lambda: raw(30, 0, 0, 0)", "EPERM"),
+        "sysv_msgget": ("lambda: raw(68, 0, 0o1600 | 0o1000)", "EPERM"),
+        "sysv_semget": ("lambda: raw(64, 0, 1, 0o1600 | 0o1000)", "EPERM"),
+        "memfd_create": ("lambda: os.memfd_create('x')", "EPERM"),
+        "memfd_raw": ("lambda: raw(319, ctypes.c_char_p(b'x'), 0)", "EPERM"),
+        "pipe_buffers": ("lambda: os.pipe()", "EPERM"),
+        "eventfd": ("lambda: os.eventfd(0)", "EPERM"),
+        "tmpfs_file": ("lambda: open('/tmp/fill', 'wb')", "EPERM"),
+        "dev_shm_file": ("lambda: open('/dev/shm/fill', 'wb')", "EPERM"),
+        "thread_stacks": ("lambda: many_threads(256, 4)", "RuntimeError"),
+        "userfaultfd": ("lambda: raw(323, 0)", "EPERM"),
+        "io_uring_setup": ("lambda: raw(425, 8, ctypes.create_string_buffer(120))", "EPERM"),
+    },
+    "kernel_facilities": {
+        "bpf": ("lambda: raw(321, 0, 0, 0)", "EPERM"),
+        "perf_event_open": ("lambda: raw(298, 0, 0, -1, -1, 0)", "EPERM"),
+        "keyctl": ("lambda: raw(250, 0, 0)", "EPERM"),
+        "ptrace": ("lambda: raw(101, 16, 1, 0, 0)", "EPERM"),
+        "process_vm_readv": ("lambda: raw(310, 1, 0, 0, 0, 0, 0)", "EPERM"),
+        "mount": ("lambda: raw(165, 0, 0, 0, 0, 0)", "EPERM"),
+        "unshare": ("lambda: raw(272, 0x10000000)", "EPERM"),
+        "setns": ("lambda: raw(308, 0, 0)", "EPERM"),
+        "personality": ("lambda: raw(135, 0x0040000)", "EPERM"),
+        "socket_raw": ("lambda: raw(41, 2, 1, 0)", "EPERM"),
+        "clone_process": ("lambda: raw(56, 17, 0, 0, 0, 0)", "EPERM"),
+        "clone3": ("lambda: raw(435, 0, 0)", "ENOSYS"),
+    },
+    "signals_to_the_parent": {
+        "kill_parent": ("lambda: os.kill(os.getppid(), 9)", "EPERM"),
+        "kill_group": ("lambda: os.kill(0, 9)", "EPERM"),
+        "tgkill_parent": ("lambda: raw(234, os.getppid(), os.getppid(), 9)", "EPERM"),
+        "rt_sigqueueinfo": ("lambda: raw(129, os.getppid(), 9, ctypes.create_string_buffer(128))", "EPERM"),
+        "pidfd_open": ("lambda: raw(434, os.getppid(), 0)", "EPERM"),
+        "pdeathsig_off": ("lambda: raw(157, 1, 0)", "EPERM"),
+        "own_signal_ok": ("lambda: raw(234, os.getpid(), os.getpid(), 0)", "allowed"),
+    },
+    "proc": {
+        "write_own_mem": ("lambda: open('/proc/self/mem', 'r+b')", "EPERM"),
+        "sysrq_trigger": ("lambda: open('/proc/sysrq-trigger', 'w')", "EPERM"),
+        "parent_environ": ("lambda: open(f'/proc/{os.getppid()}/environ', 'rb').read()", "EACCES"),
+        "parent_root": ("lambda: os.listdir(f'/proc/{os.getppid()}/root/')", "EACCES"),
+        "parent_mem": ("lambda: open(f'/proc/{os.getppid()}/mem', 'rb')", "EACCES"),
+        "kernel_knob": ("lambda: open('/proc/sys/kernel/core_pattern', 'w')", "EPERM"),
+    },
+}
+
+
+@pytest.mark.parametrize("route_class", list(ROUTE_CLASSES))
+def test_the_jail_alone_closes_every_route_of_a_class(route_class: str) -> None:
+    if os.uname().machine != "x86_64":
+        pytest.skip("raw syscall numbers are x86-64's")
+    routes = ROUTE_CLASSES[route_class]
+    table = "{" + ", ".join(f"{name!r}: {action}" for name, (action, _) in routes.items()) + "}"
+    result = run_unchecked(ROUTE_PROGRAM.format(routes=table))
+    assert result.ok, result.error
+    assert json.loads(result.clue_text) == {name: expected for name, (_, expected) in routes.items()}
+
+
+def test_the_jail_alone_inherits_only_its_protocol_descriptors() -> None:
+    source = ROUTE_PROGRAM.format(routes="{}").replace(
+        "return json.dumps({name", "return json.dumps(fds()) or ({name"
+    )
+    result = run_unchecked(source)
+    assert result.ok, result.error
+    # 0 and 1 are /dev/null, 2 the stderr pipe, 3 and 4 the protocol pipes: nothing else of the
+    # host (no listening socket, no open file of the agent) reaches the worker.
+    assert json.loads(result.clue_text) == {"0": "char", "1": "char", "2": "pipe", "3": "pipe", "4": "pipe"}

@@ -6,8 +6,9 @@ hold each of them to account):
 0. jail.py / seccomp_filter.py: the OS jail, independent of everything below. The worker runs under
    bubblewrap in its own PID, network (empty), IPC, UTS and mount namespaces with a read-only view
    of only the interpreter, site-packages and this package, as uid 65534 without capabilities,
-   with no-new-privs, dying with its parent, behind a seccomp filter that refuses new processes,
-   exec, signals to others, sockets, sessions, mounts and writable opens. No jail, no programs
+   with no-new-privs, dying with its parent, behind a seccomp allow-list (default EPERM; traced over
+   the benign corpus: scripts/trace_sandbox_syscalls.py) that leaves out new processes, exec,
+   signals to others, sockets, sessions, mounts, writable opens, SysV IPC, memfds and pipes. No jail, no programs
    (unless the operator opts out with PYSPATIAL_SANDBOX_JAIL=off).
 1. validation.py checks the syntax tree before anything runs (own AST checker rather than
    RestrictedPython: the allowed language is tiny, so rejecting outright is simpler than

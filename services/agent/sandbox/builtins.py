@@ -16,7 +16,12 @@ from typing import Any
 
 import numpy
 
-from services.agent.sandbox.validation import FSTRING_FUNCTION_NAME, PERCENT_FUNCTION_NAME
+from services.agent.sandbox import numpy_surface
+from services.agent.sandbox.validation import (
+    ATTRIBUTE_FUNCTION_NAME,
+    FSTRING_FUNCTION_NAME,
+    PERCENT_FUNCTION_NAME,
+)
 
 __all__ = ["FORMAT_FUNCTION_NAME", "FSTRING_FUNCTION_NAME", "PERCENT_FUNCTION_NAME", "program_globals"]
 
@@ -55,7 +60,7 @@ NUMPY_FUNCTIONS = (
 NUMPY_VALUES = ("e", "float32", "float64", "inf", "int32", "int64", "nan", "newaxis", "pi", "uint8")
 NUMPY_LINALG_FUNCTIONS = ("det", "inv", "norm", "pinv", "solve", "svd")
 NUMPY_NAMES = NUMPY_FUNCTIONS + NUMPY_VALUES + ("ndarray",)
-_REFUSED_DTYPE_KINDS = "OVM"  # object, void (raw records), datetime: none is arithmetic
+_REFUSED_DTYPE_KINDS = numpy_surface.REFUSED_DTYPE_KINDS  # object, raw records, datetimes
 
 
 class ReadOnlyNamespace:
@@ -274,7 +279,7 @@ def safe_hasattr(value: object, name: str) -> bool:
         raise TypeError("hasattr(): attribute name must be a string")
     if name.startswith(("_", "gi_", "f_", "tb_", "co_", "cr_", "ag_")):
         return False
-    return hasattr(value, name)
+    return numpy_surface.has_attribute(value, name)
 
 
 # The program's `str`: isinstance(x, str) and str.join / str.lower ... work; str(x) hides addresses.
@@ -313,6 +318,7 @@ def program_globals(capture: OutputCapture, extra: dict[str, Any]) -> dict[str, 
         FORMAT_FUNCTION_NAME: safe_format,
         FSTRING_FUNCTION_NAME: fstring_value,
         PERCENT_FUNCTION_NAME: percent,
+        ATTRIBUTE_FUNCTION_NAME: numpy_surface.attribute,
         "np": numpy_stand_in,
         "numpy": numpy_stand_in,
         "math": restricted_math(),

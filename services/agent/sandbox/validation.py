@@ -16,6 +16,8 @@ PROGRAM_NAME = "program"
 # Helpers the rewriter calls (bound in the program's globals by builtins.program_globals).
 FSTRING_FUNCTION_NAME = "__sandbox_fstring__"
 PERCENT_FUNCTION_NAME = "__sandbox_percent__"
+# Every attribute a program reads goes through this (numpy_surface.attribute: the numpy allow-list).
+ATTRIBUTE_FUNCTION_NAME = "__sandbox_attribute__"
 MAX_PROGRAM_CHARS = 20_000
 MAX_REPORTED_PROBLEMS = 5
 
@@ -245,9 +247,10 @@ def _attribute_problem(node: ast.Attribute, format_calls: set[int]) -> str | Non
 
 
 class _ExecutionRewriter(ast.NodeTransformer):
-    """Drop the allowed no-op imports, turn `from math import x` into `x = math.x`, and route
+    """Drop the allowed no-op imports, turn `from math import x` into `x = math.x`, route
     `x.format(...)`, f-string fields and `a % b` through the sandbox's formatters (which refuse
-    attribute lookups in fields and hide heap addresses)."""
+    attribute lookups in fields and hide heap addresses), and every attribute read through the
+    sandbox's attribute check (numpy's allow-list)."""
 
     def __init__(self, format_function_name: str) -> None:
         self.format_function_name = format_function_name
@@ -267,6 +270,17 @@ class _ExecutionRewriter(ast.NodeTransformer):
             for alias in node.names
         ]
         return [ast.copy_location(assignment, node) for assignment in assignments]
+
+    def visit_Attribute(self, node: ast.Attribute) -> ast.AST:
+        self.generic_visit(node)
+        if node.attr == "format" or not isinstance(node.ctx, ast.Load):
+            return node  # `.format` calls are rewritten by visit_Call; writes were rejected
+        call = ast.Call(
+            func=ast.Name(id=ATTRIBUTE_FUNCTION_NAME, ctx=ast.Load()),
+            args=[node.value, ast.Constant(value=node.attr)],
+            keywords=[],
+        )
+        return ast.copy_location(call, node)
 
     def visit_FormattedValue(self, node: ast.FormattedValue) -> ast.AST:
         self.generic_visit(node)
