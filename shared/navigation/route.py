@@ -68,6 +68,8 @@ class RoutePlan:
     up: np.ndarray | None = None
     warnings: list[str] = field(default_factory=list)
     turn_convention: str = TURN_CONVENTION
+    # Metres per unit of the moves: 1 when metric, else the estimate from the assumed camera height.
+    metres_per_unit: float | None = None
 
     def to_dict(self) -> dict:
         def listed(array):
@@ -90,6 +92,7 @@ class RoutePlan:
             "goal_world": listed(self.goal_world),
             "up": listed(self.up),
             "warnings": self.warnings,
+            "metres_per_unit": self.metres_per_unit,
         }
 
 
@@ -320,6 +323,7 @@ def _refusal(setting: _Setting, kind: str, reason: str, goal_plane: np.ndarray) 
         straight_line_distance=float(np.linalg.norm(goal_plane - setting.start)),
         up=setting.floor.up,
         warnings=setting.warnings,
+        metres_per_unit=1.0 / setting.per_metre,
     )
 
 

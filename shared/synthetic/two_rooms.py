@@ -92,24 +92,35 @@ def _cross(o, a, b) -> float:
     return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
 
 
-def distance_to_polygons(points: np.ndarray, polygons: list[np.ndarray]) -> np.ndarray:
-    """Distance from each 2D point to the nearest polygon (0 inside one)."""
+def distance_to_polygons(
+    points: np.ndarray, polygons: list[np.ndarray], within: float = np.inf
+) -> np.ndarray:
+    """Distance from each 2D point to the nearest polygon (0 inside one).
+
+    Only distances below ``within`` are exact; a point farther than that from every polygon's
+    bounding box keeps inf (the culling that makes a fine grid affordable).
+    """
     points = np.asarray(points, np.float64).reshape(-1, 2)
     best = np.full(len(points), np.inf)
     for polygon in polygons:
+        low, high = polygon.min(axis=0) - within, polygon.max(axis=0) + within
+        near = np.flatnonzero(np.all((points >= low) & (points <= high), axis=1))
+        if len(near) == 0:
+            continue
+        subset = points[near]
         a, b = polygon, np.roll(polygon, -1, axis=0)
         edge = b - a
-        t = np.einsum("nkd,kd->nk", points[:, None] - a, edge) / np.maximum((edge**2).sum(1), 1e-12)
+        t = np.einsum("nkd,kd->nk", subset[:, None] - a, edge) / np.maximum((edge**2).sum(1), 1e-12)
         nearest = a + np.clip(t, 0, 1)[..., None] * edge
-        distance = np.linalg.norm(points[:, None] - nearest, axis=2).min(axis=1)
-        side = edge[:, 0] * (points[:, None, 1] - a[:, 1]) - edge[:, 1] * (points[:, None, 0] - a[:, 0])
+        distance = np.linalg.norm(subset[:, None] - nearest, axis=2).min(axis=1)
+        side = edge[:, 0] * (subset[:, None, 1] - a[:, 1]) - edge[:, 1] * (subset[:, None, 0] - a[:, 0])
         inside = np.all(side >= 0, axis=1)
-        best = np.minimum(best, np.where(inside, 0.0, distance))
+        best[near] = np.minimum(best[near], np.where(inside, 0.0, distance))
     return best
 
 
 def disc_collides(points: np.ndarray, polygons: list[np.ndarray], radius: float) -> np.ndarray:
-    return distance_to_polygons(points, polygons) < radius
+    return distance_to_polygons(points, polygons, within=radius) < radius
 
 
 def true_shortest(
@@ -126,7 +137,8 @@ def true_shortest(
     columns = np.arange(low[0], high[0] + _TRUTH_CELL, _TRUTH_CELL)
     rows = np.arange(low[1], high[1] + _TRUTH_CELL, _TRUTH_CELL)
     xx, yy = np.meshgrid(columns, rows)
-    clear = distance_to_polygons(np.stack([xx.ravel(), yy.ravel()], axis=1), polygons).reshape(xx.shape)
+    clear = distance_to_polygons(np.stack([xx.ravel(), yy.ravel()], axis=1), polygons, within=radius)
+    clear = clear.reshape(xx.shape)
     passable = clear >= radius
     cell_of = lambda p: (int(round((p[1] - low[1]) / _TRUTH_CELL)), int(round((p[0] - low[0]) / _TRUTH_CELL)))  # noqa: E731
     path = astar(passable, cell_of(start), cell_of(goal))
@@ -198,7 +210,7 @@ def _layout(rng: np.random.Generator, kind: str) -> _Layout:
     door_centre = float(rng.uniform(1.3, width - 1.3))
     door = (door_centre - door_width / 2, door_centre + door_width / 2)
     a_centre, b_centre = np.array([divider / 2, width / 2]), np.array([(divider + length) / 2, width / 2])
-    margin = 1.3 if kind == "ring" else 0.8
+    margin = 1.5 if kind == "ring" else 0.8
     goal = rng.uniform([divider + 1.5, margin], [length - margin, width - margin])
     start = rng.uniform([0.9, 0.9], [divider - 1.2, width - 0.9])
     heading = float(rng.uniform(0, 2 * np.pi))
@@ -235,7 +247,8 @@ def _farthest_corner(point: np.ndarray, x0: float, x1: float, width: float) -> n
 def _add_pen(builder: _Builder, solids: list, goal: np.ndarray) -> None:
     """Four low partitions closing a square around the goal (overlapping at the corners)."""
     material = builder.material("low partition", (0.55, 0.55, 0.6), 0.2, 0.06)
-    half, thickness, height = 0.6, 0.15, 0.7
+    # Low enough for the views to see the floor inside over them, high enough to meet the robot's body.
+    half, thickness, height = 0.75, 0.15, 0.3
     span = 2 * half + 2 * thickness
     for dx, dy, sx, sy in (
         (0, half + thickness / 2, span, thickness),
