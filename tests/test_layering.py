@@ -76,6 +76,13 @@ CASES = {
         "shared.imaging.codecs imports shared.geometry.poses"
         + LAYER.format(layer="imaging", allowed="imaging"),
     ),
+    "navigation imports synthetic": (
+        "shared.navigation.route",
+        "from shared.synthetic.render import look_at",
+        IN_A_FUNCTION,
+        "shared.navigation.route imports shared.synthetic.render"
+        + LAYER.format(layer="navigation", allowed="geometry, navigation"),
+    ),
     "questions imports wire": (
         "shared.questions.choices",
         "from shared.wire import schemas",
@@ -88,14 +95,14 @@ CASES = {
         "from shared.local.services import REPO_ROOT",
         IN_A_FUNCTION,
         "shared.wire.api imports shared.local.services"
-        + LAYER.format(layer="wire", allowed="geometry, imaging, questions, wire"),
+        + LAYER.format(layer="wire", allowed="geometry, imaging, navigation, questions, wire"),
     ),
     "synthetic imports wire": (
         "shared.synthetic.photo",
         "from shared.wire.settings import ReconSettings",
         AT_MODULE_LEVEL,
         "shared.synthetic.photo imports shared.wire.settings"
-        + LAYER.format(layer="synthetic", allowed="geometry, imaging, questions, synthetic"),
+        + LAYER.format(layer="synthetic", allowed="geometry, imaging, navigation, questions, synthetic"),
     ),
     "recon imports agent": (
         "services.recon.preview",

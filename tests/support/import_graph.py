@@ -28,10 +28,11 @@ SHARED_OUTSIDE = ("services", "cli", "evaluation", "bench", "tests")
 SHARED_LAYERS: dict[str, frozenset[str]] = {
     "geometry": frozenset({"geometry"}),
     "imaging": frozenset({"imaging"}),
+    "navigation": frozenset({"navigation", "geometry"}),
     "questions": frozenset({"questions", "geometry"}),
-    "wire": frozenset({"wire", "geometry", "imaging", "questions"}),
-    "local": frozenset({"local", "wire", "geometry", "imaging", "questions"}),
-    "synthetic": frozenset({"synthetic", "geometry", "imaging", "questions"}),
+    "wire": frozenset({"wire", "geometry", "imaging", "questions", "navigation"}),
+    "local": frozenset({"local", "wire", "geometry", "imaging", "questions", "navigation"}),
+    "synthetic": frozenset({"synthetic", "geometry", "imaging", "questions", "navigation"}),
 }
 SERVICES = ("services.recon", "services.agent")
 WORKER = "services.agent.sandbox.worker"

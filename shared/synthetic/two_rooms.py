@@ -1,0 +1,406 @@
+"""Two rooms joined by a doorway, with furniture and posed RGB-D views: the route benchmark's scenes.
+
+Like ``scene.py``: z is up, the floor is z = 0, cameras are OpenCV camera-from-world. The lab is
+about 50 m² (two rooms side by side along x, a wall with one doorway between them). The robot
+starts below the start view's camera in room A; the goal is a floor point in room B.
+
+Kinds:
+- ``reachable``: a doorway wide enough and a goal in the open (checked on the true geometry);
+- ``narrow_door``: the doorway is narrower than the robot;
+- ``ring``: the goal is inside a closed pen of low partitions.
+
+Besides the rendering mesh, every scene keeps its *solids*: the convex parts (wall slabs,
+furniture parts, partitions) as vertex sets, so the true footprint at the robot's body height is
+exact polygons (``footprints``), and ``disc_collides`` / ``true_shortest`` work on those.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from shared.navigation.search import astar, shorten
+from shared.synthetic.render import RenderedView, default_intrinsic, look_at, render_view
+from shared.synthetic.scene import (
+    CATALOGUE,
+    ROOM_OBJECT_ID,
+    SceneObject,
+    SyntheticScene,
+    _box,
+    _Builder,
+    _yaw_matrix,
+)
+
+KINDS = ("reachable", "narrow_door", "ring")
+EYE_HEIGHT = 1.5
+WALL = 0.12  # thickness of every wall slab
+_PITCH_DOWN_DEG = 28.0  # views look down so the floor in front of them is seen
+_FOV_DEG = 75.0
+_TRUTH_CELL = 0.025
+
+
+@dataclass(eq=False)
+class TwoRoomScene:
+    scene: SyntheticScene  # the mesh to render (objects, materials)
+    kind: str
+    solids: list[np.ndarray]  # convex parts as (K, 3) vertex sets
+    extrinsics: np.ndarray  # (V, 3, 4) camera-from-world; view 0 is the start view
+    intrinsic: np.ndarray  # (3, 3), the same for every view
+    size: tuple[int, int]  # (width, height) of the views
+    goal: np.ndarray  # (3,) floor point in room B
+    door: tuple[float, float]  # (y low, y high) of the doorway in the dividing wall
+    divider_x: float
+
+    def start_floor(self) -> np.ndarray:
+        pose = self.extrinsics[0]
+        centre = -pose[:, :3].T @ pose[:, 3]
+        return np.array([centre[0], centre[1], 0.0])
+
+    def render(self) -> list[RenderedView]:
+        width, height = self.size
+        return [render_view(self.scene, pose, self.intrinsic, width, height) for pose in self.extrinsics]
+
+
+def footprints(solids: list[np.ndarray], band: tuple[float, float]) -> list[np.ndarray]:
+    """Convex floor polygons (counter-clockwise) of the solids that reach into the height band."""
+    polygons = []
+    for vertices in solids:
+        if vertices[:, 2].max() < band[0] or vertices[:, 2].min() > band[1]:
+            continue
+        polygons.append(_convex_hull(vertices[:, :2]))
+    return polygons
+
+
+def _convex_hull(points: np.ndarray) -> np.ndarray:
+    """Monotone-chain convex hull, counter-clockwise."""
+    ordered = sorted({(round(float(x), 6), round(float(y), 6)) for x, y in points})
+
+    def half(sequence):
+        chain: list[tuple[float, float]] = []
+        for point in sequence:
+            while len(chain) >= 2 and _cross(chain[-2], chain[-1], point) <= 0:
+                chain.pop()
+            chain.append(point)
+        return chain
+
+    lower, upper = half(ordered), half(reversed(ordered))
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def _cross(o, a, b) -> float:
+    return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+
+def distance_to_polygons(
+    points: np.ndarray, polygons: list[np.ndarray], within: float = np.inf
+) -> np.ndarray:
+    """Distance from each 2D point to the nearest polygon (0 inside one).
+
+    Only distances below ``within`` are exact; a point farther than that from every polygon's
+    bounding box keeps inf (the culling that makes a fine grid affordable).
+    """
+    points = np.asarray(points, np.float64).reshape(-1, 2)
+    best = np.full(len(points), np.inf)
+    for polygon in polygons:
+        low, high = polygon.min(axis=0) - within, polygon.max(axis=0) + within
+        near = np.flatnonzero(np.all((points >= low) & (points <= high), axis=1))
+        if len(near) == 0:
+            continue
+        subset = points[near]
+        a, b = polygon, np.roll(polygon, -1, axis=0)
+        edge = b - a
+        t = np.einsum("nkd,kd->nk", subset[:, None] - a, edge) / np.maximum((edge**2).sum(1), 1e-12)
+        nearest = a + np.clip(t, 0, 1)[..., None] * edge
+        distance = np.linalg.norm(subset[:, None] - nearest, axis=2).min(axis=1)
+        side = edge[:, 0] * (subset[:, None, 1] - a[:, 1]) - edge[:, 1] * (subset[:, None, 0] - a[:, 0])
+        inside = np.all(side >= 0, axis=1)
+        best[near] = np.minimum(best[near], np.where(inside, 0.0, distance))
+    return best
+
+
+def disc_collides(points: np.ndarray, polygons: list[np.ndarray], radius: float) -> np.ndarray:
+    return distance_to_polygons(points, polygons, within=radius) < radius
+
+
+def true_shortest(
+    solids: list[np.ndarray],
+    start: np.ndarray,
+    goal: np.ndarray,
+    radius: float,
+    band: tuple[float, float],
+    bounds: tuple[np.ndarray, np.ndarray],
+) -> float | None:
+    """Length of the shortest collision-free route for a disc on the true footprints, or None."""
+    polygons = footprints(solids, band)
+    low, high = np.asarray(bounds[0], float)[:2], np.asarray(bounds[1], float)[:2]
+    columns = np.arange(low[0], high[0] + _TRUTH_CELL, _TRUTH_CELL)
+    rows = np.arange(low[1], high[1] + _TRUTH_CELL, _TRUTH_CELL)
+    xx, yy = np.meshgrid(columns, rows)
+    clear = distance_to_polygons(np.stack([xx.ravel(), yy.ravel()], axis=1), polygons, within=radius)
+    clear = clear.reshape(xx.shape)
+    passable = clear >= radius
+    cell_of = lambda p: (int(round((p[1] - low[1]) / _TRUTH_CELL)), int(round((p[0] - low[0]) / _TRUTH_CELL)))  # noqa: E731
+    path = astar(passable, cell_of(start), cell_of(goal))
+    if path is None:
+        return None
+    corners = np.array(shorten(passable, path))[:, ::-1] * _TRUTH_CELL + low
+    corners[0], corners[-1] = start[:2], goal[:2]
+    return float(np.linalg.norm(np.diff(corners, axis=0), axis=1).sum())
+
+
+def _box_solid(
+    builder: _Builder, solids: list, material: int, size, centre_xy, yaw: float = 0.0, z: float = 0.0
+):
+    mesh = _box(*size, z=z)
+    vertices = np.asarray(mesh.vertices) @ _yaw_matrix(yaw).T + [centre_xy[0], centre_xy[1], 0.0]
+    builder.add(vertices, np.asarray(mesh.triangles), ROOM_OBJECT_ID, material)
+    solids.append(vertices)
+
+
+def _add_shell(
+    builder: _Builder, solids: list, length: float, width: float, door: tuple[float, float], divider: float
+):
+    """Floor, the outer walls (inner faces drawn, slabs outside as solids) and the dividing wall."""
+    height = 2.8
+    floor = builder.material("floor", (0.72, 0.62, 0.5), 0.4, 0.11)
+    builder.add_quad(np.array([[0, 0, 0], [length, 0, 0], [length, width, 0], [0, width, 0]]), floor)
+    corners = [(0, 0), (length, 0), (length, width), (0, width)]
+    colours = [(0.8, 0.78, 0.7), (0.66, 0.76, 0.8), (0.82, 0.7, 0.68), (0.7, 0.8, 0.68)]
+    for k, rgb in enumerate(colours):
+        (x0, y0), (x1, y1) = corners[k], corners[(k + 1) % 4]
+        wall = builder.material(f"wall {k}", rgb, 0.45, 0.12)
+        builder.add_quad(np.array([[x0, y0, 0], [x1, y1, 0], [x1, y1, height], [x0, y0, height]]), wall)
+    for x0, y0, x1, y1 in (
+        (-WALL, -WALL, length + WALL, 0),
+        (-WALL, width, length + WALL, width + WALL),
+        (-WALL, 0, 0, width),
+        (length, 0, length + WALL, width),
+    ):
+        solids.append(np.array([[x, y, z] for x in (x0, x1) for y in (y0, y1) for z in (0, height)]))
+    divider_material = builder.material("dividing wall", (0.78, 0.74, 0.66), 0.4, 0.1)
+    for y0, y1 in ((0.0, door[0]), (door[1], width)):
+        if y1 - y0 > 1e-6:
+            _box_solid(builder, solids, divider_material, (WALL, y1 - y0, height), (divider, 0.5 * (y0 + y1)))
+
+
+def _view(eye_xy, look_xy) -> np.ndarray:
+    eye = np.array([eye_xy[0], eye_xy[1], EYE_HEIGHT])
+    horizontal = np.asarray(look_xy, float) - eye[:2]
+    horizontal /= np.linalg.norm(horizontal)
+    drop = np.tan(np.radians(_PITCH_DOWN_DEG))
+    return look_at(eye, eye + np.append(horizontal, -drop))
+
+
+@dataclass
+class _Layout:
+    length: float
+    width: float
+    divider: float
+    door: tuple[float, float]
+    eyes: list[np.ndarray]  # (2,) floor positions of the cameras
+    looks: list[np.ndarray]  # (2,) where each camera looks
+    goal: np.ndarray  # (2,)
+
+
+def _layout(rng: np.random.Generator, kind: str) -> _Layout:
+    length, width = float(rng.uniform(9.5, 11.0)), float(rng.uniform(4.6, 5.3))
+    divider = length * float(rng.uniform(0.45, 0.55))
+    door_width = float(rng.uniform(0.3, 0.42)) if kind == "narrow_door" else float(rng.uniform(0.9, 1.2))
+    door_centre = float(rng.uniform(1.3, width - 1.3))
+    door = (door_centre - door_width / 2, door_centre + door_width / 2)
+    a_centre, b_centre = np.array([divider / 2, width / 2]), np.array([(divider + length) / 2, width / 2])
+    margin = 1.5 if kind == "ring" else 0.8
+    goal = rng.uniform([divider + 1.5, margin], [length - margin, width - margin])
+    start = rng.uniform([0.9, 0.9], [divider - 1.2, width - 0.9])
+    heading = float(rng.uniform(0, 2 * np.pi))
+    side = float(rng.choice([-1.0, 1.0]))
+    eyes = [
+        start,
+        np.array([divider - 2.2, door_centre + rng.uniform(-0.5, 0.5)]),
+        np.array([divider + 2.2, door_centre + rng.uniform(-0.5, 0.5)]),
+        _farthest_corner(goal, divider + WALL / 2, length, width),
+    ]
+    looks = [
+        start + [np.cos(heading), np.sin(heading)],
+        np.array([divider + 1.5, door_centre]),
+        np.array([divider - 1.5, door_centre]),
+        goal,
+    ]
+    extras = [
+        (np.array([0.7, width / 2 - side * (width / 2 - 0.7)]), a_centre),
+        (np.array([length - 0.7, width / 2 + side * (width / 2 - 0.7)]), b_centre),
+        (np.array([divider - 0.8, width / 2 + side * (width / 2 - 0.7)]), a_centre),
+    ]
+    for index in rng.permutation(len(extras))[: int(rng.integers(0, len(extras) + 1))]:
+        eyes.append(extras[index][0])
+        looks.append(extras[index][1])
+    return _Layout(length, width, divider, door, eyes, looks, goal)
+
+
+def _farthest_corner(point: np.ndarray, x0: float, x1: float, width: float) -> np.ndarray:
+    """The corner of the room [x0, x1] x [0, width] (0.7 m in from its walls) farthest from a point."""
+    corners = np.array([[x, y] for x in (x0 + 0.7, x1 - 0.7) for y in (0.7, width - 0.7)])
+    return corners[int(np.argmax(np.linalg.norm(corners - point, axis=1)))]
+
+
+def _add_pen(builder: _Builder, solids: list, goal: np.ndarray) -> None:
+    """Four low partitions closing a square around the goal (overlapping at the corners)."""
+    material = builder.material("low partition", (0.55, 0.55, 0.6), 0.2, 0.06)
+    # Low enough for the views to see the floor inside over them, high enough to meet the robot's body.
+    half, thickness, height = 0.75, 0.15, 0.3
+    span = 2 * half + 2 * thickness
+    for dx, dy, sx, sy in (
+        (0, half + thickness / 2, span, thickness),
+        (0, -half - thickness / 2, span, thickness),
+        (half + thickness / 2, 0, thickness, span),
+        (-half - thickness / 2, 0, thickness, span),
+    ):
+        _box_solid(builder, solids, material, (sx, sy, height), goal + [dx, dy])
+
+
+def _clear_of(xy: np.ndarray, radius: float, keep_out: list[tuple[np.ndarray, float]]) -> bool:
+    return all(np.linalg.norm(xy - p) >= radius + r for p, r in keep_out)
+
+
+def _add_furniture(
+    builder: _Builder, solids: list, rng: np.random.Generator, layout: _Layout, objects: list[SceneObject]
+) -> None:
+    keep_out = [(eye, 0.7) for eye in layout.eyes] + [(layout.goal, 1.1)]
+    keep_out.append((np.array([layout.divider, 0.5 * sum(layout.door)]), 1.4))
+    rooms = [(0.0, layout.divider - WALL / 2), (layout.divider + WALL / 2, layout.length)]
+    for entry_index in rng.permutation(len(CATALOGUE))[: int(rng.integers(4, 7))]:
+        entry = CATALOGUE[entry_index]
+        yaw = float(rng.uniform(0, 360))
+        parts = [
+            (np.asarray(mesh.vertices) @ _yaw_matrix(yaw).T, mesh, rgb)
+            for mesh, rgb in entry.build(entry.rgb)
+        ]
+        local = np.concatenate([v for v, _, _ in parts])
+        radius = float(0.5 * np.hypot(*np.ptp(local[:, :2], axis=0)))
+        x0, x1 = rooms[len(objects) % 2]
+        for _ in range(100):
+            xy = rng.uniform(
+                [x0 + radius + 0.1, radius + 0.1], [x1 - radius - 0.1, layout.width - radius - 0.1]
+            )
+            if _clear_of(xy, radius, keep_out):
+                break
+        else:
+            continue
+        keep_out.append((xy, radius + 0.1))
+        material = builder.material(entry.name, entry.rgb, 0.2, 0.06)
+        world = []
+        for vertices, mesh, _ in parts:
+            placed = vertices + [xy[0], xy[1], 0.0]
+            builder.add(placed, np.asarray(mesh.triangles), len(objects), material)
+            solids.append(placed)
+            world.append(placed)
+        world = np.concatenate(world)
+        low, high = world.min(axis=0), world.max(axis=0)
+        objects.append(SceneObject(entry.name, (low + high) / 2, high - low, yaw))
+
+
+def _build(seed: int, kind: str, size: tuple[int, int]) -> TwoRoomScene:
+    rng = np.random.default_rng(seed)
+    layout = _layout(rng, kind)
+    builder, solids, objects = _Builder(rng), [], []
+    _add_shell(builder, solids, layout.length, layout.width, layout.door, layout.divider)
+    if kind == "ring":
+        _add_pen(builder, solids, layout.goal)
+    _add_furniture(builder, solids, rng, layout, objects)
+    scene = SyntheticScene(
+        seed=seed,
+        vertices=np.concatenate(builder.vertices).astype(np.float32),
+        triangles=np.concatenate(builder.triangles).astype(np.int32),
+        triangle_object_ids=np.concatenate(builder.object_ids),
+        triangle_material_ids=np.concatenate(builder.material_ids),
+        materials=builder.materials,
+        objects=objects,
+        room_min=np.zeros(3),
+        room_max=np.array([layout.length, layout.width, 2.8]),
+        has_ceiling=False,
+    )
+    extrinsics = np.array([_view(eye, look) for eye, look in zip(layout.eyes, layout.looks, strict=True)])
+    return TwoRoomScene(
+        scene=scene,
+        kind=kind,
+        solids=solids,
+        extrinsics=extrinsics,
+        intrinsic=default_intrinsic(size[0], size[1], _FOV_DEG),
+        size=size,
+        goal=np.append(layout.goal, 0.0),
+        door=layout.door,
+        divider_x=layout.divider,
+    )
+
+
+def _fits_its_kind(two: TwoRoomScene, radius: float, band: tuple[float, float]) -> bool:
+    polygons = footprints(two.solids, band)
+    ends = np.stack([two.start_floor()[:2], two.goal[:2]])
+    if disc_collides(ends, polygons, radius + 0.1).any():
+        return False  # start and goal stand in the open, so a refusal is about the way between
+    shortest = true_shortest(
+        two.solids, two.start_floor(), two.goal, radius, band, (two.scene.room_min, two.scene.room_max)
+    )
+    return (shortest is not None) == (two.kind == "reachable")
+
+
+def generate_two_rooms(
+    seed: int,
+    kind: str = "reachable",
+    size: tuple[int, int] = (320, 240),
+    radius: float = 0.25,
+    band: tuple[float, float] = (0.05, 0.5),
+) -> TwoRoomScene:
+    """A two-room scene of this kind (``KINDS``), deterministic for a seed.
+
+    Layouts are drawn until one is what its kind says on the true geometry for a robot of this
+    radius and body band (a reachable scene has a route; the others have none).
+    """
+    if kind not in KINDS:
+        raise ValueError(f"unknown kind {kind!r}; expected one of {KINDS}")
+    for attempt in range(40):
+        sub_seed = int(np.random.SeedSequence([seed, KINDS.index(kind), attempt]).generate_state(1)[0])
+        two = _build(sub_seed, kind, size)
+        if _fits_its_kind(two, radius, band):
+            return two
+    raise ValueError(f"seed {seed}: no {kind} layout found")
+
+
+@dataclass
+class Execution:
+    end: np.ndarray  # (2,) where the robot stopped
+    collided: bool
+    first_collision: np.ndarray | None  # (2,) where the disc first touched a true footprint
+    length: float
+
+
+def execute_steps(
+    two: TwoRoomScene,
+    steps: list[dict],
+    radius: float,
+    band: tuple[float, float] = (0.05, 0.5),
+    step_m: float = 0.02,
+) -> Execution:
+    """Drive the steps from the true start pose (left-positive turns about +z) on the true geometry.
+
+    The disc is checked every ``step_m`` along each move; a collision is any overlap with a true
+    footprint at body height.
+    """
+    polygons = footprints(two.solids, band)
+    forward = two.extrinsics[0][2, :2]
+    heading = float(np.arctan2(forward[1], forward[0]))
+    position = two.start_floor()[:2].astype(np.float64)
+    samples, length = [position[None]], 0.0
+    for step in steps:
+        heading += np.radians(float(step["turn_degrees"]))
+        move = float(step["move"])
+        direction = np.array([np.cos(heading), np.sin(heading)])
+        count = max(int(np.ceil(abs(move) / step_m)), 1)
+        samples.append(position + np.linspace(0, move, count + 1)[1:, None] * direction)
+        position = position + move * direction
+        length += abs(move)
+    trace = np.concatenate(samples)
+    hits = disc_collides(trace, polygons, radius)
+    first = trace[int(np.argmax(hits))] if hits.any() else None
+    return Execution(end=position, collided=bool(hits.any()), first_collision=first, length=length)
