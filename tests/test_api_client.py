@@ -54,7 +54,9 @@ def test_reconstruct_gives_cameras_of_every_view(recon):
 
 def test_describe_camera_motion_sees_the_step_to_the_right(toolkit, recon):
     text = toolkit.describe_camera_motion(recon)
-    assert text.splitlines()[0].startswith("From view 1 to view 2 the camera moved right")
+    assert text.splitlines()[0].startswith(
+        "From view 1 to view 2, in view 1's image axes, the camera moved right"
+    )
 
 
 def test_points_are_downloaded_on_demand(recon):

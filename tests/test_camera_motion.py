@@ -68,7 +68,10 @@ def test_no_movement_below_threshold_of_scene_scale() -> None:
     cameras = step(0.0, 0.0, distance=0.04)
     [small] = describe_camera_motion(cameras, scene_scale=1.0)
     assert small.direction == NO_MOVEMENT
-    assert small.sentence == "From view 1 to view 2 the camera neither moved nor turned significantly."
+    assert small.still and small.sentence == (
+        "From view 1 to view 2, in view 1's image axes, the camera stayed still: no step of 0.05 scene units "
+        "or more, no turn of 10 degrees or more, no tilt or roll of 5 degrees or more."
+    )
     [same] = describe_camera_motion(cameras, scene_scale=0.5)
     assert same.direction == "forward"
 
@@ -90,7 +93,8 @@ def test_all_centres_coincide_uses_unit_scale() -> None:
     assert motions[0].yaw_deg == pytest.approx(90.0)
     assert motions[1].turn == "turned right by about 135 degrees"
     assert motions[0].sentence == (
-        "From view 1 to view 2 the camera stayed in place and turned left by about 90 degrees."
+        "From view 1 to view 2, in view 1's image axes, "
+        "the camera stayed in place and turned left by about 90 degrees."
     )
 
 
@@ -128,10 +132,13 @@ def test_combined_move_and_turn_with_a_tilted_camera() -> None:
     assert motion.angle_deg == pytest.approx(-45.0)
     assert motion.vertical == pytest.approx(0.0, abs=1e-12)
     assert motion.yaw_deg == pytest.approx(90.0)
-    assert motion.sentence == (
-        "From view 1 to view 2 the camera moved diagonally forward and left "
-        "and turned left by about 90 degrees."
+    # Pitched down, a turn about gravity is a turn, a tilt and a roll in the photo's axes: both are said.
+    assert motion.frames_differ and motion.gravity is not None
+    assert (
+        motion.gravity.phrase == "moved diagonally forward and left and turned left by about 90 degrees "
+        "(a step of 1.00 scene units)"
     )
+    assert motion.sentence.endswith("; in the scene's gravity frame it " + motion.gravity.phrase + ".")
     payload = json.loads(json.dumps(motion.to_dict()))
     assert payload["from_view"] == 0 and payload["to_view"] == 1
     assert len(payload["displacement_in_first_camera"]) == 3
@@ -169,7 +176,7 @@ def lifted(cameras: np.ndarray, rise: float) -> np.ndarray:
         (1.0, -0.6, "forward", "down", "moved forward and down without turning"),
         (0.0, 0.8, NO_MOVEMENT, "up", "moved up without turning"),
         (0.2, 1.0, NO_MOVEMENT, "up", "moved up without turning"),  # 79 degrees: only vertical
-        (0.0, 0.03, NO_MOVEMENT, None, "neither moved nor turned"),  # below the threshold
+        (0.0, 0.03, NO_MOVEMENT, None, "stayed still"),  # below the threshold
     ],
 )
 def test_vertical_motion_is_said_when_significant(move_distance, rise, direction, vertical, words) -> None:
@@ -184,7 +191,9 @@ def test_vertical_motion_with_a_turn() -> None:
     first, second = lifted(step(0.0, -90.0), 0.7)
     [motion] = describe_camera_motion(np.stack([first, rotate_left(second, 60.0, up=WORLD_UP)]), up=WORLD_UP)
     assert motion.sentence == (
-        "From view 1 to view 2 the camera moved left and up, and turned left by about 60 degrees."
+        "From view 1 to view 2, in view 1's image axes, "
+        "the camera moved left and up, and turned left by about 60 degrees "
+        "(a step of 1.22 scene units)."
     )
 
 
@@ -200,7 +209,8 @@ def test_scene_scale_from_points_keeps_a_pure_turn_a_turn() -> None:
     room = np.random.default_rng(0).uniform([-3, -3, 0], [3, 3, 2.5], size=(2000, 3))
     [by_points] = describe_camera_motion(cameras, up=WORLD_UP, scene_scale=robust_extent(room))
     assert by_points.sentence == (
-        "From view 1 to view 2 the camera stayed in place and turned left by about 90 degrees."
+        "From view 1 to view 2, in view 1's image axes, "
+        "the camera stayed in place and turned left by about 90 degrees."
     )
 
 
@@ -211,14 +221,16 @@ def test_pairs_with_an_unusable_view_say_why_and_the_rest_are_described() -> Non
     assert default_pairs(4, [p is None for p in problems]) == [(0, 1), (1, 2), (1, 3), (2, 3)]
     motions = describe_pairs(cameras, problems, up=WORLD_UP)
     assert [m.described for m in motions] == [True, False, True, False]
-    assert motions[0].sentence.startswith("From view 1 to view 2 the camera moved right")
+    assert motions[0].sentence.startswith(
+        "From view 1 to view 2, in view 1's image axes, the camera moved right"
+    )
     assert motions[1].reason == problems[2]
     assert motions[1].sentence == (
         "From view 2 to view 3 the camera motion is unknown: view 3 could not be registered by the "
         "classical backbone."
     )
     assert motions[2].from_view == 1 and motions[2].to_view == 3  # the bridge over the gap
-    assert motions[2].sentence.startswith("From view 2 to view 4 the camera moved")
+    assert motions[2].sentence.startswith("From view 2 to view 4, in view 2's image axes, the camera moved")
     [only] = describe_pairs(cameras, problems, pairs=[(2, 2)])
     assert not only.described and only.reason == problems[2]
     everything_unknown = describe_pairs(cameras, ["a", "b", "c", "d"])
@@ -263,13 +275,15 @@ def test_metric_scenes_say_how_far_and_relative_ones_only_which_way():
     metric = describe_camera_motion(np.stack([first, second]), scene_scale=1.0, units="metres")[0]
     assert metric.units == "metres" and metric.distance == pytest.approx(np.hypot(0.42, 0.1))
     assert metric.sentence == (
-        "From view 1 to view 2 the camera moved 0.43 m forward and 0.25 m up without turning significantly."
+        "From view 1 to view 2, in view 1's image axes, "
+        "the camera moved 0.43 m forward and 0.25 m up without turning significantly."
     )
     relative = describe_camera_motion(np.stack([first, second]), scene_scale=1.0)[0]
     assert relative.units == "relative"
     assert (
-        relative.sentence
-        == "From view 1 to view 2 the camera moved forward and up without turning significantly."
+        relative.sentence == "From view 1 to view 2, in view 1's image axes, "
+        "the camera moved forward and up without turning significantly "
+        "(a step of 0.50 scene units)."
     )
     [pair] = describe_pairs(np.stack([first, second]), [None, None], scene_scale=1.0, units="metres")
     assert pair.sentence == metric.sentence and pair.to_dict()["units"] == "metres"

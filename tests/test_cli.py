@@ -129,7 +129,7 @@ def test_solve_json_answers_the_bundled_example(services, tmp_path):
     response = SolveResponse.model_validate_json(result.stdout)
     assert response.answer == SPEC["expected_answer"]
     assert "describe_camera_motion" in response.program
-    assert "From view 1 to view 2 the camera moved right" in response.clue.text
+    assert "From view 1 to view 2, in view 1's image axes, the camera moved right" in response.clue.text
     # The stages as they happened, on stderr (plain lines: stderr is no terminal here).
     stages = re.findall(r"^(\w+) done at [\d.]+ s", result.stderr, flags=re.MULTILINE)
     assert stages == ["upload", "reconstruction", "program", "execution", "answer"], result.stderr

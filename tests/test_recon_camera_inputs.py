@@ -254,7 +254,9 @@ def test_partially_registered_scene_gets_per_pair_motion(recon, partial_scene):
         "From view 1 to view 2 the camera motion is unknown: view 2 could not be registered by the "
         "classical backbone."
     )
-    assert body["motions"][1]["sentence"].startswith("From view 1 to view 3 the camera moved")
+    assert body["motions"][1]["sentence"].startswith(
+        "From view 1 to view 3, in view 1's image axes, the camera moved"
+    )
     assert body["text"].count("\n") == 3 and body["scene_scale"] > 0
 
     body = {"scene_id": partial_scene, "pairs": [[1, 3], [3, 0]]}
@@ -322,8 +324,8 @@ def test_agent_tool_describes_the_pairs_it_can(recon, partial_scene, llm):
     lines = result.clue.text.splitlines()
     assert len(lines) == 4
     assert lines[0].startswith("From view 1 to view 2 the camera motion is unknown: view 2 could not")
-    assert lines[1].startswith("From view 1 to view 3 the camera moved")
-    assert lines[3].startswith("From view 3 to view 4 the camera")
+    assert lines[1].startswith("From view 1 to view 3, in view 1's image axes, the camera moved")
+    assert lines[3].startswith("From view 3 to view 4, in view 3's image axes, the camera")
 
 
 def exact_pair(room, second_from_first) -> tuple[list[bytes], list[np.ndarray], np.ndarray, np.ndarray]:
@@ -348,11 +350,14 @@ def moved(pose: np.ndarray, step_world: np.ndarray) -> np.ndarray:
     [
         (  # a 60 degree turn with 1 cm of drift: the points, not the two centres, set the scale
             lambda first: moved(rotate_left(first, 60.0, up=Z_UP), np.array([0.006, -0.008, 0.0])),
-            "From view 1 to view 2 the camera stayed in place and turned left by about 60 degrees.",
+            "From view 1 to view 2, in view 1's image axes, "
+            "the camera stayed in place and turned left by about 60 degrees.",
         ),
         (
             lambda first: moved(first, np.array([0.0, 0.0, 0.5])),
-            "From view 1 to view 2 the camera moved 0.50 m up without turning significantly.",  # metres
+            # metres
+            "From view 1 to view 2, in view 1's image axes, "
+            "the camera moved 0.50 m up without turning significantly.",
         ),
     ],
     ids=["turn-with-drift", "straight-up"],

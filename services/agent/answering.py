@@ -38,8 +38,9 @@ from services.agent.motion_clue import (
     unreadable_clue,
 )
 from services.agent.prompts import load_template
-from shared.questions.choices import extract_letter, normalize_direction, normalize_turn, turn_degrees
+from shared.questions.choices import extract_letter
 from shared.questions.intent import QuestionIntent
+from shared.questions.motion_words import agrees, asked_motion, read_motion
 
 DEFAULT_TEMPLATE = "answer_v1"
 IMAGES_ONLY_TEMPLATE = "answer_images_only_v1"
@@ -238,38 +239,31 @@ def answer_from_images(
 # ---- offline -----------------------------------------------------------------------------------
 
 
-def _option_motion(text: str, asks_turn_only: bool) -> tuple[str | None, str | None, float | None]:
-    direction, turn, degrees = normalize_direction(text), normalize_turn(text), turn_degrees(text)
-    if asks_turn_only and turn is None and direction is not None:
-        # "Which way did I turn? A. Left B. Right": a bare side names the turn.
-        if direction in ("left", "right"):
-            return None, f"turn {direction}", degrees
-        if direction == "backward":
-            return None, "turn around", degrees if degrees is not None else 180.0
-    return direction, turn, degrees
-
-
 def _match_motion(
     intent: QuestionIntent, statement: MotionStatement, options: dict[str, str]
 ) -> tuple[str | None, str]:
-    asks_turn_only = intent.asks_turn_only
-    matches: list[tuple[str, float]] = []
+    """The option whose motion reading agrees with the statement's (shared.questions.motion_words).
+
+    Of several that agree, the one closest in degrees, then the one stating the most, wins.
+    """
+    asked = "turn" if intent.asks_turn_only else asked_motion(intent.ask)
+    said = statement.reading_for(intent.text)
+    matches: list[tuple[str, float, int]] = []
     for letter, text in options.items():
-        direction, turn, degrees = _option_motion(text, asks_turn_only)
-        if direction is None and turn is None:
-            continue
-        if direction is not None and direction != statement.direction:
-            continue
-        if turn is not None and turn != statement.turn:
+        option = read_motion(text, asked)
+        agree, stated = agrees(option, said)
+        if not agree:
             continue
         gap = (
-            abs(degrees - statement.degrees) if degrees is not None and statement.degrees is not None else 0.0
+            abs(option.degrees - said.degrees)
+            if option.degrees is not None and said.degrees is not None
+            else 0.0
         )
-        matches.append((letter, gap))
+        matches.append((letter, gap, stated))
     if not matches:
         return None, f"no option states what the program's output says: {statement.sentence!r}"
-    best = min(gap for _, gap in matches)
-    closest = [letter for letter, gap in matches if gap == best]
+    best = min((gap, -stated) for _, gap, stated in matches)
+    closest = [letter for letter, gap, stated in matches if (gap, -stated) == best]
     if len(closest) > 1:
         return None, f"options {', '.join(closest)} all fit the program's output {statement.sentence!r}"
     return closest[0], ""

@@ -23,9 +23,11 @@ from services.agent.motion_clue import (
     motion_statements,
     not_a_motion_question,
     pick_statement,
+    step_size,
     unreadable_clue,
 )
 from shared.questions.intent import QuestionIntent
+from shared.questions.motion_words import MotionReading
 
 AnswerFormat = Literal["choice", "free_form"]
 CHOICE: AnswerFormat = "choice"
@@ -86,7 +88,7 @@ def answer_offline(intent: QuestionIntent, clue_text: str | None, clue_images: l
     statement, why = pick_statement(intent, statements)
     if statement is None:
         return no_answer(why)
-    words = motion_in_words(statement, intent.asks_turn_only)
+    words = motion_in_words(statement, intent.asks_turn_only, intent.text)
     if words is None:
         return no_answer(f"the offline answerer finds no direction or turn in {statement.sentence!r}")
     return AnswerResult(
@@ -96,22 +98,57 @@ def answer_offline(intent: QuestionIntent, clue_text: str | None, clue_images: l
     )
 
 
-def motion_in_words(statement: MotionStatement, asks_turn_only: bool) -> str | None:
-    """'moved right, without turning significantly', 'turned left by about 45 degrees', ... or None.
+def motion_in_words(statement: MotionStatement, asks_turn_only: bool, question: str = "") -> str | None:
+    """'moved down (about 0.09 scene units), tilted up by about 8 degrees', 'stayed still', ... or None.
 
-    None when the sentence says the camera moved in a direction these words do not cover (e.g. up or
-    down): half an answer ("without turning") would read as the whole motion.
+    Read through the one vocabulary (shared.questions.motion_words), in the frame the question
+    means; None when the sentence states no motion these words cover.
     """
     if asks_turn_only:
         return _turn_words(statement, alone=True)
-    if statement.direction is not None:
-        moved = f"moved {statement.direction}"
-    elif re.search(r"\b(?:stayed in place|neither moved)\b", statement.sentence):
-        moved = "stayed in place"
-    else:
+    reading = statement.reading_for(question)
+    clause = statement.gravity_clause if reading is statement.gravity else statement.main_clause
+    clause = clause or statement.sentence
+    if reading.still:
+        return "stayed still"
+    rotations = [_angle_words(clause, kind, value) for kind, value in _rotations(reading)]
+    moved = _step_words(reading, clause)
+    if moved is None and not rotations:
         return None
-    turned = _turn_words(statement, alone=False)
-    return ", ".join(part for part in (moved, turned) if part)
+    parts = [moved or "stayed in place", *rotations]
+    if not rotations:
+        parts.append("without turning significantly")
+    if reading.target is not None:
+        parts.append(
+            "came closer to the target" if reading.target == "closer" else "moved farther from the target"
+        )
+    return ", ".join(parts)
+
+
+def _rotations(reading: MotionReading) -> list[tuple[str, str]]:
+    found = []
+    if reading.turn not in (None, "no turn"):
+        found.append(("turned", str(reading.turn).removeprefix("turn ")))
+    if reading.tilt not in (None, "no tilt"):
+        found.append(("tilted", str(reading.tilt).removeprefix("tilt ")))
+    if reading.roll is not None:
+        found.append(("rolled", reading.roll.removeprefix("roll ")))
+    return found
+
+
+def _angle_words(clause: str, verb: str, side: str) -> str:
+    """'tilted up by about 8 degrees': the angle the clause states next to that word, when it does."""
+    stated = re.search(rf"\b{side}\b[^,;.]*?(\d+(?:\.\d+)?)\s*(?:°|degrees?\b)", clause, re.IGNORECASE)
+    about = f" by about {float(stated.group(1)):g} degrees" if stated else ""
+    return f"{verb} {side}{about}"
+
+
+def _step_words(reading: MotionReading, clause: str) -> str | None:
+    ways = [way for way in (reading.direction, reading.vertical) if way]
+    if not ways:
+        return None
+    size = step_size(clause)
+    return f"moved {' and '.join(ways)}" + (f" (about {size})" if size else "")
 
 
 def _turn_words(statement: MotionStatement, alone: bool) -> str | None:

@@ -14,6 +14,7 @@ from pydantic import BaseModel
 
 from shared.questions.choices import normalize_direction, normalize_turn, turn_degrees
 from shared.questions.intent import QuestionIntent
+from shared.questions.motion_words import MotionReading, asked_frame, read_motion
 
 VISION_MODEL_HINT = (
     "set PYSPATIAL_ANSWER_MODEL (and PYSPATIAL_ANSWER_MODEL_BASE_URL, PYSPATIAL_ANSWER_MODEL_API_KEY) "
@@ -21,7 +22,12 @@ VISION_MODEL_HINT = (
 )
 _PAIR = re.compile(r"\b(?:view|image)\s+(\d+)\b.*?\b(?:view|image)\s+(\d+)\b", re.IGNORECASE)
 _SENTENCE_END = re.compile(r"(?<=[.!?])\s+(?=[A-Z])")
-_MOVED_OR_NOT = re.compile(r"\b(?:moved|stayed in place|neither moved)\b", re.IGNORECASE)
+_MOVED_OR_NOT = re.compile(
+    r"\b(?:moved|stayed in place|stayed still|neither moved|tilted|rolled)\b", re.IGNORECASE
+)
+_GRAVITY_CLAUSE = re.compile(r"^in the scene'?s gravity frame (?:it )?", re.IGNORECASE)
+_TARGET_CLAUSE = re.compile(r"^it (?:came closer to|moved farther from|stayed as far from)\b", re.IGNORECASE)
+_STEP = re.compile(r"\b(?:a step of )?(\d+(?:\.\d+)?) ?(m|scene units)\b")
 
 
 class MotionStatement(BaseModel):
@@ -30,14 +36,44 @@ class MotionStatement(BaseModel):
     direction: str | None  # one of shared.questions.choices.DIRECTIONS, None when it did not move
     turn: str | None  # "turn left", "turn right", "turn around", "no turn", or None
     degrees: float | None
+    reading: MotionReading | None = None  # the whole vocabulary, in the sentence's first frame (image)
+    gravity: MotionReading | None = None  # the scene's gravity frame, when the sentence gives it apart
+    main_clause: str = ""  # the first frame's words, for free-form answers
+    gravity_clause: str | None = None
+
+    def reading_for(self, question: str) -> MotionReading:
+        """The reading in the frame the question means (the image frame unless it names the room)."""
+        if asked_frame(question) == "gravity" and self.gravity is not None:
+            return self.gravity
+        return self.reading or read_motion(self.sentence)
+
+
+def _clauses(sentence: str) -> tuple[str, str | None, str | None]:
+    """(the first frame's clause, the gravity frame's, the target's) of one motion sentence."""
+    main, gravity, target = "", None, None
+    for position, clause in enumerate(part.strip() for part in sentence.rstrip(".").split(";")):
+        if position and _GRAVITY_CLAUSE.match(clause):
+            gravity = _GRAVITY_CLAUSE.sub("", clause)
+        elif position and _TARGET_CLAUSE.match(clause):
+            target = clause
+        else:
+            main = f"{main}; {clause}" if main else clause
+    return main, gravity, target
+
+
+def _with_target(reading: MotionReading, target: str | None) -> MotionReading:
+    if target is None:
+        return reading
+    return reading.model_copy(update={"target": read_motion(target).target})
 
 
 def motion_statements(clue_text: str) -> list[MotionStatement]:
     statements = []
     for line in clue_text.splitlines():
         for sentence in _SENTENCE_END.split(line.strip()):
-            direction, turn = normalize_direction(sentence), normalize_turn(sentence)
-            if direction is None and turn is None and not _MOVED_OR_NOT.search(sentence):
+            main, gravity, target = _clauses(sentence)
+            direction, turn = normalize_direction(main), normalize_turn(main)
+            if direction is None and turn is None and not _MOVED_OR_NOT.search(main):
                 continue
             pair_match = _PAIR.search(sentence)
             pair = (int(pair_match.group(1)), int(pair_match.group(2))) if pair_match else None
@@ -47,10 +83,20 @@ def motion_statements(clue_text: str) -> list[MotionStatement]:
                     sentence=sentence.strip(),
                     direction=direction,
                     turn=turn,
-                    degrees=turn_degrees(sentence),
+                    degrees=turn_degrees(main),
+                    reading=_with_target(read_motion(main), target),
+                    gravity=_with_target(read_motion(gravity), target) if gravity else None,
+                    main_clause=main,
+                    gravity_clause=gravity,
                 )
             )
     return statements
+
+
+def step_size(clause: str) -> str | None:
+    """The step's size a clause states ('0.09 scene units', '0.42 m'), or None."""
+    found = _STEP.search(clause)
+    return f"{found.group(1)} {found.group(2)}" if found else None
 
 
 def pick_statement(
@@ -102,4 +148,5 @@ __all__ = [
     "motion_statements",
     "not_a_motion_question",
     "pick_statement",
+    "step_size",
 ]

@@ -45,3 +45,35 @@ def motion_scene_scale(recon: Reconstruction, usable: list[int]) -> float:
     centers = recon.camera_centers()[usable] if usable else np.zeros((0, 3))
     extent = robust_extent(centers) if len(centers) else 0.0
     return extent if extent > _TINY and np.isfinite(extent) else 1.0
+
+
+def pixel_point(recon: Reconstruction, view: int, u: float, v: float) -> np.ndarray | None:
+    """The surface an object at pixel (u, v) of `view` lies on: the nearest reconstructed points there.
+
+    Of the points projecting within a small radius (2% of the image's longer side, at least 4 px),
+    the nearest quarter by depth is taken (farther ones are behind the object) and their median
+    returned; None when no point projects there.
+    """
+    rotation, translation = recon.extrinsics[view][:3, :3], recon.extrinsics[view][:3, 3]
+    camera_points = recon.points.astype(np.float64) @ rotation.T + translation
+    depth = camera_points[:, 2]
+    front = depth > _TINY
+    if not np.any(front):
+        return None
+    projected = camera_points[front] @ recon.intrinsics[view].T
+    pixels = projected[:, :2] / projected[:, 2:3]
+    radius = max(4.0, 0.02 * float(max(recon.image_sizes[view])))
+    near = np.linalg.norm(pixels - np.array([u, v]), axis=1) <= radius
+    if not np.any(near):
+        return None
+    candidates = recon.points[front][near].astype(np.float64)
+    order = np.argsort(depth[front][near])
+    nearest = candidates[order[: max(1, len(order) // 4)]]
+    return np.median(nearest, axis=0)
+
+
+def scene_centre(recon: Reconstruction, usable: list[int]) -> np.ndarray:
+    """The median of the points (of the usable camera centres when there are none)."""
+    if recon.num_points:
+        return np.median(recon.points.astype(np.float64), axis=0)
+    return np.median(recon.camera_centers()[usable], axis=0)

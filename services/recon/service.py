@@ -20,7 +20,7 @@ from services.recon.checkpoints import CATALOGUE, WEIGHTS_ABSENT, locate
 from services.recon.durable import DurableStore
 from services.recon.errors import BackboneNotInstalled, BackboneUnavailable, InvalidInput, SceneNotFound
 from services.recon.jobs import ReconstructionJobs
-from services.recon.motion_inputs import motion_scene_scale, view_pose_problems
+from services.recon.motion_inputs import motion_scene_scale, pixel_point, scene_centre, view_pose_problems
 from services.recon.offload import run_cpu, run_in_daemon_thread
 from services.recon.scene_store import (
     SceneInput,
@@ -33,11 +33,12 @@ from services.recon.shared_scenes import SharedScenes
 from services.recon.store_gc import StoreCollector
 from services.recon.tenants import SceneIds, load_or_create_secret
 from shared.geometry.camera_motion import CameraMotion, UnknownMotion, describe_pairs
-from shared.geometry.poses import estimate_up_axis, validate_extrinsic
+from shared.geometry.poses import estimate_up_axis, up_is_reliable, validate_extrinsic
 from shared.geometry.reconstruction import Reconstruction
 from shared.geometry.rendering import synthesize_novel_view
 from shared.imaging.codecs import decode_image, encode_image
 from shared.wire.access import DEFAULT_TENANT
+from shared.wire.schemas import MotionTarget
 from shared.wire.settings import ReconSettings
 
 log = logging.getLogger("pyspatial.recon")
@@ -326,6 +327,7 @@ class ReconService:
         scene_id: str,
         pairs: list[tuple[int, int]] | None,
         backbone: str | None,
+        target: MotionTarget | None = None,
         tenant: str = DEFAULT_TENANT,
     ) -> tuple[Reconstruction, list[CameraMotion | UnknownMotion], float]:
         """Per pair a description or why there is none; (reconstruction, motions, scene scale)."""
@@ -334,11 +336,11 @@ class ReconService:
             raise InvalidInput(f"{len(pairs)} view pairs; one camera-motion request takes at most {limit}")
         outcome = await self.reconstruct(scene_id, backbone, tenant)
         recon = outcome.reconstruction
-        motions, scale = await run_cpu(self._describe_motion, recon, pairs)
+        motions, scale = await run_cpu(self._describe_motion, recon, pairs, target)
         return recon, motions, scale
 
     def _describe_motion(
-        self, recon: Reconstruction, pairs: list[tuple[int, int]] | None
+        self, recon: Reconstruction, pairs: list[tuple[int, int]] | None, target: MotionTarget | None = None
     ) -> tuple[list[CameraMotion | UnknownMotion], float]:
         views = recon.num_views
         if views < 2:
@@ -351,8 +353,17 @@ class ReconService:
         usable = [index for index, problem in enumerate(problems) if problem is None]
         up = estimate_up_axis(recon.extrinsics[usable]) if usable else None
         scale = motion_scene_scale(recon, usable)
+        aim = _target_point(recon, target, usable, problems)
         motions = describe_pairs(
-            recon.extrinsics, problems, pairs=pairs, up=up, scene_scale=scale, units=recon.units or "relative"
+            recon.extrinsics,
+            problems,
+            pairs=pairs,
+            up=up,
+            scene_scale=scale,
+            units=recon.units or "relative",
+            # The up above is estimated: the gravity frame is said only when the headings fix it.
+            up_reliable=bool(usable) and up_is_reliable(recon.extrinsics[usable]),
+            **aim,
         )
         return motions, scale
 
@@ -365,6 +376,36 @@ def _durable_store(settings: ReconSettings) -> tuple[DurableStore | None, str | 
         return DurableStore(settings.store_dir), None
     except OSError as error:
         return None, storage_error("create the durable store", error).message
+
+
+def _target_point(
+    recon: Reconstruction, target: MotionTarget | None, usable: list[int], problems: list[str | None]
+) -> dict[str, object]:
+    """The request's target as describe_pairs' `target` and `target_name` ({} without one)."""
+    if target is None:
+        return {}
+    chosen = [target.point is not None, target.pixel is not None, target.scene_centre]
+    if sum(chosen) != 1:
+        raise InvalidInput("a camera-motion target is exactly one of point, pixel or scene_centre")
+    if target.point is not None:
+        return {
+            "target": np.asarray(target.point, dtype=np.float64),
+            "target_name": target.name or "the target point",
+        }
+    if target.scene_centre:
+        return {"target": scene_centre(recon, usable), "target_name": target.name or "the scene's centre"}
+    pixel = target.pixel
+    assert pixel is not None
+    if pixel.view >= recon.num_views or problems[pixel.view] is not None:
+        why = problems[pixel.view] if pixel.view < recon.num_views else "it is out of range"
+        raise InvalidInput(f"the target pixel's view {pixel.view} has no usable pose: {why}")
+    point = pixel_point(recon, pixel.view, pixel.u, pixel.v)
+    if point is None:
+        raise InvalidInput(
+            f"no reconstructed point lies at pixel ({pixel.u:g}, {pixel.v:g}) of view {pixel.view}"
+        )
+    name = target.name or f"the object at pixel ({pixel.u:g}, {pixel.v:g}) of view {pixel.view + 1}"
+    return {"target": point, "target_name": name}
 
 
 def _validated_pose(extrinsic: list[list[float]]) -> np.ndarray:

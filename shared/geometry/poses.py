@@ -86,6 +86,20 @@ def estimate_up_axis(extrinsics: np.ndarray) -> np.ndarray:
     return reference
 
 
+def up_is_reliable(extrinsics: np.ndarray) -> bool:
+    """Whether `estimate_up_axis` fixes up from the cameras rather than assuming their images are upright.
+
+    With headings that spread (x axes spanning a plane), up is the normal to all x axes whatever
+    each photo's roll; with alike headings it is the mean image up, which a set of photos all held
+    sideways would put sideways too, so it is no gravity frame.
+    """
+    rotations = _rotations(extrinsics)
+    if len(rotations) < 2:
+        return False
+    singular = np.linalg.svd(rotations[:, 0, :], compute_uv=False)
+    return bool(singular[1] > _HEADING_SPREAD * singular[0])
+
+
 def _unit_up(up: np.ndarray | None, rotation: np.ndarray) -> np.ndarray:
     if up is None:
         return -rotation[1]

@@ -230,7 +230,8 @@ _HYPOTHETICAL = re.compile(
 )
 _MOTION_VERB = re.compile(
     r"\b(?:move|moved|moving|movement|walk|walked|travel(?:l?ed)?|went|step(?:ped)?|shift(?:ed)?|"
-    r"turn|turned|rotate|rotated|rotation|displace(?:d|ment)?|translat(?:e|ed|ion))\b",
+    r"turn|turned|rotate|rotated|rotation|displace(?:d|ment)?|translat(?:e|ed|ion)|motion|"
+    r"tilt(?:ed)?|pitch(?:ed)?|roll(?:ed)?|pan(?:ned)?|yaw(?:ed)?)\b",
     re.IGNORECASE,
 )
 _TURN_VERB = re.compile(r"\b(?:turn|turned|turning|rotate|rotated|rotating|rotation|face|facing)\b", re.I)

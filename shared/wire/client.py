@@ -22,6 +22,7 @@ from shared.wire.schemas import (
     TENANT_HEADER,
     CameraMotionResponse,
     ErrorEvent,
+    MotionTarget,
     PointCloudPreview,
     Readiness,
     ReconstructionSummary,
@@ -278,12 +279,17 @@ class ReconClient(_ServiceClient):
         return PointCloudPreview.model_validate_json(response.content)
 
     def camera_motion(
-        self, scene_id: str, pairs: Sequence[tuple[int, int]] | None = None, backbone: str | None = None
+        self,
+        scene_id: str,
+        pairs: Sequence[tuple[int, int]] | None = None,
+        backbone: str | None = None,
+        target: MotionTarget | None = None,
     ) -> CameraMotionResponse:
         body = {
             "scene_id": scene_id,
             "pairs": [list(p) for p in pairs] if pairs else None,
             "backbone": backbone,
+            "target": target.model_dump(exclude_none=True) if target is not None else None,
         }
         return CameraMotionResponse.model_validate(
             self._request("POST", "/v1/camera-motion", json=body).json()

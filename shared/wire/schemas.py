@@ -130,10 +130,63 @@ class RenderRequest(_Model):
     backbone: str | None = None
 
 
+class PixelTarget(_Model):
+    """An object located by a pixel of one photo: the nearest reconstructed surface there."""
+
+    view: Annotated[int, Field(ge=0, description="0-based view the pixel is in.")]
+    u: Annotated[float, Field(description="Column, in that photo's pixels.")]
+    v: Annotated[float, Field(description="Row, in that photo's pixels.")]
+
+
+class MotionTarget(_Model):
+    """What "closer to" / "farther from" is measured against: exactly one of the three."""
+
+    point: tuple[float, float, float] | None = Field(None, description="A world point.")
+    pixel: PixelTarget | None = None
+    scene_centre: bool = Field(False, description="The median of the reconstructed points.")
+    name: str | None = Field(None, max_length=80, description="How the sentences call it ('the chair').")
+
+
 class CameraMotionRequest(_Model):
     scene_id: str
     pairs: list[tuple[int, int]] | None = Field(None, description="0-based view pairs; consecutive if unset.")
     backbone: str | None = None
+    target: MotionTarget | None = Field(
+        None, description="Say per pair whether the camera came closer to it."
+    )
+
+
+class FrameMotionItem(_Model):
+    """One pair's motion read in one frame."""
+
+    frame: Literal["image", "gravity"] = Field(
+        ..., description="image: the first view's camera axes; gravity: the scene's estimated or given up."
+    )
+    right: float = Field(..., description="Step along the frame's right axis (units of the reconstruction).")
+    up: float = Field(..., description="Step along the frame's up axis.")
+    forward: float = Field(..., description="Step along the frame's forward axis.")
+    direction: str = Field(..., description="Compass direction in the right-forward plane, or no movement.")
+    vertical_direction: str | None = Field(None, description="'up', 'down', or null when not significant.")
+    turn_deg: float = Field(..., description="Turn (pan, yaw); + = left.")
+    tilt_deg: float = Field(..., description="Tilt (pitch); + = up.")
+    roll_deg: float = Field(
+        ...,
+        description="Roll; + = clockwise seen from behind the camera (the photo turns the other way).",
+    )
+    phrase: str = Field(
+        ..., description="This frame's words, e.g. 'moved down and tilted up by about 8 degrees'."
+    )
+
+
+class MotionThresholds(_Model):
+    """Below these a step or a rotation is not said; below all of them the camera stayed still."""
+
+    distance: float = Field(..., description="Smallest step said (units of the reconstruction).")
+    distance_fraction_of_scene: float = Field(..., description="`distance` as a fraction of `scene_scale`.")
+    scene_scale: float
+    turn_deg: float
+    tilt_deg: float
+    roll_deg: float
 
 
 class BackboneEntry(_Model):
@@ -169,6 +222,23 @@ class CameraMotionItem(_Model):
     turn: str | None = Field(None, description="The turn in words, e.g. 'turned left by about 90 degrees'.")
     sentence: str = Field(..., description="The motion in one sentence, or that it is unknown and why.")
     units: Units | None = Field(None, description="Units of distance and vertical (null when unknown).")
+    image: FrameMotionItem | None = Field(
+        None, description="In the first view's camera axes (the sentence's frame)."
+    )
+    gravity: FrameMotionItem | None = Field(
+        None, description="In the scene's gravity frame; null when up is not reliably known."
+    )
+    frames_differ: bool | None = Field(
+        None, description="The two frames' words differ; the sentence gives both."
+    )
+    still: bool | None = Field(None, description="Below every threshold: the camera stayed still.")
+    thresholds: MotionThresholds | None = None
+    target_change: Literal["closer", "farther", "same distance"] | None = Field(
+        None, description="Camera j against camera i, relative to the request's target."
+    )
+    target_distances: list[float] | None = Field(
+        None, description="Camera i's and j's distances to the target."
+    )
 
 
 class CameraMotionResponse(_Model):
