@@ -26,7 +26,10 @@ from pydantic import BaseModel
 
 from shared.questions.intent import PoseStep, QuestionIntent, view_references
 
-ProgramKind = Literal["motion", "behind", "left", "right", "front", "turn_and_move", "around"]
+ProgramKind = Literal[
+    "motion", "behind", "left", "right", "front", "front-left", "front-right", "back-left", "back-right",
+    "turn_and_move", "around",
+]
 # Kept under its old name: the kind of program the planner wrote.
 Family = ProgramKind
 
@@ -145,6 +148,10 @@ _LOOK = {
     "left": "pySpatial.rotate_left(pose, angle=90)",
     "right": "pySpatial.rotate_right(pose, angle=90)",
     "front": "pose",
+    "front-left": "pySpatial.rotate_left(pose, angle=45)",
+    "front-right": "pySpatial.rotate_right(pose, angle=45)",
+    "back-left": "pySpatial.rotate_left(pose, angle=135)",
+    "back-right": "pySpatial.rotate_right(pose, angle=135)",
 }
 
 
@@ -205,7 +212,7 @@ def _motion_plan(first: int, second: int, intent: QuestionIntent) -> PlannedProg
 
 
 def _surrounding_plan(side: str, view: int, intent: QuestionIntent) -> PlannedProgram:
-    name = "ahead" if side == "front" else side
+    name = "ahead" if side == "front" else side.replace("-", "_")
     source = _SURROUNDING.format(index=view - 1, view=view, name=name, turn=_LOOK[side])
     of = f" {intent.target_object}" if intent.target_object else ""
     return PlannedProgram(
