@@ -72,7 +72,7 @@ def test_prompt_has_the_api_specification_and_conventions() -> None:
     text = prompt_text(build_codegen_messages(INTENT, [PNG, PNG]))
     for signature in (
         "pySpatial.reconstruct(scene) -> Reconstruction",
-        "pySpatial.describe_camera_motion(recon) -> str",
+        "pySpatial.describe_camera_motion(recon, from_view=None, to_view=None) -> str",
         "pySpatial.synthesize_novel_view(recon, new_extrinsic, width=512, height=512) -> Image",
         "pySpatial.rotate_left(extrinsic, angle=45)",
         "pySpatial.rotate_right(extrinsic, angle=45)",
@@ -123,7 +123,7 @@ def test_images_follow_the_text_in_order_or_not_at_all() -> None:
 
 def test_template_is_versioned_and_strict() -> None:
     template = load_template("codegen")
-    assert (template.name, template.version, template.id) == ("codegen", 2, "codegen_v2")
+    assert (template.name, template.version, template.id) == ("codegen", 3, "codegen_v3")
     assert template.fields == {"examples", "photos", "question"}
     assert load_template("codegen_v1").fields == {"examples", "num_images", "question"}  # still there
     with pytest.raises(PromptError, match="missing fields"):

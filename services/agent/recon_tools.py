@@ -39,9 +39,11 @@ class ReconToolProvider:
             "units": summary.units,
         }
 
-    def describe_camera_motion(self) -> list[str]:
-        """One sentence per pair: its motion, or that it is unknown and why (never fails for one view)."""
-        response = self.client.camera_motion(self.scene_id, backbone=self.backbone)
+    def describe_camera_motion(self, pair: tuple[int, int] | None = None) -> list[str]:
+        """One sentence per pair: its motion, or that it is unknown and why (never fails for one view).
+        `pair` (1-based from and to view): that pair's sentence alone; None: the consecutive pairs."""
+        views = {"from_view": pair[0], "to_view": pair[1]} if pair else {}
+        response = self.client.camera_motion(self.scene_id, backbone=self.backbone, **views)
         return [motion.sentence for motion in response.motions]
 
     def synthesize_novel_view(self, extrinsic: list[list[float]], width: int, height: int) -> bytes:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from shared.questions.intent import QuestionIntent
 
@@ -131,7 +131,28 @@ class RenderRequest(_Model):
 class CameraMotionRequest(_Model):
     scene_id: str
     pairs: list[tuple[int, int]] | None = Field(None, description="0-based view pairs; consecutive if unset.")
+    from_view: int | None = Field(
+        None, ge=1, description="With to_view: the one pair from_view -> to_view, 1-based as the sentences "
+        "and questions count views (any pair, not only consecutive ones). Not together with pairs."
+    )
+    to_view: int | None = Field(None, ge=1, description="See from_view.")
     backbone: str | None = None
+
+    @model_validator(mode="after")
+    def _one_way_to_name_pairs(self) -> CameraMotionRequest:
+        if (self.from_view is None) != (self.to_view is None):
+            raise ValueError("from_view and to_view go together")
+        if self.from_view is not None and self.pairs is not None:
+            raise ValueError("give either pairs or from_view and to_view, not both")
+        if self.from_view is not None and self.from_view == self.to_view:
+            raise ValueError("from_view and to_view must be different views")
+        return self
+
+    def requested_pairs(self) -> list[tuple[int, int]] | None:
+        """The 0-based pairs asked for; None: the default (consecutive) pairs."""
+        if self.from_view is not None and self.to_view is not None:
+            return [(self.from_view - 1, self.to_view - 1)]
+        return self.pairs
 
 
 class BackboneEntry(_Model):
