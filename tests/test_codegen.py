@@ -329,7 +329,7 @@ def test_an_identical_program_is_never_run_again(llm: ScriptedLLM, client: ChatC
     temperatures = [request["body"]["temperature"] for request in llm.requests()]
     assert temperatures[0] == 0.0 and temperatures[1] > temperatures[0] and temperatures[2] > temperatures[1]
     repair = llm.requests()[2]["messages"][-1]["content"]
-    assert "same program as before" in repair and "pySpatial.camera_center" in repair
+    assert "identical to attempt 1" in repair and "pySpatial.camera_center" in repair
 
 
 @pytest.mark.parametrize(

@@ -23,14 +23,16 @@ class ReconToolProvider:
         self.backbone_used: str | None = None
         # What each rendered PNG was rendered from, so the clue can say so (keyed by its bytes).
         self.rendered_poses: dict[bytes, tuple[list[list[float]], int, int]] = {}
+        self.view_extrinsics: list[list[list[float]]] = []  # the input views' poses (NaN: not placed)
 
     def reconstruct(self) -> dict:
         summary = self.client.reconstruct(self.scene_id, self.backbone)
         self.backbone_used = summary.backbone
         nan_pose = np.full((3, 4), np.nan).tolist()  # unregistered views: no pose to invent
         nan_intrinsic = np.full((3, 3), np.nan).tolist()
+        self.view_extrinsics = [c.extrinsic if c.registered else nan_pose for c in summary.cameras]
         return {
-            "extrinsics": [c.extrinsic if c.registered else nan_pose for c in summary.cameras],
+            "extrinsics": list(self.view_extrinsics),
             "intrinsics": [nan_intrinsic if c.intrinsic is None else c.intrinsic for c in summary.cameras],
             "image_sizes": [[c.width, c.height] for c in summary.cameras],
             "registered": [c.registered for c in summary.cameras],

@@ -391,6 +391,9 @@ class ReconstructionStep(StepRecord):
     cameras: list[CameraInfo] = Field(default_factory=list, exclude=True, repr=False)
 
 
+ProgramSource = Literal["model", "repaired-model", "planner"]
+
+
 class ProgramStep(StepRecord):
     """One program asked for: a code model's reply (first or a repair), or the offline planner's."""
 
@@ -405,6 +408,9 @@ class ProgramStep(StepRecord):
     )
     program: str | None = Field(
         None, description="The program handed to the sandbox; null when none was (see error_kind)."
+    )
+    fallback: bool = Field(
+        False, description="The offline planner's program, asked for after the code model's attempts failed."
     )
     error_kind: str | None = Field(
         None, description="no_program, too_long, repeated, model (the model failed), unplannable."
@@ -479,6 +485,12 @@ class SolveResponse(_Model):
     code_model_fallback: str | None = Field(
         None,
         description="Why the configured code model did not write the program (it failed; the planner did).",
+    )
+    program_source: ProgramSource | None = Field(
+        None,
+        description="Who wrote the program that ran: 'model' (the code model's first program), "
+        "'repaired-model' (the code model's, after repairs), 'planner' (the offline planner: no code "
+        "model, or after the model's attempts failed; those stay in `attempts`); null when none ran.",
     )
     answer_model: str = Field(..., description="What answered: model name, or 'offline-answerer'.")
     answer_method: str | None = Field(
