@@ -33,7 +33,7 @@ from pathlib import Path
 from evaluation.dataset import BenchmarkItem, read_mindcube
 from evaluation.exact_scenes import ExactSceneUploader
 from shared.local.services import running_service
-from shared.questions.choices import extract_letter
+from shared.questions.choices import read_choice
 from shared.synthetic import make_dataset
 from shared.wire.client import AgentClient, ReconClient, ServiceError, ServiceUnreachable
 from shared.wire.schemas import SolveResponse
@@ -178,7 +178,7 @@ def main(argv: list[str] | None = None) -> int:
         families: list[str] = []
         records = []
         for item in items:
-            truth = extract_letter(item.gt_answer) or item.gt_answer
+            truth = read_choice(item.gt_answer) or item.gt_answer
             scene_id = uploader.scene_id(item)
             families.append(item.type or "unknown")
             for run, agent in ((model_run, model_agent), (offline_run, offline_agent)):

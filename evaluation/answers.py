@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import re
 
-from shared.questions.choices import extract_letter
+from shared.questions.choices import read_choice
 from shared.questions.intent import QuestionIntent
 
 _NUMBER_WORDS = {
@@ -29,7 +29,7 @@ def answer_letter(text: str | None, intent: QuestionIntent | None = None) -> str
     if not text:
         return None
     options = intent.options if intent is not None else {}
-    return extract_letter(text, valid_letters=options or None)
+    return read_choice(text, options or None)
 
 
 def tagged_answer(text: str) -> str:

@@ -72,7 +72,7 @@ def test_prompt_has_the_api_specification_and_conventions() -> None:
     text = prompt_text(build_codegen_messages(INTENT, [PNG, PNG]))
     for signature in (
         "pySpatial.reconstruct(scene) -> Reconstruction",
-        "pySpatial.describe_camera_motion(recon) -> str",
+        "pySpatial.describe_camera_motion(recon, from_view=None, to_view=None) -> str",
         "pySpatial.synthesize_novel_view(recon, new_extrinsic, width=512, height=512) -> Image",
         "pySpatial.rotate_left(extrinsic, angle=45)",
         "pySpatial.rotate_right(extrinsic, angle=45)",
@@ -123,7 +123,7 @@ def test_images_follow_the_text_in_order_or_not_at_all() -> None:
 
 def test_template_is_versioned_and_strict() -> None:
     template = load_template("codegen")
-    assert (template.name, template.version, template.id) == ("codegen", 2, "codegen_v2")
+    assert (template.name, template.version, template.id) == ("codegen", 3, "codegen_v3")
     assert template.fields == {"examples", "photos", "question"}
     assert load_template("codegen_v1").fields == {"examples", "num_images", "question"}  # still there
     with pytest.raises(PromptError, match="missing fields"):
@@ -329,7 +329,7 @@ def test_an_identical_program_is_never_run_again(llm: ScriptedLLM, client: ChatC
     temperatures = [request["body"]["temperature"] for request in llm.requests()]
     assert temperatures[0] == 0.0 and temperatures[1] > temperatures[0] and temperatures[2] > temperatures[1]
     repair = llm.requests()[2]["messages"][-1]["content"]
-    assert "same program as before" in repair and "pySpatial.camera_center" in repair
+    assert "identical to attempt 1" in repair and "pySpatial.camera_center" in repair
 
 
 @pytest.mark.parametrize(

@@ -92,14 +92,35 @@ REPAIRED_EVENTS = [
     ("answer", "started", "answering with answerer"),
     ("answer", "done", "B"),
 ]
+UNPLANNABLE = (
+    "the offline planner has no program for this question: an occlusion question (what hides what, "
+    "what is visible) is about objects in the photos; no tool output states it in words, so only a "
+    "vision model can answer it"
+)
 IMAGES_ONLY_EVENTS = [
     *RECONSTRUCTED,
     ("program", "started", "writing a program with coder"),
     ("program", "done", "attempt 1 written"),
     ("execution", "started", "running attempt 1 in the sandbox"),
     ("execution", "failed", "program raised ValueError"),
+    ("program", "started", "the code model's attempts failed: offline planner"),
+    ("program", "failed", UNPLANNABLE),
     ("answer", "started", "answering from the photos alone with answerer"),
     ("answer", "done", "A"),
+]
+# The model's only attempt fails and the planner has a program: it runs, labelled as the planner's.
+PLANNER_FALLBACK_EVENTS = [
+    *RECONSTRUCTED,
+    ("program", "started", "writing a program with coder"),
+    ("program", "done", "attempt 1 written"),
+    ("execution", "started", "running attempt 1 in the sandbox"),
+    ("execution", "failed", "program raised ValueError"),
+    ("program", "started", "the code model's attempts failed: offline planner"),
+    ("program", "done", "attempt 2 written by the offline planner (fallback)"),
+    ("execution", "started", "running attempt 2 in the sandbox"),
+    ("execution", "done", "attempt 2 ran"),
+    ("answer", "started", "answering with answerer"),
+    ("answer", "done", "B"),
 ]
 CANNOT_RECONSTRUCT = (
     "the posed-rgbd backbone could not reconstruct the scene: backbone posed-rgbd cannot reconstruct "
@@ -114,11 +135,6 @@ RECONSTRUCTION_422_EVENTS = [
     ("answer", "failed", CANNOT_RECONSTRUCT + "; answering from the photos alone needs an answer model "
      "(PYSPATIAL_ANSWER_MODEL)"),
 ]  # fmt: skip
-UNPLANNABLE = (
-    "the offline planner has no program for this question: an occlusion question (what hides what, "
-    "what is visible) is about objects in the photos; no tool output states it in words, so only a "
-    "vision model can answer it"
-)
 UNPLANNABLE_EVENTS = [
     *RECONSTRUCTED,
     ("program", "started", "writing a program with offline-planner"),
@@ -245,16 +261,37 @@ def test_images_only_fallback_is_an_answer_step_from_the_photos(stack, llm):
     llm.script([SHAPE_ERROR_REPLY], model="coder")
     llm.script(['{"reasoning": "from the photos", "answer": "A"}'], model="answerer")
     events, result = solve_streamed(
-        stack.model_agent, question=MOTION_QUESTION, scene_id=stack.scene_id, max_repairs=0
+        stack.model_agent, question=OCCLUSION_QUESTION, scene_id=stack.scene_id, max_repairs=0
     )
     assert events == IMAGES_ONLY_EVENTS
     assert replayed(result) == events
-    assert kinds(result) == ["scene", "reconstruction", "program", "execution", "answer"]
+    assert kinds(result) == ["scene", "reconstruction", "program", "execution", "program", "answer"]
+    assert result.steps[4].fallback and result.steps[4].error_kind == "unplannable"
+    assert result.program_source is None
     answer = result.steps[-1]
     assert answer.from_photos and answer.answerer == "answerer" and answer.answer == "A"
     assert result.fallback == "images_only" and result.program is None
     assert result.steps[3].error == result.attempts[0].error
     assert_timed(result)
+
+
+def test_planner_fallback_after_the_models_attempts_is_labelled(stack, llm):
+    llm.reset()
+    llm.script([SHAPE_ERROR_REPLY], model="coder")
+    llm.script([ANSWER_REPLY], model="answerer")
+    events, result = solve_streamed(
+        stack.model_agent, question=MOTION_QUESTION, scene_id=stack.scene_id, max_repairs=0
+    )
+    assert events == PLANNER_FALLBACK_EVENTS
+    assert replayed(result) == events
+    assert result.program_source == "planner" and result.code_model.startswith("offline-planner (fallback")
+    assert "coder's 1 attempt(s) failed" in result.code_model_fallback
+    model_attempt, planner_attempt = result.attempts  # the model's attempt stays in the record
+    assert model_attempt.reply is not None and "ValueError" in model_attempt.error
+    assert planner_attempt.reply is None and planner_attempt.program == result.program
+    assert "describe_camera_motion(recon, 1, 2)" in result.program
+    program_steps = [s for s in result.steps if s.kind == "program"]
+    assert [(s.author, s.fallback) for s in program_steps] == [("coder", False), ("offline-planner", True)]
 
 
 def test_a_scene_the_backbone_cannot_reconstruct(stack):
@@ -299,11 +336,12 @@ def test_a_repair_is_announced_only_when_the_model_is_asked_again(stack, llm):
     events, result = solve_streamed(
         stack.model_agent, question=MOTION_QUESTION, scene_id=stack.scene_id, max_repairs=1
     )
-    assert [(stage, state) for stage, state, _ in events].count(("program", "started")) == 1
-    assert events[-2:] == [
-        ("answer", "started", "answering from the photos alone with answerer"),
-        ("answer", "done", "B"),
-    ]
+    model_starts = [e for e in events if e[:2] == ("program", "started") and "offline planner" not in e[2]]
+    assert len(model_starts) == 1
+    # The model's attempts ran out: the planner's program (labelled) gave the clue the answerer read.
+    assert ("program", "done", "attempt 2 written by the offline planner (fallback)") in events
+    assert events[-2:] == [("answer", "started", "answering with answerer"), ("answer", "done", "B")]
+    assert result.program_source == "planner"
     assert replayed(result) == events
 
 

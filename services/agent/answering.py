@@ -16,7 +16,6 @@ replies are read, its offline rule); every function here hands such questions to
 
 from __future__ import annotations
 
-import re
 from typing import Any
 
 from services.agent import free_form
@@ -38,7 +37,9 @@ from services.agent.motion_clue import (
     unreadable_clue,
 )
 from services.agent.prompts import load_template
-from shared.questions.choices import extract_letter
+from shared.questions.choices import (
+    read_choice,
+)
 from shared.questions.intent import QuestionIntent
 from shared.questions.motion_words import agrees, asked_motion, read_motion
 
@@ -107,34 +108,22 @@ def build_answer_messages(
     return [{"role": "user", "content": content}]
 
 
-def _option_named(text: str, options: dict[str, str]) -> str | None:
-    """The letter of the only option whose text the reply contains (whole words), else None."""
-    named = [
-        letter
-        for letter, option in options.items()
-        if option and re.search(rf"(?<!\w){re.escape(option.lower())}(?!\w)", text.lower())
-    ]
-    return named[0] if len(named) == 1 else None
-
-
 def read_model_answer(text: str, options: dict[str, str]) -> AnswerResult:
     """Interpret an answer model's reply (JSON, a letter in prose, or an option's text); with no
     options, the reply is a free-form answer (services/agent/free_form.py)."""
     if not options:
         return free_form.read_reply(text)
     letters = sorted(options)
-    valid = letters or None
     data = json_object(text)
     if data is not None and "answer" in data:
         reasoning = str(data.get("reasoning") or "")
-        stated = str(data["answer"]).strip()
-        letter = extract_letter(stated, valid) or _option_named(stated, options)
+        letter = read_choice(str(data["answer"]).strip(), options)
         if letter:
             return AnswerResult(answer=letter, reasoning=reasoning, raw=text, method="model_json")
-    letter = extract_letter(text, valid)
+    letter = read_choice(text, letters)
     if letter:
         return AnswerResult(answer=letter, reasoning=text.strip(), raw=text, method="model_text")
-    letter = _option_named(text, options)
+    letter = read_choice(text, options)  # no letter named: the only option whose text it names
     if letter:
         return AnswerResult(answer=letter, reasoning=text.strip(), raw=text, method="model_option_text")
     return AnswerResult(

@@ -35,12 +35,13 @@ from services.agent.example_choice import choose_examples
 from services.agent.llm import ChatClient, ChatReply, LLMError, image_part, text_part
 from services.agent.program_cleanup import UNPARSABLE_ERRORS, clean_program, program_fingerprint
 from services.agent.prompts import load_template
+from services.agent.repair_hints import pointed_hints
 from services.agent.reply_blocks import CodeBlock, code_blocks, defines_function, unfenced_function
 from services.agent.steps import SolveLog
 from shared.questions.intent import QuestionIntent
 from shared.wire.schemas import ProgramStep
 
-DEFAULT_TEMPLATE = "codegen_v2"
+DEFAULT_TEMPLATE = "codegen_v3"
 REPAIR_TEMPLATE = "repair_v2"
 MAX_EXAMPLES = 6  # the examples in the latest codegen_examples_v<N>.md
 DEFAULT_MAX_REPLY_CHARS = 60_000
@@ -244,9 +245,11 @@ _HINTS: list[tuple[re.Pattern[str], str]] = [
 ]
 
 
-def repair_hints(error: str) -> list[str]:
-    """Advice for mistakes code models are known to make, matched on the error text."""
-    return [hint for pattern, hint in _HINTS if pattern.search(error)]
+def repair_hints(error: str, kind: str | None = None, intent: QuestionIntent | None = None) -> list[str]:
+    """The failure class's pointed hint (services/agent/repair_hints.py), then advice for mistakes
+    code models are known to make, matched on the error text."""
+    pointed = pointed_hints(error, kind, intent)
+    return [*pointed, *(hint for pattern, hint in _HINTS if pattern.search(error) and hint not in pointed)]
 
 
 def _cut(error: str) -> str:
@@ -280,8 +283,10 @@ class _Loop:
 
     messages: list[dict[str, Any]]
     base_temperature: float
+    intent: QuestionIntent | None = None
     attempts: list[Attempt] = field(default_factory=list)
-    failed: dict[str, tuple[int, str]] = field(default_factory=dict)  # fingerprint -> (attempt, error)
+    # fingerprint -> (attempt, error, error kind) of each program that ran and failed
+    failed: dict[str, tuple[int, str, str | None]] = field(default_factory=dict)
     replies_without_program: set[str] = field(default_factory=set)
     repeats: int = 0
     runs: int = 0  # programs handed to `execute`
@@ -319,7 +324,7 @@ def generate_program(
     if max_repairs < 0:
         raise ValueError(f"max_repairs must be >= 0, got {max_repairs}")
     messages = build_codegen_messages(intent, images_png, num_examples, template_version, attach_images)
-    loop = _Loop(messages, client.config.temperature)
+    loop = _Loop(messages, client.config.temperature, intent)
     log = log or SolveLog()
     for number in range(1, max_repairs + 2):
         step = ProgramStep(attempt=number, author=client.config.model, repairs=loop.repairing)
@@ -414,7 +419,10 @@ def _without_program(reply: ChatReply, attempt: Attempt, loop: _Loop) -> dict[st
     return _no_program_message(reply)
 
 
-def _repeated(attempt: Attempt, loop: _Loop, earlier: int, earlier_error: str) -> dict[str, Any] | None:
+def _repeated(
+    attempt: Attempt, loop: _Loop, earlier: int, earlier_error: str, earlier_kind: str | None
+) -> dict[str, Any] | None:
+    """An identical repair is not run again: the loop asks once more, naming the change, then moves on."""
     loop.repeats += 1
     attempt.error = loop.last_error = (
         f"the same program as attempt {earlier}, which failed: {_cut(earlier_error)} (not run again)"
@@ -422,13 +430,14 @@ def _repeated(attempt: Attempt, loop: _Loop, earlier: int, earlier_error: str) -
     attempt.error_kind, loop.failure = "repeated", "repeated"
     if loop.gives_up():
         return None
+    hints = repair_hints(earlier_error, earlier_kind, loop.intent)
     return _repair_message(
-        f"You sent the same program as before (attempt {earlier}); it was not run again.",
-        f"It fails with:\n{_cut(earlier_error)}",
-        [
-            "Change the code that raises the error; do not send the same program.",
-            *repair_hints(earlier_error),
-        ],
+        f"Your program is identical to attempt {earlier}, which failed; it was not run again. "
+        "Send a program that differs from it where the hints below say.",
+        f"Attempt {earlier} failed with:\n{_cut(earlier_error)}",
+        [*hints, "The program you sent is unchanged: change at least the line the first hint names."]
+        if hints
+        else ["Change the code that raises the error; do not send the same program."],
     )
 
 
@@ -447,9 +456,22 @@ def _run(
     attempt.error = loop.last_error = error
     attempt.error_kind = outcome[3] if len(outcome) > 3 and outcome[3] else "execution"
     loop.failure = "execution"
-    loop.failed[program_fingerprint(program)] = (number, error)
+    loop.failed[program_fingerprint(program)] = (number, error, attempt.error_kind)
     loop.repairing = loop.runs
-    return None, _repair_message("Your program failed.", f"Error:\n{_cut(error)}", repair_hints(error))
+    hints = repair_hints(error, attempt.error_kind, loop.intent)
+    problem = _PROBLEMS.get(attempt.error_kind or "", "Your program failed.")
+    return None, _repair_message(problem, f"Error:\n{_cut(error)}", hints)
+
+
+# What the repair request says first, per failure class (the hints then name the fix).
+_PROBLEMS = {
+    "wrong_view": "Your program ran, but its clue is about other views than the question asks.",
+    "answer_letter": "Your program returned an answer instead of a clue.",
+    "not_evidence": "Your program returned text it wrote itself instead of a tool's output.",
+    "empty_clue": "Your program returned an empty clue.",
+    "rejected": "Your program was rejected before it ran.",
+    "timeout": "Your program ran out of time.",
+}
 
 
 __all__ = [

@@ -3,10 +3,8 @@
 It takes the question's intent (shared.questions.intent: parsed once) and writes the program a careful
 person would write; the program then runs under the same sandbox as model-written ones. Kinds:
 
-- "motion" (self-movement): how the camera moved from view i to view j. Consecutive pairs come from
-  describe_camera_motion; any other pair is computed in the program from the two extrinsics, with the
-  conventions of shared/geometry/camera_motion.py (scene up = mean of the cameras' -y axes, turn positive =
-  left), and printed as the same kind of sentence.
+- "motion" (self-movement): how the camera moved from view i to view j: describe_camera_motion of
+  exactly that pair (the recon service describes any pair, consecutive or not).
 - "behind", "left", "right", "front" (relative direction, rotation setting included): what lies in
   that direction from view k, or of the object seen from view k: turn that camera in place and render.
 - "turn_and_move" (what-if): compose the turns and moves in the order asked; closer/farther questions
@@ -26,7 +24,10 @@ from pydantic import BaseModel
 
 from shared.questions.intent import PoseStep, QuestionIntent, view_references
 
-ProgramKind = Literal["motion", "behind", "left", "right", "front", "turn_and_move", "around"]
+ProgramKind = Literal[
+    "motion", "behind", "left", "right", "front", "front-left", "front-right", "back-left", "back-right",
+    "turn_and_move", "around",
+]
 # Kept under its old name: the kind of program the planner wrote.
 Family = ProgramKind
 
@@ -58,52 +59,11 @@ def _check_views(views: list[int], num_images: int) -> None:
             raise PlanningError(f"the question names view {view}, but there are {num_images} image(s)")
 
 
-_MOTION_CONSECUTIVE = """\
+_MOTION = """\
 def program(input_scene):
     recon = pySpatial.reconstruct(input_scene)
-    # View {first} -> view {second} is a consecutive pair: describe_camera_motion has a sentence for it.
-    return pySpatial.describe_camera_motion(recon)
-"""
-
-# For other pairs the program works out the motion itself, with shared/geometry/camera_motion.py's rules.
-_MOTION_PAIR = """\
-def program(input_scene):
-    recon = pySpatial.reconstruct(input_scene)
-    first = np.array(recon.extrinsics[{first_index}], dtype=float)
-    second = np.array(recon.extrinsics[{second_index}], dtype=float)
-    up = recon.up
-    if up is None:
-        # Scene up as the recon service estimates it: the mean of the cameras' -y axes (y points down).
-        ups = [-pose[1, :3] for pose in recon.extrinsics if all(np.isfinite(pose[1, :3]))]
-        up = np.sum(np.array(ups), axis=0)
-    up = np.array(up, dtype=float) / np.linalg.norm(up)
-    forward_first = first[2, :3] - np.dot(first[2, :3], up) * up
-    forward_first = forward_first / np.linalg.norm(forward_first)
-    forward_second = second[2, :3] - np.dot(second[2, :3], up) * up
-    forward_second = forward_second / np.linalg.norm(forward_second)
-    right = np.cross(forward_first, up)
-    center_first = -first[:, :3].T @ first[:, 3]
-    center_second = -second[:, :3].T @ second[:, 3]
-    step = center_second - center_first
-    flat = step - np.dot(step, up) * up
-    angle = float(np.degrees(np.arctan2(np.dot(flat, right), np.dot(flat, forward_first))))
-    names = [
-        "forward", "diagonally forward and right", "right", "diagonally back and right",
-        "backward", "diagonally back and left", "left", "diagonally forward and left",
-    ]
-    direction = names[int(np.floor((angle + 22.5) / 45.0)) % 8]
-    cross = np.dot(np.cross(forward_first, forward_second), up)
-    yaw = float(np.degrees(np.arctan2(cross, np.dot(forward_first, forward_second))))
-    degrees = int(5 * round(abs(yaw) / 5))
-    if abs(yaw) < 10:
-        turn = "without turning significantly"
-    elif degrees >= 180:
-        turn = "and turned around by about 180 degrees"
-    elif yaw > 0:
-        turn = "and turned left by about " + str(degrees) + " degrees"
-    else:
-        turn = "and turned right by about " + str(degrees) + " degrees"
-    return "From view {first} to view {second} the camera moved " + direction + " " + turn + "."
+    # The sentence of exactly the asked pair, view {first} -> view {second} (any pair, consecutive or not).
+    return pySpatial.describe_camera_motion(recon, {first}, {second})
 """
 
 _SURROUNDING = """\
@@ -145,6 +105,10 @@ _LOOK = {
     "left": "pySpatial.rotate_left(pose, angle=90)",
     "right": "pySpatial.rotate_right(pose, angle=90)",
     "front": "pose",
+    "front-left": "pySpatial.rotate_left(pose, angle=45)",
+    "front-right": "pySpatial.rotate_right(pose, angle=45)",
+    "back-left": "pySpatial.rotate_left(pose, angle=135)",
+    "back-right": "pySpatial.rotate_right(pose, angle=135)",
 }
 
 
@@ -187,25 +151,17 @@ def _direction_words(direction: str) -> str:
 
 
 def _motion_plan(first: int, second: int, intent: QuestionIntent) -> PlannedProgram:
-    if second == first + 1:
-        source = _MOTION_CONSECUTIVE.format(first=first, second=second)
-        how = "describe_camera_motion covers this consecutive pair"
-    else:
-        source = _MOTION_PAIR.format(
-            first=first, second=second, first_index=first - 1, second_index=second - 1
-        )
-        how = "the program computes this non-consecutive pair from the two extrinsics"
     return PlannedProgram(
-        source=source,
+        source=_MOTION.format(first=first, second=second),
         family="motion",
-        explanation=f"camera motion from view {first} to view {second}: {how}",
+        explanation=f"camera motion from view {first} to view {second}: describe_camera_motion of that pair",
         views=[first, second],
         intent=intent,
     )
 
 
 def _surrounding_plan(side: str, view: int, intent: QuestionIntent) -> PlannedProgram:
-    name = "ahead" if side == "front" else side
+    name = "ahead" if side == "front" else side.replace("-", "_")
     source = _SURROUNDING.format(index=view - 1, view=view, name=name, turn=_LOOK[side])
     of = f" {intent.target_object}" if intent.target_object else ""
     return PlannedProgram(

@@ -64,7 +64,14 @@ class StageReporter:
             )
 
     def program(self, step: ProgramStep, moment: Moment) -> None:
-        if moment == "started" and not self.program_open:
+        if step.fallback and moment == "started":  # never presented as the model's program
+            self.program_open = True
+            self.progress("program", "started", "the code model's attempts failed: offline planner")
+        elif step.fallback and moment == "finished" and step.program is not None:
+            self.program_open = False
+            written = f"attempt {self.runs + 1} written by the offline planner (fallback)"
+            self.progress("program", "done", written)
+        elif moment == "started" and not self.program_open:
             self.program_open = True
             if step.repairs is None:
                 self.progress("program", "started", f"writing a program with {step.author}")

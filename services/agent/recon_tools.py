@@ -23,14 +23,16 @@ class ReconToolProvider:
         self.backbone_used: str | None = None
         # What each rendered PNG was rendered from, so the clue can say so (keyed by its bytes).
         self.rendered_poses: dict[bytes, tuple[list[list[float]], int, int]] = {}
+        self.view_extrinsics: list[list[list[float]]] = []  # the input views' poses (NaN: not placed)
 
     def reconstruct(self) -> dict:
         summary = self.client.reconstruct(self.scene_id, self.backbone)
         self.backbone_used = summary.backbone
         nan_pose = np.full((3, 4), np.nan).tolist()  # unregistered views: no pose to invent
         nan_intrinsic = np.full((3, 3), np.nan).tolist()
+        self.view_extrinsics = [c.extrinsic if c.registered else nan_pose for c in summary.cameras]
         return {
-            "extrinsics": [c.extrinsic if c.registered else nan_pose for c in summary.cameras],
+            "extrinsics": list(self.view_extrinsics),
             "intrinsics": [nan_intrinsic if c.intrinsic is None else c.intrinsic for c in summary.cameras],
             "image_sizes": [[c.width, c.height] for c in summary.cameras],
             "registered": [c.registered for c in summary.cameras],
@@ -39,9 +41,11 @@ class ReconToolProvider:
             "units": summary.units,
         }
 
-    def describe_camera_motion(self) -> list[str]:
-        """One sentence per pair: its motion, or that it is unknown and why (never fails for one view)."""
-        response = self.client.camera_motion(self.scene_id, backbone=self.backbone)
+    def describe_camera_motion(self, pair: tuple[int, int] | None = None) -> list[str]:
+        """One sentence per pair: its motion, or that it is unknown and why (never fails for one view).
+        `pair` (1-based from and to view): that pair's sentence alone; None: the consecutive pairs."""
+        views = {"from_view": pair[0], "to_view": pair[1]} if pair else {}
+        response = self.client.camera_motion(self.scene_id, backbone=self.backbone, **views)
         return [motion.sentence for motion in response.motions]
 
     def synthesize_novel_view(self, extrinsic: list[list[float]], width: int, height: int) -> bytes:

@@ -44,6 +44,7 @@ def respond(
         backbone=recon.backbone or "",
         code_model=written.code_model,
         code_model_fallback=written.fallback,
+        program_source=written.source if written.program is not None else None,
         answer_model=answer.answered_by or "",
         answer_method=answer.method if answered else None,
         tokens=TokenCounts(

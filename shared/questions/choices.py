@@ -12,7 +12,7 @@ from __future__ import annotations
 import json
 import re
 import string
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 
 from shared.geometry.camera_motion import DIRECTIONS
 
@@ -102,6 +102,26 @@ def _json_answer(text: str) -> str | None:
     return None
 
 
+# "not A", "isn't A", "rather than A", "instead of A": a letter the reply rules out.
+_NEGATED = re.compile(
+    r"(?i:\bnot|\bisn't|\bisn’t|\bnor|\brather\s+than|\binstead\s+of|\bexcept|\bexcluding)"
+    r"\s+(?i:option\s+|choice\s+)?[\(\[]?$"
+)
+
+
+def _negated(plain: str, position: int) -> bool:
+    return bool(_NEGATED.search(plain[max(0, position - 24) : position]))
+
+
+def _keyed_letter(plain: str, allowed: set[str]) -> str | None:
+    keyed = [(m.start(1), m.group(1)) for m in _KEYED_UPPER.finditer(plain)]
+    for match in _KEYED_LOWER.finditer(plain):
+        group = next(index for index in (1, 2, 3) if match.group(index))
+        keyed.append((match.start(group), match.group(group).upper()))
+    keyed = [(position, letter) for position, letter in keyed if letter in allowed]
+    return max(keyed)[1] if keyed else None  # "... not A ... the answer is C": the conclusion comes last
+
+
 def _letter_in(text: str, allowed: set[str]) -> str | None:
     plain = _MARKDOWN.sub("", text).strip()
     if not plain:
@@ -109,11 +129,12 @@ def _letter_in(text: str, allowed: set[str]) -> str | None:
     alone = _ALONE.match(plain)
     if alone and alone.group(1).upper() in allowed:
         return alone.group(1).upper()
-    keyed = [(m.start(), m.group(1)) for m in _KEYED_UPPER.finditer(plain)]
-    keyed += [(m.start(), next(g for g in m.groups() if g).upper()) for m in _KEYED_LOWER.finditer(plain)]
-    keyed = [(position, letter) for position, letter in keyed if letter in allowed]
+    keyed = _keyed_letter(plain, allowed)
     if keyed:
-        return max(keyed)[1]  # "The answer is not A ... the answer is C": the conclusion comes last
+        return keyed
+    last_line = _ALONE.match(plain.splitlines()[-1])  # a reasoning paragraph, then the letter alone
+    if last_line and last_line.group(1).upper() in allowed:
+        return last_line.group(1).upper()
     for pattern in (_LEADING, _LEADING_LOWER):
         leading = pattern.match(plain)
         if leading:
@@ -126,33 +147,66 @@ def _letter_in(text: str, allowed: set[str]) -> str | None:
         # "A chair", "I think": the article and the pronoun are words, not options.
         if letter in "AI" and re.match(r"\s+(?!(?:or|and|nor|vs)\b)[a-z]", plain[match.end() :]):
             continue
-        if letter in allowed:
+        if letter in allowed and not _negated(plain, match.start()):
             found.add(letter)
     return found.pop() if len(found) == 1 else None
 
 
-def extract_letter(text: str, valid_letters: Iterable[str] | None = None) -> str | None:
-    """The option letter an answer names, or None when it names none (or several, ambiguously).
+def _option_named(text: str, options: Mapping[str, str]) -> str | None:
+    """The letter of the only option whose text the reply names (whole words, not ruled out)."""
+    lowered = _MARKDOWN.sub("", text).lower()
+    named = set()
+    for letter, option in options.items():
+        if not option.strip():
+            continue
+        for match in re.finditer(rf"(?<!\w){re.escape(option.strip().lower())}(?!\w)", lowered):
+            if not _negated(lowered, match.start()):
+                named.add(letter)
+    # "front-left" contains "left": keep only options not inside another named option's text.
+    named = {
+        letter
+        for letter in named
+        if not any(
+            other != letter and options[letter].lower() in options[other].lower() for other in named
+        )
+    }
+    return named.pop() if len(named) == 1 else None
 
-    In order: the last ``<answer>...</answer>`` (or ``<ans>``) tag, MindCube's own format; a JSON
-    object's "answer"; then the text with any ``<think>...</think>`` removed: a letter alone ("C",
-    "b)"), the last keyed letter ("Answer: C", "The answer is (B).", "final: b"), a leading letter
-    ("C. the sofa"), or the only standalone capital. When `valid_letters` is given, only those count.
+
+def read_choice(
+    text: str | None, options: Mapping[str, str] | Iterable[str] | None = None
+) -> str | None:
+    """The option a reply commits to, or None when it commits to none (or to several): never a guess.
+
+    The one answer extractor: the agent, the evaluation and every bench read replies with it.
+    `options` is the question's options ({"A": "Left", ...}) or just the allowed letters; without
+    them any capital letter counts. In order: the last ``<answer>...</answer>`` (or ``<ans>``) tag,
+    MindCube's own format; a JSON object's "answer"; then the text with ``<think>...</think>``
+    removed: a letter alone ("C", "b)"), the last keyed letter ("Answer: b) left", "The answer is
+    (B)."), a letter alone on the last line, a leading letter ("C. the sofa"), the only standalone
+    capital that is not ruled out ("B, not A" is B; "not A" alone is nothing); and, when no letter is
+    named, the only option whose text the reply names.
     """
-    allowed = set(valid_letters) if valid_letters is not None else set(string.ascii_uppercase)
+    texts = dict(options) if isinstance(options, Mapping) else {}
+    allowed = set(texts or (options or string.ascii_uppercase))
     text = text or ""
-    tagged = _TAGGED.findall(text)
-    if tagged:
-        letter = _letter_in(tagged[-1][1], allowed)
-        if letter:
-            return letter
+    candidates = [body for _, body in _TAGGED.findall(text)][-1:]
     text = _THINKING.sub(" ", text)
     stated = _json_answer(text)
-    if stated is not None:
-        letter = _letter_in(stated, allowed)
+    candidates += [stated] if stated is not None else []
+    for candidate in candidates:
+        letter = _letter_in(candidate, allowed) or (_option_named(candidate, texts) if texts else None)
         if letter:
             return letter
-    return _letter_in(text, allowed)
+    letter = _letter_in(text, allowed)
+    if letter is None and texts:
+        letter = _option_named(text, texts)
+    return letter
+
+
+def extract_letter(text: str, valid_letters: Iterable[str] | None = None) -> str | None:
+    """`read_choice` with only the allowed letters (kept for callers that have no option texts)."""
+    return read_choice(text, valid_letters)
 
 
 def _words(text: str) -> str:
@@ -262,5 +316,6 @@ __all__ = [
     "normalize_direction",
     "normalize_turn",
     "parse_options",
+    "read_choice",
     "turn_degrees",
 ]

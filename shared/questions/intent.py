@@ -35,7 +35,9 @@ Setting = Literal["among", "around", "rotation", "translation", "unknown"]
 Family = Literal[
     "self_movement", "relative_direction", "what_if", "occlusion", "object_perspective", "unknown"
 ]
-Direction = Literal["front", "behind", "left", "right"]
+Direction = Literal[
+    "front", "behind", "left", "right", "front-left", "front-right", "back-left", "back-right"
+]
 Comparison = Literal["distance"]
 
 
@@ -243,10 +245,20 @@ _OBJECT = (
     r"(?P<object>(?:the|a|an)\s+[a-z][a-z\- ]*?)"
     r"(?=\s*(?:\?|,|\.|$|\bfrom\b|\bin\b|\bwhen\b|\bafter\b|\bif\b))"
 )
+# A diagonal, hyphenated or not: "front-left", "front left", "back-right", "behind-left", "rear right".
+_DIAGONAL = r"(?:front|forward|back|behind|rear)[- ](?:left|right)"
 _SIDE_OF_OBJECT = re.compile(
-    rf"\b(?:to|on|at)\s+the\s+(?P<side>left|right)\s+(?:side\s+)?of\s+{_OBJECT}", re.IGNORECASE
+    rf"(?:\b(?:to|on|at|in)\s+the\s+(?P<side>{_DIAGONAL}|left|right)|\b(?P<bare>{_DIAGONAL}))"
+    rf"\s+(?:side\s+)?of\s+{_OBJECT}",
+    re.IGNORECASE,
 )
-_DEPTH_OF_OBJECT = re.compile(rf"\b(?P<side>behind|in front of)\s+{_OBJECT}", re.IGNORECASE)
+# "behind the ball", "behind of the ball" (a released wording), "in front of the ball".
+_DEPTH_OF_OBJECT = re.compile(rf"\b(?P<side>behind(?:\s+of)?|in front of)\s+{_OBJECT}", re.IGNORECASE)
+_DIAGONAL_OF_ME = re.compile(
+    rf"\b(?:to|on|at)\s+(?:my|your|our|the camera's|the viewer's)\s+(?P<side>{_DIAGONAL})\b"
+    rf"|\b(?P<bare>{_DIAGONAL})\s+of\s+(?:me|you|us|myself|yourself)\b",
+    re.IGNORECASE,
+)
 _DIRECTION_OF_ME = (
     ("behind", re.compile(
         r"\b(?:to|at|on)\s+(?:my|your|our)\s+(?:behind|back|rear)\b|\bbehind\s+(?:me|you|us|myself|yourself)\b"
@@ -266,7 +278,8 @@ _DIRECTION_OF_ME = (
     )),
     ("front", re.compile(
         r"\bin front of (?:me|you|us)\b|\bahead of (?:me|you|us)\b|\b(?:directly|straight) ahead\b"
-        r"|\bfacing (?:me|you)\b|\bin front\b(?! of)",
+        r"|\bfacing (?:me|you)\b|\bin front\b(?! of)"
+        r"|\b(?:to|at|on)\s+(?:my|your|our)\s+front\b(?![- ](?:left|right))",  # "what is to my front"
         re.IGNORECASE,
     )),
 )  # fmt: skip
@@ -285,7 +298,8 @@ _OCCLUSION = re.compile(
 _OBJECT_PERSPECTIVE = re.compile(
     r"\b(?:at|from|in)\s+(?:the\s+)?(?:position|place|location|spot|perspective|viewpoint)\s+of\s+(?:the|a|an)\s+"
     r"|\bwhere\s+the\s+[a-z ]+?\s+is\b|\bfrom\s+the\s+[a-z ]+?'s\s+(?:perspective|point of view|viewpoint)\b"
-    r"|\b(?:you|i)\s+(?:are|am)\s+(?:standing|sitting)\s+(?:at|on|in|next to|beside|behind)\s+the\s+"
+    r"|\b(?:you|i)\s+(?:are|am)\s+(?:standing|sitting|positioned|located|placed)\s+"
+    r"(?:at|on|in|next to|beside|behind)\s+the\s+"
     r"(?![a-z ]*\b(?:viewpoint|view|image|photo|picture|camera|position where)\b)",
     re.IGNORECASE,
 )
@@ -325,17 +339,32 @@ def pose_steps(text: str) -> list[PoseStep]:
     return [step for _, step in sorted(found, key=lambda pair: pair[0])]
 
 
+def _direction_name(words: str) -> Direction:
+    """ "behind of" -> "behind", "in front of" -> "front", "rear-left" / "front right" -> diagonals."""
+    words = " ".join(words.lower().replace("-", " ").split())
+    if words in ("behind", "behind of"):
+        return "behind"
+    if words == "in front of":
+        return "front"
+    if " " in words:
+        depth, side = words.split(" ")
+        return f"{'front' if depth in ('front', 'forward') else 'back'}-{side}"  # type: ignore[return-value]
+    return words  # type: ignore[return-value]
+
+
 def _asked_direction(ask: str) -> tuple[Direction | None, str | None]:
     """The last direction the ask names, and the object it is relative to (None: relative to me)."""
     candidates: list[tuple[int, Direction, str | None]] = []
     for pattern in (_SIDE_OF_OBJECT, _DEPTH_OF_OBJECT):
         for match in pattern.finditer(ask):
-            side = match.group("side").lower()
-            direction: Direction = {"behind": "behind", "in front of": "front"}.get(side, side)  # type: ignore[assignment]
-            candidates.append((match.start(), direction, " ".join(match.group("object").split())))
+            side = match.group("side") or match.groupdict().get("bare")
+            candidates.append((match.start(), _direction_name(side), " ".join(match.group("object").split())))
+    for match in _DIAGONAL_OF_ME.finditer(ask):
+        candidates.append((match.start(), _direction_name(match.group("side") or match.group("bare")), None))
     for name, pattern in _DIRECTION_OF_ME:
         for match in pattern.finditer(ask):
-            candidates.append((match.start(), name, None))  # type: ignore[arg-type]
+            if not any(start <= match.start() < start + 16 for start, _, _ in candidates):  # "my front-left"
+                candidates.append((match.start(), name, None))  # type: ignore[arg-type]
     if not candidates:
         return None, None
     _, direction, obj = max(candidates, key=lambda c: c[0])

@@ -143,9 +143,15 @@ class SpatialToolkit:
         created = self.client.upload_scene(scene.images)
         return Reconstruction(self.client, self.client.reconstruct(created.scene_id, backbone))
 
-    def describe_camera_motion(self, recon: Reconstruction) -> str:
-        """One sentence per pair of views ("From view 1 to view 2 the camera moved ..."), or why unknown."""
-        return self.client.camera_motion(recon.scene_id, backbone=recon.backbone).text
+    def describe_camera_motion(
+        self, recon: Reconstruction, from_view: int | None = None, to_view: int | None = None
+    ) -> str:
+        """One sentence per consecutive pair of views ("From view 1 to view 2 the camera moved ..."), or
+        why unknown; with `from_view` and `to_view` (1-based, as questions count images) the sentence
+        of that one pair, consecutive or not ("From view 1 to view 3 ...")."""
+        return self.client.camera_motion(
+            recon.scene_id, backbone=recon.backbone, from_view=from_view, to_view=to_view
+        ).text
 
     def synthesize_novel_view(
         self,

@@ -284,13 +284,18 @@ class ReconClient(_ServiceClient):
         pairs: Sequence[tuple[int, int]] | None = None,
         backbone: str | None = None,
         target: MotionTarget | None = None,
+        from_view: int | None = None,
+        to_view: int | None = None,
     ) -> CameraMotionResponse:
-        body = {
+        """`pairs` 0-based; or `from_view` and `to_view`, 1-based as the sentences count views."""
+        body: dict[str, object] = {
             "scene_id": scene_id,
             "pairs": [list(p) for p in pairs] if pairs else None,
             "backbone": backbone,
             "target": target.model_dump(exclude_none=True) if target is not None else None,
         }
+        if from_view is not None or to_view is not None:
+            body.update(from_view=from_view, to_view=to_view)
         return CameraMotionResponse.model_validate(
             self._request("POST", "/v1/camera-motion", json=body).json()
         )

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from shared.questions.intent import QuestionIntent
 
@@ -150,6 +150,11 @@ class MotionTarget(_Model):
 class CameraMotionRequest(_Model):
     scene_id: str
     pairs: list[tuple[int, int]] | None = Field(None, description="0-based view pairs; consecutive if unset.")
+    from_view: int | None = Field(
+        None, ge=1, description="With to_view: the one pair from_view -> to_view, 1-based as the sentences "
+        "and questions count views (any pair, not only consecutive ones). Not together with pairs."
+    )
+    to_view: int | None = Field(None, ge=1, description="See from_view.")
     backbone: str | None = None
     target: MotionTarget | None = Field(
         None, description="Say per pair whether the camera came closer to it."
@@ -187,6 +192,22 @@ class MotionThresholds(_Model):
     turn_deg: float
     tilt_deg: float
     roll_deg: float
+
+    @model_validator(mode="after")
+    def _one_way_to_name_pairs(self) -> CameraMotionRequest:
+        if (self.from_view is None) != (self.to_view is None):
+            raise ValueError("from_view and to_view go together")
+        if self.from_view is not None and self.pairs is not None:
+            raise ValueError("give either pairs or from_view and to_view, not both")
+        if self.from_view is not None and self.from_view == self.to_view:
+            raise ValueError("from_view and to_view must be different views")
+        return self
+
+    def requested_pairs(self) -> list[tuple[int, int]] | None:
+        """The 0-based pairs asked for; None: the default (consecutive) pairs."""
+        if self.from_view is not None and self.to_view is not None:
+            return [(self.from_view - 1, self.to_view - 1)]
+        return self.pairs
 
 
 class BackboneEntry(_Model):
@@ -442,6 +463,9 @@ class ReconstructionStep(StepRecord):
     cameras: list[CameraInfo] = Field(default_factory=list, exclude=True, repr=False)
 
 
+ProgramSource = Literal["model", "repaired-model", "planner"]
+
+
 class ProgramStep(StepRecord):
     """One program asked for: a code model's reply (first or a repair), or the offline planner's."""
 
@@ -456,6 +480,9 @@ class ProgramStep(StepRecord):
     )
     program: str | None = Field(
         None, description="The program handed to the sandbox; null when none was (see error_kind)."
+    )
+    fallback: bool = Field(
+        False, description="The offline planner's program, asked for after the code model's attempts failed."
     )
     error_kind: str | None = Field(
         None, description="no_program, too_long, repeated, model (the model failed), unplannable."
@@ -530,6 +557,12 @@ class SolveResponse(_Model):
     code_model_fallback: str | None = Field(
         None,
         description="Why the configured code model did not write the program (it failed; the planner did).",
+    )
+    program_source: ProgramSource | None = Field(
+        None,
+        description="Who wrote the program that ran: 'model' (the code model's first program), "
+        "'repaired-model' (the code model's, after repairs), 'planner' (the offline planner: no code "
+        "model, or after the model's attempts failed; those stay in `attempts`); null when none ran.",
     )
     answer_model: str = Field(..., description="What answered: model name, or 'offline-answerer'.")
     answer_method: str | None = Field(

@@ -260,9 +260,18 @@ class PySpatial(_Frozen):
         object.__setattr__(self, "_up", reconstruction.up)
         return reconstruction
 
-    def describe_camera_motion(self, recon: Reconstruction) -> str:
+    def describe_camera_motion(
+        self, recon: Reconstruction, from_view: Any = None, to_view: Any = None
+    ) -> str:
+        """Consecutive pairs' sentences; with from_view and to_view (1-based, as the question counts
+        images) the one sentence of that pair, consecutive or not."""
         _require_reconstruction(recon, "describe_camera_motion")
-        sentences = self._channel.call("describe_camera_motion", {})
+        if from_view is None and to_view is None:
+            sentences = self._channel.call("describe_camera_motion", {})
+        else:
+            pair = _view_pair(from_view, to_view, recon.num_views)
+            views = {"from_view": pair[0], "to_view": pair[1]}
+            sentences = self._channel.call("describe_camera_motion", views)
         return "\n".join(str(sentence) for sentence in sentences)
 
     def synthesize_novel_view(
@@ -330,6 +339,23 @@ class PySpatial(_Frozen):
 
     def __repr__(self) -> str:
         return "<pySpatial API>"
+
+
+def _view_pair(from_view: Any, to_view: Any, views: int) -> tuple[int, int]:
+    """Both views as plain ints 1..views (numbered as the question numbers images), and different."""
+    pair = []
+    for label, value in (("from_view", from_view), ("to_view", to_view)):
+        if isinstance(value, bool) or not isinstance(value, int | np.integer):
+            raise TypeError(f"describe_camera_motion: {label} must be a view number 1..{views}: {value!r}")
+        if not 1 <= int(value) <= views:
+            raise ValueError(
+                f"describe_camera_motion: {label}={int(value)}, but views are numbered 1..{views} "
+                "(image 1 is view 1; recon.extrinsics[0] is view 1)"
+            )
+        pair.append(int(value))
+    if pair[0] == pair[1]:
+        raise ValueError("describe_camera_motion: from_view and to_view must be different views")
+    return pair[0], pair[1]
 
 
 def _require_reconstruction(value: Any, tool: str) -> None:

@@ -41,8 +41,8 @@ class ToolProvider(Protocol):
         """{"extrinsics": [3x4...], "intrinsics": [3x3...], "image_sizes": [[w, h]...],
         "registered": [bool...]}, optionally "up": [x, y, z] and "warnings": [str...]."""
 
-    def describe_camera_motion(self) -> list[str]:
-        """One sentence per consecutive pair of views."""
+    def describe_camera_motion(self, pair: tuple[int, int] | None = None) -> list[str]:
+        """One sentence per consecutive pair of views; with `pair` (1-based from, to) that pair's."""
 
     def synthesize_novel_view(self, extrinsic: list[list[float]], width: int, height: int) -> bytes:
         """PNG of the scene seen from `extrinsic` (3x4 camera-from-world)."""
@@ -63,6 +63,7 @@ class _ToolBroker:
         self.images: dict[str, bytes] = {}
         self.reconstruction: dict | None = None
         self.motion: list[str] | None = None
+        self.pair_motion: dict[tuple[int, int], list[str]] = {}
 
     def handle(self, tool: Any, arguments: Any) -> Any:
         if tool not in TOOL_NAMES or not isinstance(arguments, dict):
@@ -85,9 +86,20 @@ class _ToolBroker:
         return self.reconstruction
 
     def _describe_camera_motion(self, arguments: dict) -> list[str]:
-        if self.motion is None:
-            self.motion = [str(sentence) for sentence in self.tools.describe_camera_motion()]
-        return self.motion
+        if not arguments:
+            if self.motion is None:
+                self.motion = [str(sentence) for sentence in self.tools.describe_camera_motion()]
+            return self.motion
+        pair = (arguments.get("from_view"), arguments.get("to_view"))
+        if set(arguments) != {"from_view", "to_view"} or any(
+            type(view) is not int or not 1 <= view <= self.num_images for view in pair
+        ):
+            raise ToolFailure(f"from_view and to_view must be view numbers 1..{self.num_images}")
+        if pair[0] == pair[1]:
+            raise ToolFailure("from_view and to_view must be different views")
+        if pair not in self.pair_motion:
+            self.pair_motion[pair] = [str(s) for s in self.tools.describe_camera_motion(pair)]
+        return self.pair_motion[pair]
 
     def _synthesize_novel_view(self, arguments: dict) -> dict:
         extrinsic = _checked_extrinsic(arguments.get("extrinsic"))

@@ -10,6 +10,9 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
+import numpy as np
+
+from services.agent.clue_check import clue_problem
 from services.agent.codegen import ExecutionOutcome
 from services.agent.evidence import typed_in_lines
 from services.agent.infrastructure import FailureRecordingClient, InfrastructureFailure, gateway_status
@@ -83,6 +86,21 @@ class SandboxRuns:
             if kept is None:  # all it returned is its own words: ask for tool output instead
                 step.ok, step.error_kind = False, "not_evidence"
                 step.error = not_evidence_error(result.clue_text, typed)
+        if step.ok:
+            self._check_clue(step)
+
+    def _check_clue(self, step: ExecutionStep) -> None:
+        """The asked-view check: a clue about other views than the question's is sent back."""
+        rendered = [
+            np.asarray(self.tools.rendered_poses[png][0], dtype=float)
+            for png in step.clue_pngs
+            if png in self.tools.rendered_poses
+        ]
+        views = [np.asarray(pose, dtype=float) for pose in self.tools.view_extrinsics]
+        problem = clue_problem(self.intent, step.clue_text, rendered, step.clue_images, views)
+        if problem is not None:
+            step.ok, step.error_kind = False, problem.kind
+            step.error = f"{problem.message}; {problem.fix}"
 
 
 __all__ = ["SandboxRuns", "not_evidence_error"]

@@ -17,7 +17,7 @@ from services.agent.llm import ChatClient, ModelConfigurationError
 from services.agent.planner import PlanningError, UnplannableQuestion, plan_intent
 from services.agent.sandbox.text import clean_text
 from services.agent.stages.execution import SandboxRuns
-from shared.wire.schemas import AttemptRecord, ExecutionStep, ProgramStep
+from shared.wire.schemas import AttemptRecord, ExecutionStep, ProgramSource, ProgramStep
 from shared.wire.settings import AgentSettings
 
 log = logging.getLogger("pyspatial.agent")
@@ -36,6 +36,7 @@ class WrittenProgram:
     failure: str | None = None  # why no program ran successfully
     fallback: str | None = None  # why the code model did not write it (the planner did)
     by_model: bool = False  # the code model wrote it (its output is checked for typed-in claims)
+    source: ProgramSource | None = None  # who wrote the program that ran (None: none ran)
 
 
 def write_and_run(
@@ -69,21 +70,39 @@ def write_and_run(
         # The model could not be reached even after retries: the planner still gives an honest
         # result, and the response says who wrote the program and why.
         log.warning("code model failed (%s); falling back to the offline planner", generated.error)
-        planned = plan_offline(runs, f"{OFFLINE_PLANNER} (fallback: {name} failed)", attempts)
+        planned = plan_offline(runs, f"{OFFLINE_PLANNER} (fallback: {name} failed)", attempts, fallback=True)
         planned.fallback = f"{name} failed: {generated.error}"
         return planned
     if generated.ok:
-        return WrittenProgram(name, attempts, _encodable(generated.program), generated.payload, by_model=True)
+        source: ProgramSource = "repaired-model" if len(generated.attempts) > 1 else "model"
+        program = _encodable(generated.program)
+        return WrittenProgram(name, attempts, program, generated.payload, by_model=True, source=source)
     failure = attempts[-1].error if attempts else "no program was produced"
-    return WrittenProgram(name, attempts, failure=failure, by_model=True)
+    return _planner_after_the_model(runs, name, attempts, failure)
+
+
+def _planner_after_the_model(
+    runs: SandboxRuns, name: str, attempts: list[AttemptRecord], failure: str
+) -> WrittenProgram:
+    """The model's attempts ran out: the planner's program when it has one, labelled as the planner's
+    (the model's attempts stay in the record); else the model's failure, with the planner's reason."""
+    why = f"{name}'s {len(attempts)} attempt(s) failed; last error: {failure}"
+    planned = plan_offline(runs, f"{OFFLINE_PLANNER} (fallback: {name} failed)", attempts, fallback=True)
+    if planned.program is None:
+        failure = f"{failure} (and {planned.failure})"
+        return WrittenProgram(name, planned.attempts, failure=failure, by_model=True)
+    log.info("code model's attempts ran out; the offline planner's program ran (%s)", why)
+    planned.fallback = why
+    return planned
 
 
 def plan_offline(
-    runs: SandboxRuns, code_model: str, attempts: list[AttemptRecord] | None = None
+    runs: SandboxRuns, code_model: str, attempts: list[AttemptRecord] | None = None, fallback: bool = False
 ) -> WrittenProgram:
-    """The offline planner's program for the intent, run once (it is not repaired)."""
+    """The offline planner's program for the intent, run once (it is not repaired). `fallback`: after
+    the code model's attempts (the step and the response say so)."""
     attempts = list(attempts or [])
-    step = ProgramStep(attempt=len(attempts) + 1, author=OFFLINE_PLANNER)
+    step = ProgramStep(attempt=len(attempts) + 1, author=OFFLINE_PLANNER, fallback=fallback)
     with runs.log.record(step):
         try:
             step.program = plan_intent(runs.intent, runs.num_images).source
@@ -100,7 +119,7 @@ def plan_offline(
         AttemptRecord(program=step.program, error=outcome.error, reply=None, latency_ms=run.duration_ms)
     )
     if outcome.ok:
-        return WrittenProgram(code_model, attempts, step.program, run)
+        return WrittenProgram(code_model, attempts, step.program, run, source="planner")
     return WrittenProgram(code_model, attempts, failure=outcome.error)
 
 

@@ -23,7 +23,9 @@ async def camera_motion(
     """Per pair of views a description, or (described = false) why there is none."""
     recon, motions, scale = await until_disconnected(
         http,
-        service.camera_motion(request.scene_id, request.pairs, request.backbone, request.target, tenant),
+        service.camera_motion(
+            request.scene_id, request.requested_pairs(), request.backbone, request.target, tenant
+        ),
     )
     items = [CameraMotionItem.model_validate(m.to_dict()) for m in motions]
     return CameraMotionResponse(

@@ -1,0 +1,140 @@
+"""Does a program's clue cover what the question asks? Checked after every successful run.
+
+A clue is refused (and the program sent back for repair, with a hint that names the fix) when:
+
+- it is empty;
+- it is an answer letter or an option's text rather than tool output;
+- its camera-motion sentences are about other view pairs than the question's ("From view 1 to view
+  2" for "how did I move from image 1 to image 3");
+- its rendered views were rendered from another view than the question asks from (a camera turned
+  in place at view 1 for "from image 3, what is to your left?").
+
+Each problem is a `ClueProblem`: its kind becomes the execution's error_kind and its message the
+repair request's error; `fix` is the one-line advice (services/agent/repair_hints.py uses it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from services.agent.motion_clue import motion_statements
+from shared.questions.choices import read_choice
+from shared.questions.intent import QuestionIntent
+
+# A rendered pose whose centre is this close to a view's (relative to the cameras' spread) stands there.
+_SAME_PLACE = 0.05
+
+
+@dataclass(frozen=True)
+class ClueProblem:
+    kind: str  # empty_clue | answer_letter | wrong_view
+    message: str
+    fix: str
+
+
+def motion_call(intent: QuestionIntent) -> str:
+    """The tool call that gives exactly the clue a self-movement question needs."""
+    first, second = intent.motion_pair or (1, 2)
+    return f"pySpatial.describe_camera_motion(recon, {first}, {second})"
+
+
+def _pairs(pairs: list[tuple[int, int]]) -> str:
+    return ", ".join(f"view {a} to view {b}" for a, b in pairs)
+
+
+def _motion_problem(intent: QuestionIntent, clue_text: str) -> ClueProblem | None:
+    if intent.family != "self_movement" or intent.motion_pair is None or not clue_text:
+        return None  # an image-only clue (the photos, for a vision answerer) names no pair to check
+    first, second = intent.motion_pair
+    statements = motion_statements(clue_text)
+    pairs = list(dict.fromkeys(s.pair for s in statements if s.pair is not None))
+    if intent.motion_pair in pairs:
+        return None
+    said = f"describes {_pairs(pairs)}" if pairs else "names no pair of views"
+    return ClueProblem(
+        "wrong_view",
+        f"the clue {said}, but the question asks how the camera moved from image {first} to image {second}",
+        f"return {motion_call(intent)}: it describes any pair directly (do not chain sentences)",
+    )
+
+
+def _nearest_view(center: np.ndarray, centers: np.ndarray) -> tuple[int, float]:
+    distances = np.linalg.norm(centers - center, axis=1)
+    distances = np.where(np.isfinite(distances), distances, np.inf)
+    index = int(np.argmin(distances))
+    return index + 1, float(distances[index])
+
+
+def _render_problem(
+    intent: QuestionIntent, rendered: list[np.ndarray], view_extrinsics: list[np.ndarray]
+) -> ClueProblem | None:
+    """Relative-direction questions turn the asked view's camera in place: every render stands there."""
+    asked = intent.asked_view
+    if intent.family != "relative_direction" or asked is None or not rendered or len(view_extrinsics) < 2:
+        return None
+    centers = np.array([-e[:3, :3].T @ e[:3, 3] for e in view_extrinsics])
+    finite = centers[np.all(np.isfinite(centers), axis=1)]
+    spread = float(np.max(np.linalg.norm(finite - finite.mean(axis=0), axis=1))) if len(finite) else 0.0
+    tolerance = max(_SAME_PLACE * spread, 1e-6)
+    if not 1 <= asked <= len(centers) or not np.all(np.isfinite(centers[asked - 1])):
+        return None
+    for pose in rendered:
+        center = -pose[:3, :3].T @ pose[:3, 3]
+        if np.linalg.norm(center - centers[asked - 1]) <= tolerance:
+            continue
+        used, distance = _nearest_view(center, centers)
+        where = f"view {used}" if distance <= tolerance else "a place that is not image " + str(asked)
+        return ClueProblem(
+            "wrong_view",
+            f"the program rendered from {where}; the question asks from image {asked}",
+            f"start from pose = recon.extrinsics[{asked - 1}] (image {asked}) and turn it in place",
+        )
+    return None
+
+
+def _letter_problem(intent: QuestionIntent, clue_text: str, has_images: bool) -> ClueProblem | None:
+    text = clue_text.strip()
+    if has_images or not text or not intent.options or len(text) > 80:
+        return None
+    if motion_statements(text):
+        return None  # a motion sentence that happens to contain an option's words is tool output
+    if read_choice(text, intent.options) is None:
+        return None
+    fix = (
+        f"return {motion_call(intent)}"
+        if intent.family == "self_movement"
+        else "return the rendered views (pySpatial.synthesize_novel_view)"
+    )
+    return ClueProblem(
+        "answer_letter",
+        f"the program returned an answer ({text!r}) instead of a clue; another model chooses the answer",
+        fix + ", not an answer",
+    )
+
+
+def clue_problem(
+    intent: QuestionIntent,
+    clue_text: str | None,
+    rendered: list[np.ndarray],
+    num_images: int,
+    view_extrinsics: list[np.ndarray] | None = None,
+) -> ClueProblem | None:
+    """What is wrong with the clue of a successful run (None: it covers what the question asks).
+
+    `rendered`: the camera-from-world poses of the clue's rendered images; `num_images` counts all
+    clue images (photos included); `view_extrinsics`: the input views' poses, when known.
+    """
+    text = (clue_text or "").strip()
+    if not text and num_images == 0:
+        fix = f"return {motion_call(intent)}" if intent.family == "self_movement" else "return rendered views"
+        return ClueProblem("empty_clue", "the program returned an empty clue (no text, no image)", fix)
+    return (
+        _letter_problem(intent, text, num_images > 0)
+        or _motion_problem(intent, text)
+        or _render_problem(intent, rendered, view_extrinsics or [])
+    )
+
+
+__all__ = ["ClueProblem", "clue_problem", "motion_call"]
