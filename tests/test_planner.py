@@ -18,7 +18,7 @@ import pytest
 from services.agent.answering import answer_offline
 from services.agent.planner import PlanningError, plan_intent, view_references
 from services.agent.sandbox import run_program, validate_program
-from shared.geometry.camera_motion import NO_ROTATION, describe_camera_motion
+from shared.geometry.camera_motion import describe_camera_motion
 from shared.geometry.reconstruction import Reconstruction
 from shared.geometry.rendering import synthesize_novel_view
 from shared.imaging.codecs import decode_image, encode_image
@@ -270,18 +270,15 @@ def test_rendered_clues_show_the_asked_side(question: str, walls: list[str], too
     assert [dominant_wall(png) for png in result.clue_images] == walls
 
 
-def _gravity_sentence(extrinsics, pair) -> str:
-    """The planner's own program speaks the gravity frame (compass and turn) of shared camera motion."""
-    motion = describe_camera_motion(extrinsics, pairs=[pair], up=WORLD_UP)[0]
-    turn = "without turning significantly" if motion.turn == NO_ROTATION else f"and {motion.turn}"
-    return f"From view {pair[0] + 1} to view {pair[1] + 1} the camera moved {motion.direction} {turn}."
-
-
 def test_computed_motion_matches_shared_camera_motion(tools: ColourRoomTools) -> None:
     _, result = run("How did the camera move from view 1 to view 3? A. Left B. Right", tools)
-    assert result.clue_text == _gravity_sentence(tools.recon.extrinsics, (0, 2))
+    expected = describe_camera_motion(tools.recon.extrinsics, pairs=[(0, 2)], up=WORLD_UP)[0].sentence
+    assert result.clue_text == expected
     reverse = run("How did the camera move from view 3 to view 1? A. Left B. Right", tools)[1]
-    assert reverse.clue_text == _gravity_sentence(tools.recon.extrinsics, (2, 0))
+    assert (
+        reverse.clue_text
+        == describe_camera_motion(tools.recon.extrinsics, pairs=[(2, 0)], up=WORLD_UP)[0].sentence
+    )
 
 
 @pytest.mark.parametrize(

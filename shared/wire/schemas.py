@@ -160,6 +160,22 @@ class CameraMotionRequest(_Model):
         None, description="Say per pair whether the camera came closer to it."
     )
 
+    @model_validator(mode="after")
+    def _one_way_to_name_pairs(self) -> CameraMotionRequest:
+        if (self.from_view is None) != (self.to_view is None):
+            raise ValueError("from_view and to_view go together")
+        if self.from_view is not None and self.pairs is not None:
+            raise ValueError("give either pairs or from_view and to_view, not both")
+        if self.from_view is not None and self.from_view == self.to_view:
+            raise ValueError("from_view and to_view must be different views")
+        return self
+
+    def requested_pairs(self) -> list[tuple[int, int]] | None:
+        """The 0-based pairs asked for; None: the default (consecutive) pairs."""
+        if self.from_view is not None and self.to_view is not None:
+            return [(self.from_view - 1, self.to_view - 1)]
+        return self.pairs
+
 
 class FrameMotionItem(_Model):
     """One pair's motion read in one frame."""
@@ -192,22 +208,6 @@ class MotionThresholds(_Model):
     turn_deg: float
     tilt_deg: float
     roll_deg: float
-
-    @model_validator(mode="after")
-    def _one_way_to_name_pairs(self) -> CameraMotionRequest:
-        if (self.from_view is None) != (self.to_view is None):
-            raise ValueError("from_view and to_view go together")
-        if self.from_view is not None and self.pairs is not None:
-            raise ValueError("give either pairs or from_view and to_view, not both")
-        if self.from_view is not None and self.from_view == self.to_view:
-            raise ValueError("from_view and to_view must be different views")
-        return self
-
-    def requested_pairs(self) -> list[tuple[int, int]] | None:
-        """The 0-based pairs asked for; None: the default (consecutive) pairs."""
-        if self.from_view is not None and self.to_view is not None:
-            return [(self.from_view - 1, self.to_view - 1)]
-        return self.pairs
 
 
 class BackboneEntry(_Model):
