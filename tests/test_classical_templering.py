@@ -73,14 +73,28 @@ def test_wide_pairs_with_wrong_two_view_geometry_are_refused(backbone, numbers):
         backbone.reconstruct(images)
 
 
-def test_two_views_without_a_focal_are_refused_not_guessed(backbone):
-    # Two views 7.7 degrees apart fit the 60-degree prior as well as the true 23.8 degrees, and
-    # the prior would place them 5 degrees off: no pose rather than a wrong one.
-    images, truth, intrinsics = _scene([1, 2])
-    with pytest.raises(BackboneError, match="focal length cannot be determined from two views"):
-        backbone.reconstruct(images)
+def test_two_views_without_a_focal_are_solved_over_focal_hypotheses(backbone):
+    # Two views 23 degrees apart fit a range of focals (the prior would place them degrees off):
+    # the pair is solved at every supported field of view, and the words they all share are
+    # determined. Held sideways, the step is "left" at every hypothesis, as in the truth, while the
+    # turn (3 to 44 degrees right) crosses the 10-degree threshold and stays undetermined.
+    from bench.templering_determinacy import SIDEWAYS, true_words
+    from shared.geometry.motion_determinacy import motion_over_focal
+
+    images, truth, intrinsics = _scene([1, 4])
+    sideways = [np.ascontiguousarray(np.rot90(image, -1)) for image in images]
+    result = backbone.reconstruct(sideways)
+    assert result.registered.all() and result.focal_hypotheses is not None
+    motion = motion_over_focal(result.focal_hypotheses.for_pair(0, 1))
+    assert motion.fov_range_deg[1] - motion.fov_range_deg[0] >= 30, motion
+    expected = true_words(*[np.concatenate([SIDEWAYS @ t[:, :3], SIDEWAYS @ t[:, 3:]], 1) for t in truth])
+    assert motion.direction_determined and motion.directions == [expected["direction"]] == ["left"]
+    assert not motion.turn_determined and set(motion.turns) == {"right", "none"}
+    assert any("central hypothesis" in warning for warning in result.warnings)
+    # The focal given: no hypotheses, nothing extra to pay.
     given = backbone.reconstruct(images, intrinsics=intrinsics, intrinsics_sources=["exif"] * 2)
     assert given.registered.all() and given.intrinsics_source == ["exif"] * 2
+    assert given.focal_hypotheses is None
     [(rotation, direction)] = pair_errors(given.extrinsics, truth, given.registered)
     assert rotation <= 2.0 and direction <= 3.0
 
