@@ -99,6 +99,23 @@ def test_two_views_without_a_focal_are_solved_over_focal_hypotheses(backbone):
     assert rotation <= 2.0 and direction <= 3.0
 
 
+def test_camera_motion_over_http_says_what_the_focal_range_determines(tmp_path, redis_url):
+    env = {"PYSPATIAL_DATA_DIR": str(tmp_path), "PYSPATIAL_BACKBONE": "classical", "REDIS_URL": redis_url}
+    images, _, _ = _scene([1, 4])
+    sideways = [np.ascontiguousarray(np.rot90(image, -1)) for image in images]
+    with running_service("services.recon.app:create_app", env) as service:
+        with ReconClient(service.url, timeout=120) as client:
+            scene_id = client.upload_scene([encode_image(image) for image in sideways]).scene_id
+            response = client.camera_motion(scene_id)
+    [motion] = response.motions
+    over = motion.over_focal
+    assert over is not None and over.hypotheses >= 5 and over.direction_determined
+    assert over.directions == ["left"] and not over.turn_determined
+    assert len(over.translation_directions) == over.hypotheses
+    assert motion.sentence == over.sentence and "moved left (determined)" in motion.sentence
+    assert any("central hypothesis" in warning for warning in response.warnings)
+
+
 def test_confidence_over_http(tmp_path, redis_url):
     env = {
         "PYSPATIAL_DATA_DIR": str(tmp_path),

@@ -24,6 +24,7 @@ from services.recon.offload import run_cpu, run_in_daemon_thread
 from services.recon.scene_store import SceneInput, SceneStore, check_scene_id, validate_geometry
 from services.recon.shared_scenes import SharedScenes
 from shared.geometry.camera_motion import CameraMotion, UnknownMotion, describe_pairs
+from shared.geometry.motion_determinacy import with_motion_over_focal
 from shared.geometry.poses import estimate_up_axis, validate_extrinsic
 from shared.geometry.reconstruction import Reconstruction
 from shared.geometry.rendering import synthesize_novel_view
@@ -298,7 +299,7 @@ class ReconService:
         motions = describe_pairs(
             recon.extrinsics, problems, pairs=pairs, up=up, scene_scale=scale, units=recon.units or "relative"
         )
-        return motions, scale
+        return [with_motion_over_focal(motion, recon.focal_hypotheses) for motion in motions], scale
 
 
 def _validated_pose(extrinsic: list[list[float]]) -> np.ndarray:

@@ -71,6 +71,9 @@ class CameraMotion:
     vertical_direction: str | None = None  # "up", "down", or None when not significant
     described: bool = True
     units: str = "relative"  # of distance and vertical: "metres" or "relative" (scene units)
+    # Unknown focal: the motion over every supported focal hypothesis (motion_determinacy.py's
+    # MotionOverFocal.to_dict()); the numbers above are those of the central hypothesis.
+    over_focal: dict[str, object] | None = None
 
     def to_dict(self) -> dict[str, object]:
         """JSON-able dictionary (plain floats, ints, strings and lists)."""

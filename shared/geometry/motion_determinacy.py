@@ -15,11 +15,17 @@ focal too.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
-from shared.geometry.camera_motion import NO_MOVEMENT, NO_ROTATION, describe_camera_motion
+from shared.geometry.camera_motion import (
+    NO_MOVEMENT,
+    NO_ROTATION,
+    CameraMotion,
+    UnknownMotion,
+    describe_camera_motion,
+)
 
 DETERMINED = "(determined)"
 NOT_DETERMINED = "(not determined)"
@@ -203,6 +209,20 @@ def determinacy_sentence(
     )
 
 
+def with_motion_over_focal(
+    motion: CameraMotion | UnknownMotion, hypotheses: FocalHypotheses | None
+) -> CameraMotion | UnknownMotion:
+    """A described pair with its motion over the focal hypotheses (and their sentence), if any."""
+    if hypotheses is None or not isinstance(motion, CameraMotion):
+        return motion
+    pair = hypotheses.for_pair(motion.from_view, motion.to_view)
+    if pair is None or not pair.fov_deg:
+        return motion
+    over = motion_over_focal(pair)
+    fields = {k: v for k, v in over.to_dict().items() if k not in ("from_view", "to_view")}
+    return replace(motion, over_focal=fields, sentence=over.sentence)
+
+
 __all__ = [
     "DETERMINED",
     "NOT_DETERMINED",
@@ -212,4 +232,5 @@ __all__ = [
     "determinacy_sentence",
     "motion_over_focal",
     "turn_words",
+    "with_motion_over_focal",
 ]

@@ -150,6 +150,31 @@ class BackboneMenu(_Model):
     available: list[str] = Field(..., description="Names a request may use now (auto included).")
 
 
+class MotionOverFocalItem(_Model):
+    """A pair's motion at every focal hypothesis the photos support, and what all of them share."""
+
+    hypotheses: int = Field(..., description="How many field-of-view hypotheses the matches support.")
+    fov_range_deg: list[float] = Field(
+        ..., description="[narrowest, widest] supported horizontal field of view."
+    )
+    yaw_range_deg: list[float] = Field(
+        ..., description="[min, max] turn about up over the hypotheses; + = left."
+    )
+    turns: list[str] = Field(..., description="The distinct turn sides: 'left', 'right', 'none'.")
+    turn_determined: bool = Field(..., description="True when every hypothesis turns the same way.")
+    directions: list[str] = Field(..., description="The distinct horizontal step directions.")
+    direction_determined: bool
+    vertical_directions: list[str] = Field(
+        ..., description="The distinct vertical steps: 'up', 'down', 'none'."
+    )
+    vertical_determined: bool
+    translation_directions: list[list[float]] = Field(
+        ...,
+        description="Per hypothesis, the unit step in the first camera's axes (x right, y down, z forward).",
+    )
+    sentence: str = Field(..., description="What holds at every hypothesis (determined) and what does not.")
+
+
 class CameraMotionItem(_Model):
     """One pair of views: a description, or (described = false) the reason there is none."""
 
@@ -167,6 +192,12 @@ class CameraMotionItem(_Model):
     turn: str | None = Field(None, description="The turn in words, e.g. 'turned left by about 90 degrees'.")
     sentence: str = Field(..., description="The motion in one sentence, or that it is unknown and why.")
     units: Units | None = Field(None, description="Units of distance and vertical (null when unknown).")
+    over_focal: MotionOverFocalItem | None = Field(
+        None,
+        description="Set when the focal length is unknown and the views cannot fix it: the motion over "
+        "every supported field of view (the numbers above are the central hypothesis's, and `sentence` "
+        "says what is determined); null when the focal is known or self-calibrated.",
+    )
 
 
 class CameraMotionResponse(_Model):
