@@ -74,3 +74,45 @@ def test_hypotheses_are_stored_and_read_back_and_older_files_have_none():
     restored = Reconstruction.from_bytes(recon.to_bytes())
     assert restored.focal_hypotheses == recon.focal_hypotheses
     assert Reconstruction.from_bytes(sample(num_points=20).to_bytes()).focal_hypotheses is None
+
+
+# ---- the agent answers only what every hypothesis agrees on ---------------------------------------
+
+_TURN_QUESTION = (
+    "Based on these two images (image 1 and 2) showing the same scene: How did I turn from image 1 to "
+    "image 2? A. turned left by about 45 degrees B. turned right by about 45 degrees C. did not turn"
+)
+_MOVE_QUESTION = (
+    "Based on these two images (image 1 and 2) showing the same scene: How did I move from image 1 to "
+    "image 2? A. forward B. left C. diagonally forward and left D. backward"
+)
+
+
+def test_the_agent_answers_a_choice_that_holds_at_every_focal_and_refuses_one_that_does_not():
+    from services.agent.answering import UNDETERMINED, answer_offline
+    from shared.questions.intent import parse_question
+
+    # Left by 30 to 60 degrees at every focal: "left by about 45" is the nearest option throughout.
+    left = motion_over_focal(_hypotheses([30, 45, 60], [[-0.3, 0.0, 1.0]] * 3))
+    turned = answer_offline(parse_question(_TURN_QUESTION), left.sentence, [])
+    assert turned.answer == "A", turned.reasoning
+    # The step swings from forward to forward-left over the focal range: no answer, with the range.
+    walked = answer_offline(
+        parse_question(_MOVE_QUESTION),
+        motion_over_focal(
+            _hypotheses([12, 25, 42], [[0.0, 0.0, 1.0], [-0.3, 0.0, 1.0], [-1.0, 0.0, 1.0]])
+        ).sentence,
+        [],
+    )
+    assert walked.answer is None
+    assert UNDETERMINED in walked.reason and "12 to 42 degrees" in walked.reason
+    assert "options A, C each fit" in walked.reason
+    # A turn from 15 right to 20 left straddles three options: refused too.
+    straddle = motion_over_focal(_hypotheses([-15, 3, 20], [[1.0, 0.0, 0.0]] * 3))
+    refused = answer_offline(parse_question(_TURN_QUESTION), straddle.sentence, [])
+    assert refused.answer is None and UNDETERMINED in refused.reason
+    # The same step, determined, answers the move question.
+    right = answer_offline(
+        parse_question(_MOVE_QUESTION.replace("B. left", "B. right")), straddle.sentence, []
+    )
+    assert right.answer == "B", right.reasoning

@@ -32,6 +32,7 @@ from services.agent.llm import (
 from services.agent.motion_clue import (
     VISION_MODEL_HINT,
     MotionStatement,
+    hypothetical_statements,
     motion_statements,
     not_a_motion_question,
     pick_statement,
@@ -305,6 +306,8 @@ def _answer_from_motion(intent: QuestionIntent, statements: list[MotionStatement
     statement, why = pick_statement(intent, statements)
     if statement is None:
         return no_answer(why)
+    if statement.over_focal is not None:
+        return _answer_over_focal(intent, statement)
     letter, why = _match_motion(intent, statement, intent.options)
     if letter is None:
         return no_answer(why)
@@ -316,7 +319,30 @@ def _answer_from_motion(intent: QuestionIntent, statements: list[MotionStatement
     )
 
 
+UNDETERMINED = "cannot be determined from these photos"
+
+
+def _answer_over_focal(intent: QuestionIntent, statement: MotionStatement) -> AnswerResult:
+    """The option that holds under every focal hypothesis, else "cannot be determined" with the range."""
+    letters = set()
+    for variant in hypothetical_statements(statement):
+        letter, _ = _match_motion(intent, variant, intent.options)
+        letters.add(letter)
+    if len(letters) == 1 and None not in letters:
+        (letter,) = letters
+        return AnswerResult(
+            answer=letter,
+            reasoning=f"The program's output says: {statement.sentence!r}. Option {letter} "
+            f"({intent.options[letter]!r}) holds at every focal length the photos allow.",
+            method="offline_text",
+        )
+    named = sorted(str(letter) for letter in letters if letter is not None)
+    fits = f"options {', '.join(named)} each fit some of them" if named else "no option fits all of them"
+    return no_answer(f"{UNDETERMINED}: {statement.sentence} ({fits})")
+
+
 __all__ = [
+    "UNDETERMINED",
     "VISION_MODEL_HINT",
     "AnswerMethod",
     "AnswerResult",

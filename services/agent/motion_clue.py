@@ -8,10 +8,13 @@ with the options (answering.py), the free-form one says them in words (free_form
 
 from __future__ import annotations
 
+import math
 import re
 
+import numpy as np
 from pydantic import BaseModel
 
+from shared.geometry.camera_motion import describe_turn
 from shared.questions.choices import normalize_direction, normalize_turn, turn_degrees
 from shared.questions.intent import QuestionIntent
 
@@ -24,18 +27,77 @@ _SENTENCE_END = re.compile(r"(?<=[.!?])\s+(?=[A-Z])")
 _MOVED_OR_NOT = re.compile(r"\b(?:moved|stayed in place|neither moved)\b", re.IGNORECASE)
 
 
+class OverFocal(BaseModel):
+    """What a sentence over an unknown focal allows (motion_determinacy.determinacy_sentence)."""
+
+    directions: list[str | None]  # every step direction some hypothesis gives; None = stayed in place
+    yaw_range_deg: tuple[float, float] | None  # signed, + = left; None: no significant turn throughout
+
+
 class MotionStatement(BaseModel):
     pair: tuple[int, int] | None
     sentence: str
     direction: str | None  # one of shared.questions.choices.DIRECTIONS, None when it did not move
     turn: str | None  # "turn left", "turn right", "turn around", "no turn", or None
     degrees: float | None
+    over_focal: OverFocal | None = None  # set for a motion over focal hypotheses (then the above are None)
+
+
+# "... the camera turned left by 12 to 42 degrees (determined) and moved forward or ... (not determined),"
+_OVER_FOCAL = re.compile(
+    r"the camera (?P<turn>.+?) \((?:not )?determined\) and (?P<move>.+?) \((?:not )?determined\)"
+)
+_TURN_SPAN = re.compile(r"turned (left|right) by (?:about )?(\d+)(?: to (\d+))? degrees")
+_TURN_BETWEEN = re.compile(r"turned between (\d+) degrees (left|right) and (\d+) degrees (left|right)")
+
+
+def _signed(degrees: str, side: str) -> float:
+    return float(degrees) if side == "left" else -float(degrees)
+
+
+def over_focal_statement(sentence: str) -> OverFocal | None:
+    """The allowed motions of a sentence over focal hypotheses, or None for any other sentence."""
+    match = _OVER_FOCAL.search(sentence)
+    if match is None:
+        return None
+    turn, move = match.group("turn"), match.group("move")
+    yaw: tuple[float, float] | None = None
+    if span := _TURN_SPAN.search(turn):
+        low, high = span.group(2), span.group(3) or span.group(2)
+        ends = sorted((_signed(low, span.group(1)), _signed(high, span.group(1))))
+        yaw = (ends[0], ends[1])
+    elif between := _TURN_BETWEEN.search(turn):
+        ends = sorted(
+            (_signed(between.group(1), between.group(2)), _signed(between.group(3), between.group(4)))
+        )
+        yaw = (ends[0], ends[1])
+    elif "did not turn" not in turn:
+        return None
+    directions: list[str | None] = []
+    for part in move.removeprefix("moved ").split(" or "):
+        directions.append(None if "stayed in place" in part else normalize_direction(part))
+    return OverFocal(directions=directions, yaw_range_deg=yaw)
 
 
 def motion_statements(clue_text: str) -> list[MotionStatement]:
     statements = []
     for line in clue_text.splitlines():
         for sentence in _SENTENCE_END.split(line.strip()):
+            over = over_focal_statement(sentence)
+            if over is not None:
+                pair_match = _PAIR.search(sentence)
+                pair = (int(pair_match.group(1)), int(pair_match.group(2))) if pair_match else None
+                statements.append(
+                    MotionStatement(
+                        pair=pair,
+                        sentence=sentence.strip(),
+                        direction=None,
+                        turn=None,
+                        degrees=None,
+                        over_focal=over,
+                    )
+                )
+                continue
             direction, turn = normalize_direction(sentence), normalize_turn(sentence)
             if direction is None and turn is None and not _MOVED_OR_NOT.search(sentence):
                 continue
@@ -95,9 +157,38 @@ def unreadable_clue(text: str, clue_images: list[bytes]) -> str:
     return "the program produced no clue (no text, no images)"
 
 
+def hypothetical_statements(statement: MotionStatement) -> list[MotionStatement]:
+    """Every motion a sentence over focal hypotheses allows, as plain statements: each direction
+    it names with each whole-degree turn in its range (a superset of the hypotheses, so a choice
+    that holds for all of these holds at every hypothesis)."""
+    over = statement.over_focal
+    if over is None:
+        return [statement]
+    if over.yaw_range_deg is None:
+        turns = [("no turn", 0.0)]
+    else:
+        low, high = over.yaw_range_deg
+        yaws = np.unique(np.append(np.arange(math.floor(low), math.ceil(high) + 1), [low, high]))
+        turns = [_turn_of(float(yaw)) for yaw in yaws if low <= yaw <= high]
+    return [
+        statement.model_copy(update={"direction": d, "turn": t, "degrees": g, "over_focal": None})
+        for d in dict.fromkeys(over.directions)
+        for t, g in dict.fromkeys(turns)
+    ]
+
+
+def _turn_of(yaw_deg: float) -> tuple[str, float]:
+    """The turn words and stated degrees camera_motion would give a yaw."""
+    words = describe_turn(yaw_deg)
+    return normalize_turn(words) or "no turn", turn_degrees(words) or 0.0
+
+
 __all__ = [
     "VISION_MODEL_HINT",
     "MotionStatement",
+    "OverFocal",
+    "hypothetical_statements",
+    "over_focal_statement",
     "unreadable_clue",
     "motion_statements",
     "not_a_motion_question",

@@ -69,6 +69,10 @@ def program(input_scene):
 _MOTION_PAIR = """\
 def program(input_scene):
     recon = pySpatial.reconstruct(input_scene)
+    if any("central hypothesis" in warning for warning in recon.warnings):
+        # The focal is unknown: the poses are one hypothesis of many, and only the service's
+        # sentences say which words hold at every hypothesis (it gives one for every such pair).
+        return pySpatial.describe_camera_motion(recon)
     first = np.array(recon.extrinsics[{first_index}], dtype=float)
     second = np.array(recon.extrinsics[{second_index}], dtype=float)
     up = recon.up

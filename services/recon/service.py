@@ -23,7 +23,7 @@ from services.recon.motion_inputs import motion_scene_scale, view_pose_problems
 from services.recon.offload import run_cpu, run_in_daemon_thread
 from services.recon.scene_store import SceneInput, SceneStore, check_scene_id, validate_geometry
 from services.recon.shared_scenes import SharedScenes
-from shared.geometry.camera_motion import CameraMotion, UnknownMotion, describe_pairs
+from shared.geometry.camera_motion import CameraMotion, UnknownMotion, default_pairs, describe_pairs
 from shared.geometry.motion_determinacy import with_motion_over_focal
 from shared.geometry.poses import estimate_up_axis, validate_extrinsic
 from shared.geometry.reconstruction import Reconstruction
@@ -296,6 +296,11 @@ class ReconService:
         usable = [index for index, problem in enumerate(problems) if problem is None]
         up = estimate_up_axis(recon.extrinsics[usable]) if usable else None
         scale = motion_scene_scale(recon, usable)
+        if pairs is None and recon.focal_hypotheses is not None:
+            # Unknown focal: every pair that has hypotheses gets its sentence of what they all share,
+            # since the poses alone (the central hypothesis) cannot say it for any other pair.
+            solved = [(p.first, p.second) for p in recon.focal_hypotheses.pairs]
+            pairs = sorted({*default_pairs(views, [p is None for p in problems]), *solved})
         motions = describe_pairs(
             recon.extrinsics, problems, pairs=pairs, up=up, scene_scale=scale, units=recon.units or "relative"
         )
