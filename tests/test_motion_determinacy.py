@@ -43,8 +43,10 @@ def test_a_turn_that_holds_at_every_focal_is_determined_and_a_step_that_varies_i
     assert motion.fov_range_deg == (30.0, 50.0) and motion.hypotheses == 3
     assert motion.sentence.startswith(
         "From view 1 to view 2 the camera turned left by 12 to 42 degrees (determined) and moved "
-        "forward or diagonally forward and left (not determined)"
+        "forward or diagonally forward and left (not determined; heading -45 to 0 degrees, 0 = forward, "
+        "+ = right)"
     )
+    assert motion.heading_range_deg == pytest.approx((-45.0, 0.0), abs=1e-6)
     np.testing.assert_allclose(motion.translation_directions[0], [0.0, 0.0, 1.0], atol=1e-9)
 
 
@@ -53,7 +55,7 @@ def test_a_turn_that_changes_side_over_the_focal_range_is_not_determined():
     assert not motion.turn_determined and motion.turns == ["right", "none", "left"]
     assert motion.direction_determined and motion.directions == ["right"]
     assert "turned between 15 degrees right and 20 degrees left (not determined)" in motion.sentence
-    assert "moved right (determined)" in motion.sentence
+    assert "moved right (determined; heading 90 to 90 degrees" in motion.sentence
 
 
 def test_reversed_pair_turns_the_other_way():

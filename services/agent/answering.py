@@ -16,6 +16,7 @@ replies are read, its offline rule); every function here hands such questions to
 
 from __future__ import annotations
 
+import math
 import re
 from typing import Any
 
@@ -39,7 +40,13 @@ from services.agent.motion_clue import (
     unreadable_clue,
 )
 from services.agent.prompts import load_template
-from shared.questions.choices import extract_letter, normalize_direction, normalize_turn, turn_degrees
+from shared.questions.choices import (
+    DIRECTIONS,
+    extract_letter,
+    normalize_direction,
+    normalize_turn,
+    turn_degrees,
+)
 from shared.questions.intent import QuestionIntent
 
 DEFAULT_TEMPLATE = "answer_v1"
@@ -323,22 +330,55 @@ UNDETERMINED = "cannot be determined from these photos"
 
 
 def _answer_over_focal(intent: QuestionIntent, statement: MotionStatement) -> AnswerResult:
-    """The option that holds under every focal hypothesis, else "cannot be determined" with the range."""
-    letters = set()
-    for variant in hypothetical_statements(statement):
-        letter, _ = _match_motion(intent, variant, intent.options)
-        letters.add(letter)
+    """The option that fits best under every focal hypothesis, else "cannot be determined" with the
+    range. Under one hypothesis the best fit is the option nearest to its step's heading (within
+    45 degrees, one compass sector) and, for turns, the matching side with the nearest degrees."""
+    options = {letter: _option_motion(text, intent.asks_turn_only) for letter, text in intent.options.items()}
+    letters = {_nearest_option(options, variant) for variant in hypothetical_statements(statement)}
     if len(letters) == 1 and None not in letters:
         (letter,) = letters
         return AnswerResult(
             answer=letter,
             reasoning=f"The program's output says: {statement.sentence!r}. Option {letter} "
-            f"({intent.options[letter]!r}) holds at every focal length the photos allow.",
+            f"({intent.options[letter]!r}) fits best at every focal length the photos allow.",
             method="offline_text",
         )
     named = sorted(str(letter) for letter in letters if letter is not None)
     fits = f"options {', '.join(named)} each fit some of them" if named else "no option fits all of them"
     return no_answer(f"{UNDETERMINED}: {statement.sentence} ({fits})")
+
+
+_SECTOR_DEG = 45.0
+
+
+def _nearest_option(
+    options: dict[str, tuple[str | None, str | None, float | None]], variant: MotionStatement
+) -> str | None:
+    """The one option that fits a hypothetical motion best, or None (none fits, or a tie)."""
+    scored = []
+    for letter, (direction, turn, degrees) in options.items():
+        if (direction is None and turn is None) or (turn is not None and turn != variant.turn):
+            continue
+        heading_gap = 0.0
+        if direction is not None:
+            if variant.direction is None:
+                continue  # the option moves; this hypothesis stayed in place
+            if variant.heading_deg is None:
+                heading_gap = 0.0 if direction == variant.direction else math.inf
+            else:
+                offset = DIRECTIONS.index(direction) * _SECTOR_DEG - variant.heading_deg
+                heading_gap = abs((offset + 180.0) % 360.0 - 180.0)
+            if heading_gap > _SECTOR_DEG:
+                continue
+        turn_gap = (
+            abs(degrees - variant.degrees) if degrees is not None and variant.degrees is not None else 0.0
+        )
+        scored.append((heading_gap, turn_gap, letter))
+    if not scored:
+        return None
+    best = min(scored)[:2]
+    closest = [letter for heading, turn, letter in scored if (heading, turn) == best]
+    return closest[0] if len(closest) == 1 else None
 
 
 __all__ = [

@@ -14,7 +14,7 @@ import re
 import numpy as np
 from pydantic import BaseModel
 
-from shared.geometry.camera_motion import describe_turn
+from shared.geometry.camera_motion import describe_turn, direction_name
 from shared.questions.choices import normalize_direction, normalize_turn, turn_degrees
 from shared.questions.intent import QuestionIntent
 
@@ -32,6 +32,7 @@ class OverFocal(BaseModel):
 
     directions: list[str | None]  # every step direction some hypothesis gives; None = stayed in place
     yaw_range_deg: tuple[float, float] | None  # signed, + = left; None: no significant turn throughout
+    heading_range_deg: tuple[float, float] | None = None  # of the step: 0 forward, + right
 
 
 class MotionStatement(BaseModel):
@@ -41,11 +42,13 @@ class MotionStatement(BaseModel):
     turn: str | None  # "turn left", "turn right", "turn around", "no turn", or None
     degrees: float | None
     over_focal: OverFocal | None = None  # set for a motion over focal hypotheses (then the above are None)
+    heading_deg: float | None = None  # of the step, 0 forward, + right: set on hypothetical statements
 
 
 # "... the camera turned left by 12 to 42 degrees (determined) and moved forward or ... (not determined),"
 _OVER_FOCAL = re.compile(
-    r"the camera (?P<turn>.+?) \((?:not )?determined\) and (?P<move>.+?) \((?:not )?determined\)"
+    r"the camera (?P<turn>.+?) \((?:not )?determined\) and (?P<move>.+?) \((?:not )?determined"
+    r"(?:; heading (?P<low>-?\d+) to (?P<high>-?\d+) degrees[^)]*)?\)"
 )
 _TURN_SPAN = re.compile(r"turned (left|right) by (?:about )?(\d+)(?: to (\d+))? degrees")
 _TURN_BETWEEN = re.compile(r"turned between (\d+) degrees (left|right) and (\d+) degrees (left|right)")
@@ -76,7 +79,10 @@ def over_focal_statement(sentence: str) -> OverFocal | None:
     directions: list[str | None] = []
     for part in move.removeprefix("moved ").split(" or "):
         directions.append(None if "stayed in place" in part else normalize_direction(part))
-    return OverFocal(directions=directions, yaw_range_deg=yaw)
+    heading = None
+    if match.group("low") is not None:
+        heading = (float(match.group("low")), float(match.group("high")))
+    return OverFocal(directions=directions, yaw_range_deg=yaw, heading_range_deg=heading)
 
 
 def motion_statements(clue_text: str) -> list[MotionStatement]:
@@ -158,23 +164,37 @@ def unreadable_clue(text: str, clue_images: list[bytes]) -> str:
 
 
 def hypothetical_statements(statement: MotionStatement) -> list[MotionStatement]:
-    """Every motion a sentence over focal hypotheses allows, as plain statements: each direction
-    it names with each whole-degree turn in its range (a superset of the hypotheses, so a choice
-    that holds for all of these holds at every hypothesis)."""
+    """Every motion a sentence over focal hypotheses allows, as plain statements: each heading of
+    its range (whole degrees, with its direction word and `heading_deg`) with each whole-degree
+    turn of its range. A superset of the hypotheses, so a choice that holds for all of these holds
+    at every hypothesis."""
     over = statement.over_focal
     if over is None:
         return [statement]
-    if over.yaw_range_deg is None:
-        turns = [("no turn", 0.0)]
+    turns = (
+        [("no turn", 0.0)] if over.yaw_range_deg is None else [_turn_of(y) for y in _span(over.yaw_range_deg)]
+    )
+    steps: list[tuple[str | None, float | None]] = []
+    if over.heading_range_deg is not None:
+        steps = [(direction_name(h), h) for h in _span(over.heading_range_deg)]
     else:
-        low, high = over.yaw_range_deg
-        yaws = np.unique(np.append(np.arange(math.floor(low), math.ceil(high) + 1), [low, high]))
-        turns = [_turn_of(float(yaw)) for yaw in yaws if low <= yaw <= high]
+        steps = [(d, None) for d in over.directions if d is not None]
+    if None in over.directions:
+        steps.append((None, None))  # some hypothesis stayed in place
     return [
-        statement.model_copy(update={"direction": d, "turn": t, "degrees": g, "over_focal": None})
-        for d in dict.fromkeys(over.directions)
+        statement.model_copy(
+            update={"direction": d, "heading_deg": h, "turn": t, "degrees": g, "over_focal": None}
+        )
+        for d, h in dict.fromkeys(steps)
         for t, g in dict.fromkeys(turns)
     ]
+
+
+def _span(ends: tuple[float, float]) -> list[float]:
+    """Whole degrees from one end to the other, both ends included."""
+    low, high = ends
+    inner = np.arange(math.ceil(low), math.floor(high) + 1, dtype=float)
+    return [float(x) for x in dict.fromkeys([low, *inner, high])]
 
 
 def _turn_of(yaw_deg: float) -> tuple[str, float]:

@@ -97,11 +97,13 @@ class MotionOverFocal:
     vertical_determined: bool
     translation_directions: list[list[float]]  # per hypothesis, unit step in the first camera's axes
     sentence: str
+    heading_range_deg: tuple[float, float] | None = None  # of the steps, 0 forward, + right (angle_deg)
 
     def to_dict(self) -> dict[str, object]:
         result = asdict(self)
         result["fov_range_deg"] = list(self.fov_range_deg)
         result["yaw_range_deg"] = list(self.yaw_range_deg)
+        result["heading_range_deg"] = None if self.heading_range_deg is None else list(self.heading_range_deg)
         return result
 
 
@@ -132,6 +134,32 @@ def turn_words(turns: list[str], yaw_range_deg: tuple[float, float]) -> str:
     return f"turned between {side(low)} and {side(high)}"
 
 
+def circular_range(angles_deg: list[float]) -> tuple[float, float]:
+    """The smallest signed interval holding every angle (degrees), measured from the first one:
+    (170, -175) gives (170, 185), not (-175, 170)."""
+    reference = angles_deg[0]
+    offsets = [(angle - reference + 180.0) % 360.0 - 180.0 for angle in angles_deg]
+    return float(reference + min(offsets)), float(reference + max(offsets))
+
+
+def hypothesis_motions(
+    hypotheses: PairHypotheses, threshold: float = 0.05, rotation_threshold_deg: float = 10.0
+) -> list[CameraMotion]:
+    """camera_motion's description of each hypothesis's relative pose (up from its two cameras)."""
+    first = np.concatenate([np.eye(3), np.zeros((3, 1))], 1)
+    motions = []
+    for rotation, translation in zip(hypotheses.rotations, hypotheses.translations, strict=True):
+        second = np.concatenate([np.asarray(rotation, float), np.asarray(translation, float)[:, None]], 1)
+        (motion,) = describe_camera_motion(
+            np.stack([first, second]),
+            scene_scale=1.0,
+            threshold=threshold,
+            rotation_threshold_deg=rotation_threshold_deg,
+        )
+        motions.append(motion)
+    return motions
+
+
 def motion_over_focal(
     hypotheses: PairHypotheses, threshold: float = 0.05, rotation_threshold_deg: float = 10.0
 ) -> MotionOverFocal:
@@ -141,26 +169,20 @@ def motion_over_focal(
     "no significant movement" only for a pure-rotation hypothesis."""
     if not hypotheses.fov_deg:
         raise ValueError(f"pair ({hypotheses.first}, {hypotheses.second}) has no supported hypothesis")
-    yaws, turns, directions, verticals, steps = [], [], [], [], []
-    for rotation, translation in zip(hypotheses.rotations, hypotheses.translations, strict=True):
-        second = np.concatenate([np.asarray(rotation, float), np.asarray(translation, float)[:, None]], 1)
-        first = np.concatenate([np.eye(3), np.zeros((3, 1))], 1)
-        (motion,) = describe_camera_motion(
-            np.stack([first, second]),
-            scene_scale=1.0,
-            threshold=threshold,
-            rotation_threshold_deg=rotation_threshold_deg,
-        )
-        yaws.append(motion.yaw_deg)
-        turns.append(_turn_side(motion.yaw_deg, motion.turn))
-        directions.append(motion.direction)
-        verticals.append(motion.vertical_direction or "none")
+    motions = hypothesis_motions(hypotheses, threshold, rotation_threshold_deg)
+    steps = []
+    for motion in motions:
         step = np.asarray(motion.displacement_in_first_camera)
         norm = np.linalg.norm(step)
         steps.append((step / norm if norm > 1e-12 else step).tolist())
-    yaw_range = (float(min(yaws)), float(max(yaws)))
+    yaw_range = circular_range([m.yaw_deg for m in motions])
+    headings = [m.angle_deg for m in motions if m.direction != NO_MOVEMENT]
+    heading_range = circular_range(headings) if headings else None
     fov_range = (float(min(hypotheses.fov_deg)), float(max(hypotheses.fov_deg)))
-    turns, directions, verticals = _distinct(turns), _distinct(directions), _distinct(verticals)
+    turns = _distinct([_turn_side(m.yaw_deg, m.turn) for m in motions])
+    directions = _distinct([m.direction for m in motions])
+    verticals = _distinct([m.vertical_direction or "none" for m in motions])
+    words = Words(turns, yaw_range, directions, heading_range)
     return MotionOverFocal(
         from_view=hypotheses.first,
         to_view=hypotheses.second,
@@ -174,38 +196,46 @@ def motion_over_focal(
         vertical_directions=verticals,
         vertical_determined=len(verticals) == 1,
         translation_directions=steps,
-        sentence=determinacy_sentence(
-            hypotheses.first, hypotheses.second, turns, yaw_range, directions, fov_range
-        ),
+        sentence=determinacy_sentence(hypotheses.first, hypotheses.second, words, fov_range),
+        heading_range_deg=heading_range,
     )
+
+
+@dataclass(frozen=True)
+class Words:
+    """What a determinacy sentence says of a pair over its hypotheses."""
+
+    turns: list[str]
+    yaw_range_deg: tuple[float, float]
+    directions: list[str]
+    heading_range_deg: tuple[float, float] | None  # of the steps that moved; None when none did
 
 
 def _mark(determined: bool) -> str:
     return DETERMINED if determined else NOT_DETERMINED
 
 
-def determinacy_sentence(
-    first: int,
-    second: int,
-    turns: list[str],
-    yaw_range_deg: tuple[float, float],
-    directions: list[str],
-    fov_range_deg: tuple[float, float],
-) -> str:
-    """One sentence (1-based view numbers) that the agent's offline answerer reads back."""
-    moves = [d for d in directions if d != NO_MOVEMENT]
+def determinacy_sentence(first: int, second: int, words: Words, fov_range_deg: tuple[float, float]) -> str:
+    """One sentence (1-based view numbers) that the agent's offline answerer reads back. The step's
+    heading range (0 = forward, + = right, as camera_motion's angle_deg) goes with its words."""
+    moves = [d for d in words.directions if d != NO_MOVEMENT]
     if not moves:
         moved = "stayed in place"
     else:
-        moved = (
-            "moved " + " or ".join(moves) + (" or stayed in place" if len(moves) < len(directions) else "")
-        )
+        moved = "moved " + " or ".join(moves)
+        if len(moves) < len(words.directions):
+            moved += " or stayed in place"
+    mark = _mark(len(words.directions) == 1)
+    if words.heading_range_deg is not None:
+        low, high = (round(end) for end in words.heading_range_deg)
+        mark = f"{mark[:-1]}; heading {low} to {high} degrees, 0 = forward, + = right)"
     low, high = fov_range_deg
     fovs = f"{round(low)} to {round(high)} degrees" if round(high) != round(low) else f"{round(low)} degrees"
+    turn = turn_words(words.turns, words.yaw_range_deg)
     return (
-        f"From view {first + 1} to view {second + 1} the camera {turn_words(turns, yaw_range_deg)} "
-        f"{_mark(len(turns) == 1)} and {moved} {_mark(len(directions) == 1)}, over every horizontal "
-        f"field of view the photos allow ({fovs}; the focal length is unknown)."
+        f"From view {first + 1} to view {second + 1} the camera {turn} {_mark(len(words.turns) == 1)} "
+        f"and {moved} {mark}, over every horizontal field of view the photos allow ({fovs}; the focal "
+        "length is unknown)."
     )
 
 
@@ -227,6 +257,9 @@ __all__ = [
     "DETERMINED",
     "NOT_DETERMINED",
     "FocalHypotheses",
+    "Words",
+    "circular_range",
+    "hypothesis_motions",
     "MotionOverFocal",
     "PairHypotheses",
     "determinacy_sentence",

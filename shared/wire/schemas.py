@@ -164,6 +164,11 @@ class MotionOverFocalItem(_Model):
     turn_determined: bool = Field(..., description="True when every hypothesis turns the same way.")
     directions: list[str] = Field(..., description="The distinct horizontal step directions.")
     direction_determined: bool
+    heading_range_deg: list[float] | None = Field(
+        None,
+        description="[min, max] heading of the step over the hypotheses (0 forward, + right); "
+        "null if none moved.",
+    )
     vertical_directions: list[str] = Field(
         ..., description="The distinct vertical steps: 'up', 'down', 'none'."
     )
