@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import statistics
 
+import httpx
 import numpy as np
 import pytest
 
@@ -107,12 +108,16 @@ def test_camera_motion_over_http_says_what_the_focal_range_determines(tmp_path, 
         with ReconClient(service.url, timeout=120) as client:
             scene_id = client.upload_scene([encode_image(image) for image in sideways]).scene_id
             response = client.camera_motion(scene_id)
+            pose = np.concatenate([np.eye(3), np.zeros((3, 1))], 1).tolist()
+            body = {"scene_id": scene_id, "extrinsic": pose, "width": 64, "height": 48}
+            render = httpx.post(service.url + "/v1/render", json=body, timeout=60)
+    assert render.status_code == 200 and "central focal hypothesis" in render.headers["x-pyspatial-warning"]
     [motion] = response.motions
     over = motion.over_focal
     assert over is not None and over.hypotheses >= 5 and over.direction_determined
     assert over.directions == ["left"] and not over.turn_determined
     assert len(over.translation_directions) == over.hypotheses
-    assert motion.sentence == over.sentence and "moved left (determined)" in motion.sentence
+    assert motion.sentence == over.sentence and "moved left (determined; heading" in motion.sentence
     assert any("central hypothesis" in warning for warning in response.warnings)
 
 

@@ -270,6 +270,18 @@ class ReconService:
 
         return await anyio.to_thread.run_sync(work)
 
+    async def render_warning(self, scene_id: str, backbone: str | None) -> str | None:
+        """What a render of this scene should say about its poses: the focal hypothesis it uses
+        when the focal is unknown and the views cannot fix it, else None."""
+        hypotheses = (await self.reconstruct(scene_id, backbone)).reconstruction.focal_hypotheses
+        if hypotheses is None:
+            return None
+        return (
+            f"rendered at the central focal hypothesis ({hypotheses.central_fov_deg:.0f} degrees horizontal "
+            "field of view): the focal length is unknown and the views cannot fix it, so other "
+            "hypotheses would place the cameras differently"
+        )
+
     async def camera_motion(
         self, scene_id: str, pairs: list[tuple[int, int]] | None, backbone: str | None
     ) -> tuple[Reconstruction, list[CameraMotion | UnknownMotion], float]:
