@@ -21,7 +21,7 @@ import numpy as np
 
 from services.agent.answering import UNDETERMINED, answer_offline
 from services.recon.backbones.base import BackboneError
-from services.recon.backbones.classical import ClassicalBackbone
+from services.recon.backbones.classical import ClassicalBackbone, focal_hypotheses
 from services.recon.motion_inputs import motion_scene_scale, view_pose_problems
 from shared.geometry.camera_motion import CameraMotion, describe_pairs
 from shared.geometry.motion_determinacy import with_motion_over_focal
@@ -90,7 +90,15 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--width", type=int, default=320)
     parser.add_argument("--height", type=int, default=240)
     parser.add_argument("--verbose", action="store_true")
+    parser.add_argument(
+        "--fov-grid",
+        default=None,
+        help="LOW,HIGH,STEP degrees instead of the backbone's 10,100,5 (sensitivity)",
+    )
     args = parser.parse_args(argv)
+    if args.fov_grid:
+        low, high, step = (float(x) for x in args.fov_grid.split(","))
+        focal_hypotheses.FOV_GRID_DEG = tuple(float(f) for f in np.arange(low, high + step / 2, step))
     backbone = ClassicalBackbone(densify=False)
     started = time.perf_counter()
     rows: list[dict] = []

@@ -20,7 +20,7 @@ import numpy as np
 from bench.templering import STEP_DEG, ring, subset
 from bench.templering_data import load_cameras, load_image, realdata_dir, relative_pose
 from services.recon.backbones.base import BackboneError
-from services.recon.backbones.classical import ClassicalBackbone
+from services.recon.backbones.classical import ClassicalBackbone, focal_hypotheses
 from shared.geometry.motion_determinacy import PairHypotheses, motion_over_focal
 
 # Turning a photo 90 degrees clockwise: the camera turns about its optical axis.
@@ -39,22 +39,29 @@ def true_words(first: np.ndarray, second: np.ndarray) -> dict[str, str]:
     }
 
 
-def judge(recon, truth: dict[str, str]) -> tuple[str, str]:
-    """("determined-right" | "determined-wrong" | "undetermined" | "refused", the sentence)."""
+WORDS = ("turn", "direction", "vertical")
+
+
+def judge(recon, truth: dict[str, str]) -> tuple[str, str, dict[str, str]]:
+    """("determined-right" | "determined-wrong" | "undetermined" | "refused", the sentence, and per
+    word of WORDS "right", "wrong" or "undetermined")."""
     hypotheses = recon.focal_hypotheses.for_pair(0, 1) if recon.focal_hypotheses else None
     if hypotheses is None:
-        return "refused", "; ".join(recon.warnings)[:200]
+        return "refused", "; ".join(recon.warnings)[:200], {}
     motion = motion_over_focal(hypotheses)
     determined = {
         "turn": (motion.turn_determined, motion.turns[0]),
         "direction": (motion.direction_determined, motion.directions[0]),
         "vertical": (motion.vertical_determined, motion.vertical_directions[0]),
     }
-    said = {name: word for name, (flag, word) in determined.items() if flag}
+    words = {
+        name: ("right" if word == truth[name] else "wrong") if flag else "undetermined"
+        for name, (flag, word) in determined.items()
+    }
     if not (motion.turn_determined or motion.direction_determined):
-        return "undetermined", motion.sentence
-    wrong = [name for name, word in said.items() if word != truth[name]]
-    return ("determined-wrong" if wrong else "determined-right"), motion.sentence
+        return "undetermined", motion.sentence, words
+    wrong = "wrong" in words.values()
+    return ("determined-wrong" if wrong else "determined-right"), motion.sentence, words
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -62,13 +69,22 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--starts", default="1,5,9,13,17,21")
     parser.add_argument("--steps", default="1,2,3,4,6", help="ring steps of 7.7 degrees")
     parser.add_argument("--verbose", action="store_true")
+    parser.add_argument(
+        "--fov-grid",
+        default=None,
+        help="LOW,HIGH,STEP degrees instead of the backbone's 10,100,5 (sensitivity)",
+    )
     args = parser.parse_args(argv)
+    if args.fov_grid:
+        low, high, step = (float(x) for x in args.fov_grid.split(","))
+        focal_hypotheses.FOV_GRID_DEG = tuple(float(f) for f in np.arange(low, high + step / 2, step))
     root = realdata_dir()
     if root is None:
         raise SystemExit("templeRing not found (set PYSPATIAL_REALDATA_DIR)")
     cameras, azimuths = load_cameras(root), ring(root)
     backbone = ClassicalBackbone(densify=False)
     counts: dict[str, dict[str, int]] = {}
+    tally: dict[tuple[str, str], int] = {}  # (word, right / wrong / undetermined) over placed pairs
     started = time.perf_counter()
     for sideways in (False, True):
         for step in (int(s) for s in args.steps.split(",")):
@@ -82,9 +98,11 @@ def main(argv: list[str] | None = None) -> None:
                     pictures = [np.ascontiguousarray(np.rot90(p, -1)) for p in pictures]
                     truth = [np.concatenate([SIDEWAYS @ t[:, :3], SIDEWAYS @ t[:, 3:]], 1) for t in truth]
                 try:
-                    verdict, sentence = judge(backbone.reconstruct(pictures), true_words(*truth))
+                    verdict, sentence, words = judge(backbone.reconstruct(pictures), true_words(*truth))
                 except BackboneError as error:
-                    verdict, sentence = "refused", str(error)[:200]
+                    verdict, sentence, words = "refused", str(error)[:200], {}
+                for name, state in words.items():
+                    tally[(name, state)] = tally.get((name, state), 0) + 1
                 key = f"{step * STEP_DEG:.1f} deg{' sideways' if sideways else ''}"
                 row = counts.setdefault(key, {})
                 row[verdict] = row.get(verdict, 0) + 1
@@ -98,6 +116,11 @@ def main(argv: list[str] | None = None) -> None:
             total[name] = total.get(name, 0) + value
         print(_row(key, row))
     print(_row("all", total))
+    print("\n| word (placed pairs) | determined & right | determined & wrong | undetermined |")
+    print("| --- | --- | --- | --- |")
+    for name in WORDS:
+        states = [str(tally.get((name, state), 0)) for state in ("right", "wrong", "undetermined")]
+        print(f"| {name} | " + " | ".join(states) + " |")
     print(f"{time.perf_counter() - started:.0f} s")
 
 

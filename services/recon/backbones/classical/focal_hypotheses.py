@@ -75,14 +75,14 @@ def solve_over_focal(
     matches: dict[tuple[int, int], np.ndarray],
     placed: Iterable[int],
     given: list[np.ndarray | None],
-    grid: Iterable[float] = FOV_GRID_DEG,
+    grid: Iterable[float] | None = None,
 ) -> FocalHypotheses | None:
     """Hypotheses of every pair of placed views that shares matches; None when no pair has one.
     `given`: per view its known intrinsics (kept), or None (the focal is the hypothesis).
 
     The central hypothesis (the one the stored poses use) is the middle of the fields of view every
     pair supports, else of those any pair supports."""
-    grid = tuple(grid)
+    grid = tuple(FOV_GRID_DEG if grid is None else grid)  # read now, so a bench can try another grid
     placed = set(placed)
     pairs = []
     for (first, second), pair_matches in sorted(matches.items()):
