@@ -23,7 +23,7 @@ from services.agent.answering import UNDETERMINED, answer_offline
 from services.recon.backbones.base import BackboneError
 from services.recon.backbones.classical import ClassicalBackbone, focal_hypotheses
 from services.recon.motion_inputs import motion_scene_scale, view_pose_problems
-from shared.geometry.camera_motion import CameraMotion, describe_pairs
+from shared.geometry.camera_motion import CameraMotion, UnknownMotion, describe_pairs
 from shared.geometry.motion_determinacy import with_motion_over_focal
 from shared.geometry.poses import estimate_up_axis
 from shared.questions.intent import parse_question
@@ -35,14 +35,19 @@ from shared.synthetic.render import default_intrinsic, render_view
 FAMILIES = ("motion", "turn")  # what the offline answerer reads from a motion sentence
 
 
-def pair_sentence(recon, pair: tuple[int, int]) -> tuple[str, bool]:
-    """The service's sentence for one pair, and whether it was solved over focal hypotheses."""
+def pair_motion(recon, pair: tuple[int, int]) -> CameraMotion | UnknownMotion:
+    """The motion /v1/camera-motion gives for one pair (the service's functions, in process)."""
     problems = view_pose_problems(recon)
     usable = [index for index, problem in enumerate(problems) if problem is None]
     up = estimate_up_axis(recon.extrinsics[usable]) if usable else None
     scale = motion_scene_scale(recon, usable)
     (motion,) = describe_pairs(recon.extrinsics, problems, pairs=[pair], up=up, scene_scale=scale)
-    motion = with_motion_over_focal(motion, recon.focal_hypotheses)
+    return with_motion_over_focal(motion, recon.focal_hypotheses)
+
+
+def pair_sentence(recon, pair: tuple[int, int]) -> tuple[str, bool]:
+    """The service's sentence for one pair, and whether it was solved over focal hypotheses."""
+    motion = pair_motion(recon, pair)
     return motion.sentence, isinstance(motion, CameraMotion) and motion.over_focal is not None
 
 

@@ -17,10 +17,12 @@ import time
 
 import numpy as np
 
+from bench.determinacy_synthetic import pair_motion
 from bench.templering import STEP_DEG, ring, subset
 from bench.templering_data import load_cameras, load_image, realdata_dir, relative_pose
 from services.recon.backbones.base import BackboneError
 from services.recon.backbones.classical import ClassicalBackbone, focal_hypotheses
+from shared.geometry.camera_motion import CameraMotion
 from shared.geometry.motion_determinacy import PairHypotheses, motion_over_focal
 
 # Turning a photo 90 degrees clockwise: the camera turns about its optical axis.
@@ -43,22 +45,25 @@ WORDS = ("turn", "direction", "vertical")
 
 
 def judge(recon, truth: dict[str, str]) -> tuple[str, str, dict[str, str]]:
-    """("determined-right" | "determined-wrong" | "undetermined" | "refused", the sentence, and per
-    word of WORDS "right", "wrong" or "undetermined")."""
-    hypotheses = recon.focal_hypotheses.for_pair(0, 1) if recon.focal_hypotheses else None
-    if hypotheses is None:
+    """("determined-right" | "determined-wrong" | "undetermined" | "unknown" | "refused", the
+    sentence, and per word of WORDS "right", "wrong" or "undetermined"). The motion is what
+    /v1/camera-motion says ("unknown": it describes no motion, e.g. a view at shallow angles)."""
+    if recon.focal_hypotheses is None:
         return "refused", "; ".join(recon.warnings)[:200], {}
-    motion = motion_over_focal(hypotheses)
+    motion = pair_motion(recon, (0, 1))
+    if not isinstance(motion, CameraMotion) or motion.over_focal is None:
+        return "unknown", motion.sentence, {}
+    over = motion.over_focal
     determined = {
-        "turn": (motion.turn_determined, motion.turns[0]),
-        "direction": (motion.direction_determined, motion.directions[0]),
-        "vertical": (motion.vertical_determined, motion.vertical_directions[0]),
+        "turn": (over["turn_determined"], over["turns"][0]),
+        "direction": (over["direction_determined"], over["directions"][0]),
+        "vertical": (over["vertical_determined"], over["vertical_directions"][0]),
     }
     words = {
         name: ("right" if word == truth[name] else "wrong") if flag else "undetermined"
         for name, (flag, word) in determined.items()
     }
-    if not (motion.turn_determined or motion.direction_determined):
+    if not (over["turn_determined"] or over["direction_determined"]):
         return "undetermined", motion.sentence, words
     wrong = "wrong" in words.values()
     return ("determined-wrong" if wrong else "determined-right"), motion.sentence, words
@@ -108,8 +113,8 @@ def main(argv: list[str] | None = None) -> None:
                 row[verdict] = row.get(verdict, 0) + 1
                 if args.verbose:
                     print(f"{key} {images}: {verdict}: {sentence}  truth={true_words(*truth)}", flush=True)
-    print("| pairs | determined & right | determined & wrong | undetermined | refused |")
-    print("| --- | --- | --- | --- | --- |")
+    print("| pairs | determined & right | determined & wrong | undetermined | motion unknown | refused |")
+    print("| --- | --- | --- | --- | --- | --- |")
     total: dict[str, int] = {}
     for key, row in counts.items():
         for name, value in row.items():
@@ -125,7 +130,7 @@ def main(argv: list[str] | None = None) -> None:
 
 
 def _row(key: str, row: dict[str, int]) -> str:
-    names = ("determined-right", "determined-wrong", "undetermined", "refused")
+    names = ("determined-right", "determined-wrong", "undetermined", "unknown", "refused")
     return f"| {key} | " + " | ".join(str(row.get(name, 0)) for name in names) + " |"
 
 

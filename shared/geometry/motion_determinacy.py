@@ -25,8 +25,12 @@ from shared.geometry.camera_motion import (
     CameraMotion,
     UnknownMotion,
     describe_camera_motion,
+    unknown_motion,
 )
 
+# The start of the uncertain_reason of a view whose pose is one focal hypothesis of many: camera
+# motion then reads the pair's hypotheses rather than refusing the view.
+FOCAL_HYPOTHESIS_REASON = "its pose rests on one focal hypothesis"
 DETERMINED = "(determined)"
 NOT_DETERMINED = "(not determined)"
 NO_TURN_WORDS = "did not turn significantly"
@@ -247,7 +251,11 @@ def with_motion_over_focal(
         return motion
     pair = hypotheses.for_pair(motion.from_view, motion.to_view)
     if pair is None or not pair.fov_deg:
-        return motion
+        # The poses are the central hypothesis's; without this pair's own, nothing says what holds.
+        reason = (
+            "the focal length is unknown and this pair was not solved over its range (too few shared matches)"
+        )
+        return unknown_motion(motion.from_view, motion.to_view, reason)
     over = motion_over_focal(pair)
     fields = {k: v for k, v in over.to_dict().items() if k not in ("from_view", "to_view")}
     return replace(motion, over_focal=fields, sentence=over.sentence)
@@ -255,6 +263,7 @@ def with_motion_over_focal(
 
 __all__ = [
     "DETERMINED",
+    "FOCAL_HYPOTHESIS_REASON",
     "NOT_DETERMINED",
     "FocalHypotheses",
     "Words",

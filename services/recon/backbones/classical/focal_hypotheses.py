@@ -15,10 +15,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
+from dataclasses import replace
 
 import numpy as np
 
-from shared.geometry.motion_determinacy import FocalHypotheses, PairHypotheses
+from shared.geometry.motion_determinacy import FOCAL_HYPOTHESIS_REASON, FocalHypotheses, PairHypotheses
+from shared.geometry.reconstruction import ViewConfidence
 
 from .intrinsics import guess_intrinsics
 from .two_view import MIN_INLIERS, estimate_two_view
@@ -110,3 +112,20 @@ def solve_over_focal(
     candidates = sorted(common or {fov for pair in pairs for fov in pair.fov_deg})
     central = candidates[len(candidates) // 2]
     return FocalHypotheses(tested_fov_deg=list(grid), central_fov_deg=central, pairs=pairs)
+
+
+def flag_hypothesis_views(
+    confidence: dict[int, ViewConfidence], hypotheses: FocalHypotheses, fov_deg: float
+) -> dict[int, ViewConfidence]:
+    """Every view of a solved pair is flagged: its pose is the central hypothesis's, one of many
+    (a reason already given, e.g. shallow angles, is kept first)."""
+    views = {view for pair in hypotheses.pairs for view in (pair.first, pair.second)}
+    reason = (
+        f"{FOCAL_HYPOTHESIS_REASON} ({fov_deg:.0f} degrees horizontal field of view, the middle of "
+        "those the matches support): the focal length is unknown and the views cannot fix it"
+    )
+    flagged = dict(confidence)
+    for view in views & set(confidence):
+        given = confidence[view].uncertain_reason
+        flagged[view] = replace(confidence[view], uncertain_reason=f"{given}; {reason}" if given else reason)
+    return flagged

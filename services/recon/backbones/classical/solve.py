@@ -27,7 +27,7 @@ from shared.geometry.reconstruction import PairConfidence, ViewConfidence
 
 from ..base import BackboneError
 from .bundle_adjustment import bundle_adjust, robust_cost
-from .focal_hypotheses import horizontal_fov_deg, solve_over_focal
+from .focal_hypotheses import flag_hypothesis_views, horizontal_fov_deg, solve_over_focal
 from .incremental import IncrementalMapper, SparseModel
 from .intrinsics import guess_intrinsics
 from .two_view import TwoViewGeometry, estimate_two_view
@@ -203,7 +203,13 @@ def _over_focal_hypotheses(
         f"the poses and renders use the central hypothesis ({used:.0f} degrees), and camera motion "
         "says which of its words hold at every hypothesis (determined) and which do not"
     )
-    return replace(rebuilt, focal_hypotheses=hypotheses, warnings=[*rebuilt.warnings, warning])
+    confidence = flag_hypothesis_views(rebuilt.view_confidence, hypotheses, used)
+    return replace(
+        rebuilt,
+        focal_hypotheses=hypotheses,
+        view_confidence=confidence,
+        warnings=[*rebuilt.warnings, warning],
+    )
 
 
 def _refuse_unobservable_focal(solution: Solution, free: list[bool]) -> None:
