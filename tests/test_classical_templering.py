@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import statistics
 
+import httpx
 import numpy as np
 import pytest
 
@@ -73,16 +74,51 @@ def test_wide_pairs_with_wrong_two_view_geometry_are_refused(backbone, numbers):
         backbone.reconstruct(images)
 
 
-def test_two_views_without_a_focal_are_refused_not_guessed(backbone):
-    # Two views 7.7 degrees apart fit the 60-degree prior as well as the true 23.8 degrees, and
-    # the prior would place them 5 degrees off: no pose rather than a wrong one.
-    images, truth, intrinsics = _scene([1, 2])
-    with pytest.raises(BackboneError, match="focal length cannot be determined from two views"):
-        backbone.reconstruct(images)
+def test_two_views_without_a_focal_are_solved_over_focal_hypotheses(backbone):
+    # Two views 23 degrees apart fit a range of focals (the prior would place them degrees off):
+    # the pair is solved at every supported field of view, and the words they all share are
+    # determined. Held sideways, the step is "left" at every hypothesis, as in the truth, while the
+    # turn (3 to 44 degrees right) crosses the 10-degree threshold and stays undetermined.
+    from bench.templering_determinacy import SIDEWAYS, true_words
+    from shared.geometry.motion_determinacy import motion_over_focal
+
+    images, truth, intrinsics = _scene([1, 4])
+    sideways = [np.ascontiguousarray(np.rot90(image, -1)) for image in images]
+    result = backbone.reconstruct(sideways)
+    assert result.registered.all() and result.focal_hypotheses is not None
+    motion = motion_over_focal(result.focal_hypotheses.for_pair(0, 1))
+    assert motion.fov_range_deg[1] - motion.fov_range_deg[0] >= 30, motion
+    expected = true_words(*[np.concatenate([SIDEWAYS @ t[:, :3], SIDEWAYS @ t[:, 3:]], 1) for t in truth])
+    assert motion.direction_determined and motion.directions == [expected["direction"]] == ["left"]
+    assert not motion.turn_determined and set(motion.turns) == {"right", "none"}
+    assert any("central hypothesis" in warning for warning in result.warnings)
+    # The focal given: no hypotheses, nothing extra to pay.
     given = backbone.reconstruct(images, intrinsics=intrinsics, intrinsics_sources=["exif"] * 2)
     assert given.registered.all() and given.intrinsics_source == ["exif"] * 2
+    assert given.focal_hypotheses is None
     [(rotation, direction)] = pair_errors(given.extrinsics, truth, given.registered)
     assert rotation <= 2.0 and direction <= 3.0
+
+
+def test_camera_motion_over_http_says_what_the_focal_range_determines(tmp_path, redis_url):
+    env = {"PYSPATIAL_DATA_DIR": str(tmp_path), "PYSPATIAL_BACKBONE": "classical", "REDIS_URL": redis_url}
+    images, _, _ = _scene([1, 4])
+    sideways = [np.ascontiguousarray(np.rot90(image, -1)) for image in images]
+    with running_service("services.recon.app:create_app", env) as service:
+        with ReconClient(service.url, timeout=120) as client:
+            scene_id = client.upload_scene([encode_image(image) for image in sideways]).scene_id
+            response = client.camera_motion(scene_id)
+            pose = np.concatenate([np.eye(3), np.zeros((3, 1))], 1).tolist()
+            body = {"scene_id": scene_id, "extrinsic": pose, "width": 64, "height": 48}
+            render = httpx.post(service.url + "/v1/render", json=body, timeout=60)
+    assert render.status_code == 200 and "central focal hypothesis" in render.headers["x-pyspatial-warning"]
+    [motion] = response.motions
+    over = motion.over_focal
+    assert over is not None and over.hypotheses >= 5 and over.direction_determined
+    assert over.directions == ["left"] and not over.turn_determined
+    assert len(over.translation_directions) == over.hypotheses
+    assert motion.sentence == over.sentence and "moved left (determined; heading" in motion.sentence
+    assert any("central hypothesis" in warning for warning in response.warnings)
 
 
 def test_confidence_over_http(tmp_path, redis_url):

@@ -16,6 +16,7 @@ replies are read, its offline rule); every function here hands such questions to
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from services.agent import free_form
@@ -31,6 +32,7 @@ from services.agent.llm import (
 from services.agent.motion_clue import (
     VISION_MODEL_HINT,
     MotionStatement,
+    hypothetical_statements,
     motion_statements,
     not_a_motion_question,
     pick_statement,
@@ -38,7 +40,11 @@ from services.agent.motion_clue import (
 )
 from services.agent.prompts import load_template
 from shared.questions.choices import (
+    DIRECTIONS,
+    normalize_direction,
+    normalize_turn,
     read_choice,
+    turn_degrees,
 )
 from shared.questions.intent import QuestionIntent
 from shared.questions.motion_words import agrees, asked_motion, read_motion
@@ -288,6 +294,8 @@ def _answer_from_motion(intent: QuestionIntent, statements: list[MotionStatement
     statement, why = pick_statement(intent, statements)
     if statement is None:
         return no_answer(why)
+    if statement.over_focal is not None:
+        return _answer_over_focal(intent, statement)
     letter, why = _match_motion(intent, statement, intent.options)
     if letter is None:
         return no_answer(why)
@@ -299,7 +307,75 @@ def _answer_from_motion(intent: QuestionIntent, statements: list[MotionStatement
     )
 
 
+UNDETERMINED = "cannot be determined from these photos"
+
+
+def _option_motion(text: str, asks_turn_only: bool) -> tuple[str | None, str | None, float | None]:
+    """An option's (direction, turn, degrees), for matching it against one focal hypothesis."""
+    direction, turn, degrees = normalize_direction(text), normalize_turn(text), turn_degrees(text)
+    if asks_turn_only and turn is None and direction is not None:
+        # "Which way did I turn? A. Left B. Right": a bare side names the turn.
+        if direction in ("left", "right"):
+            return None, f"turn {direction}", degrees
+        if direction == "backward":
+            return None, "turn around", degrees if degrees is not None else 180.0
+    return direction, turn, degrees
+
+
+def _answer_over_focal(intent: QuestionIntent, statement: MotionStatement) -> AnswerResult:
+    """The option that fits best under every focal hypothesis, else "cannot be determined" with the
+    range. Under one hypothesis the best fit is the option nearest to its step's heading (within
+    45 degrees, one compass sector) and, for turns, the matching side with the nearest degrees."""
+    options = {letter: _option_motion(text, intent.asks_turn_only) for letter, text in intent.options.items()}
+    letters = {_nearest_option(options, variant) for variant in hypothetical_statements(statement)}
+    if len(letters) == 1 and None not in letters:
+        (letter,) = letters
+        return AnswerResult(
+            answer=letter,
+            reasoning=f"The program's output says: {statement.sentence!r}. Option {letter} "
+            f"({intent.options[letter]!r}) fits best at every focal length the photos allow.",
+            method="offline_text",
+        )
+    named = sorted(str(letter) for letter in letters if letter is not None)
+    fits = f"options {', '.join(named)} each fit some of them" if named else "no option fits all of them"
+    return no_answer(f"{UNDETERMINED}: {statement.sentence} ({fits})")
+
+
+_SECTOR_DEG = 45.0
+
+
+def _nearest_option(
+    options: dict[str, tuple[str | None, str | None, float | None]], variant: MotionStatement
+) -> str | None:
+    """The one option that fits a hypothetical motion best, or None (none fits, or a tie)."""
+    scored = []
+    for letter, (direction, turn, degrees) in options.items():
+        if (direction is None and turn is None) or (turn is not None and turn != variant.turn):
+            continue
+        heading_gap = 0.0
+        if direction is not None:
+            if variant.direction is None:
+                continue  # the option moves; this hypothesis stayed in place
+            if variant.heading_deg is None:
+                heading_gap = 0.0 if direction == variant.direction else math.inf
+            else:
+                offset = DIRECTIONS.index(direction) * _SECTOR_DEG - variant.heading_deg
+                heading_gap = abs((offset + 180.0) % 360.0 - 180.0)
+            if heading_gap > _SECTOR_DEG:
+                continue
+        turn_gap = (
+            abs(degrees - variant.degrees) if degrees is not None and variant.degrees is not None else 0.0
+        )
+        scored.append((heading_gap, turn_gap, letter))
+    if not scored:
+        return None
+    best = min(scored)[:2]
+    closest = [letter for heading, turn, letter in scored if (heading, turn) == best]
+    return closest[0] if len(closest) == 1 else None
+
+
 __all__ = [
+    "UNDETERMINED",
     "VISION_MODEL_HINT",
     "AnswerMethod",
     "AnswerResult",

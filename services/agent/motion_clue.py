@@ -8,10 +8,13 @@ with the options (answering.py), the free-form one says them in words (free_form
 
 from __future__ import annotations
 
+import math
 import re
 
+import numpy as np
 from pydantic import BaseModel
 
+from shared.geometry.camera_motion import describe_turn, direction_name
 from shared.questions.choices import normalize_direction, normalize_turn, turn_degrees
 from shared.questions.intent import QuestionIntent
 from shared.questions.motion_words import MotionReading, asked_frame, read_motion
@@ -30,6 +33,14 @@ _TARGET_CLAUSE = re.compile(r"^it (?:came closer to|moved farther from|stayed as
 _STEP = re.compile(r"\b(?:a step of )?(\d+(?:\.\d+)?) ?(m|scene units)\b")
 
 
+class OverFocal(BaseModel):
+    """What a sentence over an unknown focal allows (motion_determinacy.determinacy_sentence)."""
+
+    directions: list[str | None]  # every step direction some hypothesis gives; None = stayed in place
+    yaw_range_deg: tuple[float, float] | None  # signed, + = left; None: no significant turn throughout
+    heading_range_deg: tuple[float, float] | None = None  # of the step: 0 forward, + right
+
+
 class MotionStatement(BaseModel):
     pair: tuple[int, int] | None
     sentence: str
@@ -40,6 +51,10 @@ class MotionStatement(BaseModel):
     gravity: MotionReading | None = None  # the scene's gravity frame, when the sentence gives it apart
     main_clause: str = ""  # the first frame's words, for free-form answers
     gravity_clause: str | None = None
+
+    over_focal: OverFocal | None = None  # set for a motion over focal hypotheses (then the above are None)
+    heading_deg: float | None = None  # of the step, 0 forward, + right: set on hypothetical statements
+
 
     def reading_for(self, question: str) -> MotionReading:
         """The reading in the frame the question means (the image frame unless it names the room)."""
@@ -67,10 +82,66 @@ def _with_target(reading: MotionReading, target: str | None) -> MotionReading:
     return reading.model_copy(update={"target": read_motion(target).target})
 
 
+
+# "... the camera turned left by 12 to 42 degrees (determined) and moved forward or ... (not determined),"
+_OVER_FOCAL = re.compile(
+    r"the camera (?P<turn>.+?) \((?:not )?determined\) and (?P<move>.+?) \((?:not )?determined"
+    r"(?:; heading (?P<low>-?\d+) to (?P<high>-?\d+) degrees[^)]*)?\)"
+)
+_TURN_SPAN = re.compile(r"turned (left|right) by (?:about )?(\d+)(?: to (\d+))? degrees")
+_TURN_BETWEEN = re.compile(r"turned between (\d+) degrees (left|right) and (\d+) degrees (left|right)")
+
+
+def _signed(degrees: str, side: str) -> float:
+    return float(degrees) if side == "left" else -float(degrees)
+
+
+def over_focal_statement(sentence: str) -> OverFocal | None:
+    """The allowed motions of a sentence over focal hypotheses, or None for any other sentence."""
+    match = _OVER_FOCAL.search(sentence)
+    if match is None:
+        return None
+    turn, move = match.group("turn"), match.group("move")
+    yaw: tuple[float, float] | None = None
+    if span := _TURN_SPAN.search(turn):
+        low, high = span.group(2), span.group(3) or span.group(2)
+        ends = sorted((_signed(low, span.group(1)), _signed(high, span.group(1))))
+        yaw = (ends[0], ends[1])
+    elif between := _TURN_BETWEEN.search(turn):
+        ends = sorted(
+            (_signed(between.group(1), between.group(2)), _signed(between.group(3), between.group(4)))
+        )
+        yaw = (ends[0], ends[1])
+    elif "did not turn" not in turn:
+        return None
+    directions: list[str | None] = []
+    for part in move.removeprefix("moved ").split(" or "):
+        directions.append(None if "stayed in place" in part else normalize_direction(part))
+    heading = None
+    if match.group("low") is not None:
+        heading = (float(match.group("low")), float(match.group("high")))
+    return OverFocal(directions=directions, yaw_range_deg=yaw, heading_range_deg=heading)
+
+
 def motion_statements(clue_text: str) -> list[MotionStatement]:
     statements = []
     for line in clue_text.splitlines():
         for sentence in _SENTENCE_END.split(line.strip()):
+            over = over_focal_statement(sentence)
+            if over is not None:
+                pair_match = _PAIR.search(sentence)
+                pair = (int(pair_match.group(1)), int(pair_match.group(2))) if pair_match else None
+                statements.append(
+                    MotionStatement(
+                        pair=pair,
+                        sentence=sentence.strip(),
+                        direction=None,
+                        turn=None,
+                        degrees=None,
+                        over_focal=over,
+                    )
+                )
+                continue
             main, gravity, target = _clauses(sentence)
             direction, turn = normalize_direction(main), normalize_turn(main)
             if direction is None and turn is None and not _MOVED_OR_NOT.search(main):
@@ -141,9 +212,52 @@ def unreadable_clue(text: str, clue_images: list[bytes]) -> str:
     return "the program produced no clue (no text, no images)"
 
 
+def hypothetical_statements(statement: MotionStatement) -> list[MotionStatement]:
+    """Every motion a sentence over focal hypotheses allows, as plain statements: each heading of
+    its range (whole degrees, with its direction word and `heading_deg`) with each whole-degree
+    turn of its range. A superset of the hypotheses, so a choice that holds for all of these holds
+    at every hypothesis."""
+    over = statement.over_focal
+    if over is None:
+        return [statement]
+    turns = (
+        [("no turn", 0.0)] if over.yaw_range_deg is None else [_turn_of(y) for y in _span(over.yaw_range_deg)]
+    )
+    steps: list[tuple[str | None, float | None]] = []
+    if over.heading_range_deg is not None:
+        steps = [(direction_name(h), h) for h in _span(over.heading_range_deg)]
+    else:
+        steps = [(d, None) for d in over.directions if d is not None]
+    if None in over.directions:
+        steps.append((None, None))  # some hypothesis stayed in place
+    return [
+        statement.model_copy(
+            update={"direction": d, "heading_deg": h, "turn": t, "degrees": g, "over_focal": None}
+        )
+        for d, h in dict.fromkeys(steps)
+        for t, g in dict.fromkeys(turns)
+    ]
+
+
+def _span(ends: tuple[float, float]) -> list[float]:
+    """Whole degrees from one end to the other, both ends included."""
+    low, high = ends
+    inner = np.arange(math.ceil(low), math.floor(high) + 1, dtype=float)
+    return [float(x) for x in dict.fromkeys([low, *inner, high])]
+
+
+def _turn_of(yaw_deg: float) -> tuple[str, float]:
+    """The turn words and stated degrees camera_motion would give a yaw."""
+    words = describe_turn(yaw_deg)
+    return normalize_turn(words) or "no turn", turn_degrees(words) or 0.0
+
+
 __all__ = [
     "VISION_MODEL_HINT",
     "MotionStatement",
+    "OverFocal",
+    "hypothetical_statements",
+    "over_focal_statement",
     "unreadable_clue",
     "motion_statements",
     "not_a_motion_question",

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from shared.geometry.camera_motion import robust_extent
+from shared.geometry.motion_determinacy import FOCAL_HYPOTHESIS_REASON
 from shared.geometry.poses import validate_extrinsic
 from shared.geometry.reconstruction import Reconstruction
 
@@ -28,6 +29,8 @@ def view_pose_problems(recon: Reconstruction) -> list[str | None]:
             problems.append(f"view {index + 1} has no valid pose ({error})")
             continue
         uncertain = recon.view_confidence[index].uncertain_reason if recon.view_confidence else None
+        if uncertain and uncertain.startswith(FOCAL_HYPOTHESIS_REASON) and recon.focal_hypotheses:
+            uncertain = None  # its pairs are described over the focal hypotheses instead
         # A motion sentence states the step and the turn together: a half-known pose gives none.
         problems.append(f"view {index + 1}'s pose is not certain ({uncertain})" if uncertain else None)
     return problems

@@ -32,7 +32,8 @@ from services.recon.scene_store import (
 from services.recon.shared_scenes import SharedScenes
 from services.recon.store_gc import StoreCollector
 from services.recon.tenants import SceneIds, load_or_create_secret
-from shared.geometry.camera_motion import CameraMotion, UnknownMotion, describe_pairs
+from shared.geometry.camera_motion import CameraMotion, UnknownMotion, default_pairs, describe_pairs
+from shared.geometry.motion_determinacy import with_motion_over_focal
 from shared.geometry.poses import estimate_up_axis, up_is_reliable, validate_extrinsic
 from shared.geometry.reconstruction import Reconstruction
 from shared.geometry.rendering import synthesize_novel_view
@@ -322,6 +323,18 @@ class ReconService:
 
         return await anyio.to_thread.run_sync(work)
 
+    async def render_warning(self, scene_id: str, backbone: str | None) -> str | None:
+        """What a render of this scene should say about its poses: the focal hypothesis it uses
+        when the focal is unknown and the views cannot fix it, else None."""
+        hypotheses = (await self.reconstruct(scene_id, backbone)).reconstruction.focal_hypotheses
+        if hypotheses is None:
+            return None
+        return (
+            f"rendered at the central focal hypothesis ({hypotheses.central_fov_deg:.0f} degrees horizontal "
+            "field of view): the focal length is unknown and the views cannot fix it, so other "
+            "hypotheses would place the cameras differently"
+        )
+
     async def camera_motion(
         self,
         scene_id: str,
@@ -354,6 +367,11 @@ class ReconService:
         up = estimate_up_axis(recon.extrinsics[usable]) if usable else None
         scale = motion_scene_scale(recon, usable)
         aim = _target_point(recon, target, usable, problems)
+        if pairs is None and recon.focal_hypotheses is not None:
+            # Unknown focal: every pair that has hypotheses gets its sentence of what they all share,
+            # since the poses alone (the central hypothesis) cannot say it for any other pair.
+            solved = [(p.first, p.second) for p in recon.focal_hypotheses.pairs]
+            pairs = sorted({*default_pairs(views, [p is None for p in problems]), *solved})
         motions = describe_pairs(
             recon.extrinsics,
             problems,
@@ -365,7 +383,7 @@ class ReconService:
             up_reliable=bool(usable) and up_is_reliable(recon.extrinsics[usable]),
             **aim,
         )
-        return motions, scale
+        return [with_motion_over_focal(motion, recon.focal_hypotheses) for motion in motions], scale
 
 
 def _durable_store(settings: ReconSettings) -> tuple[DurableStore | None, str | None]:

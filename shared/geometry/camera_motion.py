@@ -107,6 +107,9 @@ class CameraMotion:
     thresholds: dict[str, float] | None = None
     target_change: str | None = None  # "closer", "farther", "same distance", or None without a target
     target_distances: tuple[float, float] | None = None  # camera i's and j's distances to the target
+    # Unknown focal: the motion over every supported focal hypothesis (motion_determinacy.py's
+    # MotionOverFocal.to_dict()); the numbers above are those of the central hypothesis.
+    over_focal: dict[str, object] | None = None
 
     def to_dict(self) -> dict[str, object]:
         """JSON-able dictionary (plain floats, ints, strings and lists)."""

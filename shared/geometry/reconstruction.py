@@ -13,12 +13,15 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from shared.geometry.motion_determinacy import FocalHypotheses
+
 # 2: per-view intrinsics source and confidence, per-pair confidence. Version 1 files still read
 # (their confidence is unknown and their intrinsics source follows from the backbone).
 # 3: per-point confidence (optional). Versions 1 and 2 read with none.
 # 4: `units`. Older files get the units their backbone always had (see `default_units`).
-FORMAT_VERSION = 4
-READABLE_VERSIONS = (1, 2, 3, 4)
+# 5: `focal_hypotheses` (optional JSON). Versions 1-4 read with none.
+FORMAT_VERSION = 5
+READABLE_VERSIONS = (1, 2, 3, 4, 5)
 PLY_CHUNK_POINTS = 65_536
 
 # What one unit of the world frame is: "metres" (Pi3X's metric head, posed RGB-D in metres) or
@@ -83,6 +86,9 @@ class Reconstruction:
     # point; vggt: the network's confidence). None: the backbone gives none (posed-rgbd).
     point_confidence: np.ndarray | None = None
     units: str | None = None  # one of UNITS; None: what the backbone always gives (default_units)
+    # Unknown focal that the views cannot fix: each pair's poses over the supported fields of view;
+    # the extrinsics above are those of the central hypothesis. None: the focal was known or fixed.
+    focal_hypotheses: FocalHypotheses | None = None
 
     def __post_init__(self) -> None:
         if self.units is None:
@@ -179,6 +185,8 @@ class Reconstruction:
                     arrays[f"{name}_{index}"] = np.asarray(depth_map, dtype=np.float16)
         if self.point_confidence is not None:
             arrays["point_confidence"] = self.point_confidence
+        if self.focal_hypotheses is not None:
+            arrays["focal_hypotheses"] = np.array(json.dumps(self.focal_hypotheses.to_dict()))
         buffer = io.BytesIO()
         np.savez_compressed(buffer, **arrays)
         return buffer.getvalue()
@@ -229,6 +237,7 @@ class Reconstruction:
                 pair_confidence=pair_confidence,
                 point_confidence=archive["point_confidence"] if "point_confidence" in archive else None,
                 units=str(archive["units"]) if "units" in archive else None,
+                focal_hypotheses=_focal_hypotheses(archive),
             )
 
     def to_ply(self) -> bytes:
@@ -262,3 +271,12 @@ class Reconstruction:
         vertex["x"], vertex["y"], vertex["z"] = self.points[start:stop].T
         vertex["r"], vertex["g"], vertex["b"] = self.colors[start:stop].T
         return vertex.tobytes()
+
+
+def _focal_hypotheses(archive) -> FocalHypotheses | None:
+    if "focal_hypotheses" not in archive:
+        return None
+    try:
+        return FocalHypotheses.from_dict(json.loads(str(archive["focal_hypotheses"])))
+    except (KeyError, TypeError, ValueError) as error:
+        raise ReconstructionFormatError(f"unreadable focal hypotheses: {error}") from error

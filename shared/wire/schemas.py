@@ -226,6 +226,36 @@ class BackboneMenu(_Model):
     available: list[str] = Field(..., description="Names a request may use now (auto included).")
 
 
+class MotionOverFocalItem(_Model):
+    """A pair's motion at every focal hypothesis the photos support, and what all of them share."""
+
+    hypotheses: int = Field(..., description="How many field-of-view hypotheses the matches support.")
+    fov_range_deg: list[float] = Field(
+        ..., description="[narrowest, widest] supported horizontal field of view."
+    )
+    yaw_range_deg: list[float] = Field(
+        ..., description="[min, max] turn about up over the hypotheses; + = left."
+    )
+    turns: list[str] = Field(..., description="The distinct turn sides: 'left', 'right', 'none'.")
+    turn_determined: bool = Field(..., description="True when every hypothesis turns the same way.")
+    directions: list[str] = Field(..., description="The distinct horizontal step directions.")
+    direction_determined: bool
+    heading_range_deg: list[float] | None = Field(
+        None,
+        description="[min, max] heading of the step over the hypotheses (0 forward, + right); "
+        "null if none moved.",
+    )
+    vertical_directions: list[str] = Field(
+        ..., description="The distinct vertical steps: 'up', 'down', 'none'."
+    )
+    vertical_determined: bool
+    translation_directions: list[list[float]] = Field(
+        ...,
+        description="Per hypothesis, the unit step in the first camera's axes (x right, y down, z forward).",
+    )
+    sentence: str = Field(..., description="What holds at every hypothesis (determined) and what does not.")
+
+
 class CameraMotionItem(_Model):
     """One pair of views: a description, or (described = false) the reason there is none."""
 
@@ -259,6 +289,12 @@ class CameraMotionItem(_Model):
     )
     target_distances: list[float] | None = Field(
         None, description="Camera i's and j's distances to the target."
+    )
+    over_focal: MotionOverFocalItem | None = Field(
+        None,
+        description="Set when the focal length is unknown and the views cannot fix it: the motion over "
+        "every supported field of view (the numbers above are the central hypothesis's, and `sentence` "
+        "says what is determined); null when the focal is known or self-calibrated.",
     )
 
 

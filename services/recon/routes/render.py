@@ -12,13 +12,23 @@ from shared.wire.errors import error_responses
 from shared.wire.schemas import RenderRequest
 
 router = APIRouter(tags=["tools"])
+RENDER_WARNING_HEADER = "X-Pyspatial-Warning"
 
 
 @router.post(
     "/v1/render",
     response_class=Response,
     responses={
-        200: {"content": {"image/png": {}, "image/jpeg": {}}},
+        200: {
+            "content": {"image/png": {}, "image/jpeg": {}},
+            "headers": {
+                RENDER_WARNING_HEADER: {
+                    "description": "Set when the focal length is unknown and the views cannot fix it: "
+                    "the render uses the central focal hypothesis, and says so.",
+                    "schema": {"type": "string"},
+                }
+            },
+        },
         **error_responses(401, 404, 409, 422, 429, 503),
     },
 )
@@ -36,4 +46,6 @@ async def render(http: Request, request: RenderRequest, service: ServiceDep, ten
             tenant,
         ),
     )
-    return Response(image, media_type=media_type(request.format))
+    warning = await service.render_warning(request.scene_id, request.backbone)
+    headers = {RENDER_WARNING_HEADER: warning} if warning else None
+    return Response(image, media_type=media_type(request.format), headers=headers)

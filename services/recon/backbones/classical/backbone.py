@@ -58,7 +58,7 @@ class _PreparedView:
 
 class ClassicalBackbone(Backbone):
     name = "classical"
-    version = "4"  # 4: two views on the prior focal are refused; uncertain views flagged
+    version = "5"  # 5: an unobservable focal is solved over field-of-view hypotheses, not refused
     accepts_intrinsics = True
 
     def __init__(
@@ -130,6 +130,7 @@ class ClassicalBackbone(Backbone):
         recon.intrinsics_source = sources
         recon.view_confidence = confidence
         recon.pair_confidence = pair_confidence
+        recon.focal_hypotheses = solution.focal_hypotheses
         return recon
 
     # ---- steps ----------------------------------------------------------------------------

@@ -22,11 +22,14 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from shared.geometry.motion_determinacy import FocalHypotheses
 from shared.geometry.reconstruction import PairConfidence, ViewConfidence
 
 from ..base import BackboneError
 from .bundle_adjustment import bundle_adjust, robust_cost
+from .focal_hypotheses import flag_hypothesis_views, horizontal_fov_deg, solve_over_focal
 from .incremental import IncrementalMapper, SparseModel
+from .intrinsics import guess_intrinsics
 from .two_view import TwoViewGeometry, estimate_two_view
 from .verification import (
     MIN_CONFIDENT_ANGLE_DEG,
@@ -55,6 +58,8 @@ class Solution:
     pair_confidence: list[PairConfidence]
     unregistered_reasons: dict[int, str] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    # Set when the free focal is not observable: the pairs solved over a grid of fields of view.
+    focal_hypotheses: FocalHypotheses | None = None
 
 
 def relate_pairs(
@@ -138,8 +143,73 @@ def solve_with_self_calibration(
         )
         model = _adjusted_model(model, adjusted)
     solution = _verified(keypoints, image_sizes, current, free, pairs, model, source, warnings)
-    _refuse_unobservable_focal(solution, free)
+    if _focal_unobservable(solution, free):
+        return _over_focal_hypotheses(keypoints, image_sizes, current, free, matches, solution)
     return solution
+
+
+def _focal_unobservable(solution: Solution, free: list[bool]) -> bool:
+    """Placed views of unknown focal on the prior (not self-calibrated), or only two placed views
+    one of which has an unknown focal (see _refuse_unobservable_focal); not a pure rotation, whose
+    pose needs no baseline."""
+    placed_free = [v for v in solution.model.extrinsics if free[v]]
+    if not placed_free or solution.model.pure_rotation:
+        return False
+    return solution.free_focal_source == "prior" or len(solution.model.extrinsics) == 2
+
+
+def _over_focal_hypotheses(
+    keypoints: list[np.ndarray],
+    image_sizes: list[tuple[int, int]],
+    intrinsics: list[np.ndarray],
+    free: list[bool],
+    matches: dict[tuple[int, int], np.ndarray],
+    solution: Solution,
+) -> Solution:
+    """The solution with every placed pair solved over the field-of-view grid (focal_hypotheses.py),
+    its poses rebuilt at the central hypothesis; two views without a supported one are refused."""
+    given = [None if free[v] else k for v, k in enumerate(intrinsics)]
+    hypotheses = solve_over_focal(keypoints, image_sizes, matches, solution.model.extrinsics, given)
+    if hypotheses is None:
+        _refuse_unobservable_focal(solution, free)
+        return solution
+    prior_view = next(v for v in solution.model.extrinsics if free[v])
+    prior_fov = horizontal_fov_deg(
+        intrinsics[prior_view][0, 0], image_sizes[prior_view][0]
+    )  # or self-calibrated
+    central = [
+        guess_intrinsics(*image_sizes[v], hypotheses.central_fov_deg) if free[v] else k.copy()
+        for v, k in enumerate(intrinsics)
+    ]
+    rebuilt = solution
+    if abs(prior_fov - hypotheses.central_fov_deg) > 1.0:
+        try:
+            pairs, model = _build(keypoints, central, matches)
+            adjusted = bundle_adjust(
+                keypoints, image_sizes, central, free, model.extrinsics, model.points, model.tracks, False
+            )
+            model = _adjusted_model(model, adjusted)
+            rebuilt = _verified(
+                keypoints, image_sizes, central, free, pairs, model, "prior", solution.warnings
+            )
+        except BackboneError:
+            rebuilt = solution  # the prior's model stands; the hypotheses still say what holds
+    used = hypotheses.central_fov_deg if rebuilt is not solution else prior_fov
+    hypotheses.central_fov_deg = float(used)
+    fovs = [fov for pair in hypotheses.pairs for fov in pair.fov_deg]
+    warning = (
+        f"the focal length is unknown and these views cannot fix it: each pair was solved at every "
+        f"horizontal field of view from {min(fovs):g} to {max(fovs):g} degrees that the matches support; "
+        f"the poses and renders use the central hypothesis ({used:.0f} degrees), and camera motion "
+        "says which of its words hold at every hypothesis (determined) and which do not"
+    )
+    confidence = flag_hypothesis_views(rebuilt.view_confidence, hypotheses, used)
+    return replace(
+        rebuilt,
+        focal_hypotheses=hypotheses,
+        view_confidence=confidence,
+        warnings=[*rebuilt.warnings, warning],
+    )
 
 
 def _refuse_unobservable_focal(solution: Solution, free: list[bool]) -> None:
