@@ -121,8 +121,8 @@ def flag_hypothesis_views(
     (a reason already given, e.g. shallow angles, is kept first)."""
     views = {view for pair in hypotheses.pairs for view in (pair.first, pair.second)}
     reason = (
-        f"{FOCAL_HYPOTHESIS_REASON} ({fov_deg:.0f} degrees horizontal field of view, the middle of "
-        "those the matches support): the focal length is unknown and the views cannot fix it"
+        f"{FOCAL_HYPOTHESIS_REASON} ({fov_deg:.0f} degrees horizontal field of view) of those the "
+        "matches support: the focal length is unknown and the views cannot fix it"
     )
     flagged = dict(confidence)
     for view in views & set(confidence):

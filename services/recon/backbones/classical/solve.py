@@ -182,7 +182,10 @@ def _over_focal_hypotheses(
         for v, k in enumerate(intrinsics)
     ]
     rebuilt = solution
-    if abs(prior_fov - hypotheses.central_fov_deg) > 1.0:
+    common = _common_fovs(hypotheses)
+    # The prior's poses stand when the prior is one of the supported hypotheses (no second build);
+    # else the model is rebuilt at the central hypothesis.
+    if not min(common) - 1.0 <= prior_fov <= max(common) + 1.0:
         try:
             pairs, model = _build(keypoints, central, matches)
             adjusted = bundle_adjust(
@@ -200,8 +203,9 @@ def _over_focal_hypotheses(
     warning = (
         f"the focal length is unknown and these views cannot fix it: each pair was solved at every "
         f"horizontal field of view from {min(fovs):g} to {max(fovs):g} degrees that the matches support; "
-        f"the poses and renders use the central hypothesis ({used:.0f} degrees), and camera motion "
-        "says which of its words hold at every hypothesis (determined) and which do not"
+        f"the poses and renders use the central hypothesis, {used:.0f} degrees (the field-of-view "
+        "prior when the matches support it, else the middle of the supported range), and camera "
+        "motion says which of its words hold at every hypothesis (determined) and which do not"
     )
     confidence = flag_hypothesis_views(rebuilt.view_confidence, hypotheses, used)
     return replace(
@@ -210,6 +214,13 @@ def _over_focal_hypotheses(
         view_confidence=confidence,
         warnings=[*rebuilt.warnings, warning],
     )
+
+
+def _common_fovs(hypotheses: FocalHypotheses) -> list[float]:
+    """The fields of view every solved pair supports, else those any pair supports."""
+    pairs = hypotheses.pairs
+    common = set(pairs[0].fov_deg).intersection(*(pair.fov_deg for pair in pairs[1:]))
+    return sorted(common or {fov for pair in pairs for fov in pair.fov_deg})
 
 
 def _refuse_unobservable_focal(solution: Solution, free: list[bool]) -> None:
