@@ -27,6 +27,7 @@ from shared.geometry.reconstruction import PairConfidence, ViewConfidence
 from ..base import BackboneError
 from .bundle_adjustment import bundle_adjust, robust_cost
 from .incremental import IncrementalMapper, SparseModel
+from .rotation_verification import rotation_model_reasons
 from .two_view import TwoViewGeometry, estimate_two_view
 from .verification import (
     MIN_CONFIDENT_ANGLE_DEG,
@@ -255,13 +256,7 @@ def _verified(
     """Unregister the views the data does not support; report everyone's confidence."""
     warnings = [*warnings, *model.warnings]
     if model.pure_rotation:
-        confidence = {
-            view: ViewConfidence(
-                inliers=max((len(p.matches) for k, p in pairs.items() if view in k), default=0)
-            )
-            for view in model.extrinsics
-        }
-        return Solution(model, intrinsics, source, confidence, [], {}, warnings)
+        return _verified_rotations(keypoints, image_sizes, intrinsics, pairs, model, source, warnings)
     reasons: dict[int, str] = {}
     while True:  # a rejected view takes its points along; the rest are checked again
         by_view = {v: intrinsics[v] for v in model.extrinsics}
@@ -304,6 +299,30 @@ def _verified(
             confidence[view] = replace(confidence[view], uncertain_reason=reason)
             warnings.append(f"view {view}'s {reason.removeprefix('its ')}")
     return Solution(model, intrinsics, source, confidence, pair_confidence, reasons, warnings)
+
+
+def _verified_rotations(
+    keypoints: list[np.ndarray],
+    image_sizes: list[tuple[int, int]],
+    intrinsics: list[np.ndarray],
+    pairs: dict[tuple[int, int], TwoViewGeometry],
+    model: SparseModel,
+    source: str,
+    warnings: list[str],
+) -> Solution:
+    """A rotation-only model through the same checks, on its matched rays (no points to check)."""
+    reasons: dict[int, str] = {}
+    while True:  # a refused view takes its rays along; the others are checked again
+        confidence, rejected = rotation_model_reasons(
+            keypoints, intrinsics, image_sizes, model.extrinsics, pairs
+        )
+        if not rejected:
+            return Solution(model, intrinsics, source, confidence, [], reasons, warnings)
+        reasons.update(rejected)
+        model = _without_views(model, set(rejected))
+        if len(model.extrinsics) < 2:
+            details = "; ".join(f"view {v}: {r}" for v, r in sorted(reasons.items()))
+            raise BackboneError(f"no two views could be placed with confidence ({details})")
 
 
 def _without_views(model: SparseModel, removed: set[int]) -> SparseModel:
