@@ -74,11 +74,22 @@ class ViewConfidenceInfo(_Model):
 
 
 class PairConfidenceInfo(_Model):
-    first: int
-    second: int
+    first: int = Field(..., description="Index of the first view (0-based, as `cameras[].index`).")
+    second: int = Field(..., description="Index of the second view (0-based).")
     inliers: int = Field(..., description="Points both views see.")
     reprojection_error_px: float | None = None
     triangulation_angle_deg: float | None = Field(None, description="Median angle between their rays.")
+    rotation_uncertainty_deg: float | None = Field(
+        None, description="One standard deviation of their relative rotation, degrees; null if not estimated."
+    )
+    direction_uncertainty_deg: float | None = Field(
+        None, description="One standard deviation of the direction of travel between them, degrees."
+    )
+    uncertain_reason: str | None = Field(
+        None,
+        description="Why their relative pose is not confident, naming the configuration (small "
+        "triangulation angle, near-pure rotation, near-planar); null when it is confident.",
+    )
 
 
 class CameraInfo(_Model):

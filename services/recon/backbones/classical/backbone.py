@@ -58,7 +58,7 @@ class _PreparedView:
 
 class ClassicalBackbone(Backbone):
     name = "classical"
-    version = "4"  # 4: two views on the prior focal are refused; uncertain views flagged
+    version = "5"  # 5: rotation-only models verified; pair uncertainty and flags
     accepts_intrinsics = True
 
     def __init__(

@@ -27,6 +27,7 @@ from shared.geometry.reconstruction import PairConfidence, ViewConfidence
 from ..base import BackboneError
 from .bundle_adjustment import bundle_adjust, robust_cost
 from .incremental import IncrementalMapper, SparseModel
+from .pair_uncertainty import assess_pairs
 from .rotation_verification import rotation_model_reasons
 from .two_view import TwoViewGeometry, estimate_two_view
 from .verification import (
@@ -285,7 +286,14 @@ def _verified(
             keypoints, image_sizes, intrinsics, free, model.extrinsics, model.points, model.tracks, False
         )
         model = _adjusted_model(model, adjusted)
-    pair_confidence = pair_confidences(seen, model.extrinsics, model.points, [1.0] * len(keypoints))
+    pair_confidence = assess_pairs(
+        keypoints,
+        intrinsics,
+        model.extrinsics,
+        model.tracks,
+        pairs,
+        pair_confidences(seen, model.extrinsics, model.points, [1.0] * len(keypoints)),
+    )
     for view in sorted(model.extrinsics):
         angles = [
             p.triangulation_angle_deg for p in pair_confidence if view in (p.first, p.second) and p.inliers

@@ -29,7 +29,8 @@ class Rivals:
     weigh the chosen model against the others (two models explaining the matches about equally
     well leave the pose ambiguous)."""
 
-    essential_inliers: int = 0
+    essential_inliers: int = 0  # epipolar inliers that also triangulate in front of both views
+    epipolar_inliers: int = 0  # epipolar inliers of the essential matrix, before that check
     rotation_inliers: int = 0
     homography_inliers: int = 0  # a general homography: a plane seen from two places, or a turn
     essential_rotation: np.ndarray | None = None  # the essential model's rotation, when fitted
@@ -77,6 +78,7 @@ def estimate_two_view(
 
     rivals = Rivals(
         essential_count,
+        0 if essential is None else int(essential[3]),
         rotation_count,
         0 if rotation_fit is None else int(rotation_fit[2]),
         None if essential is None else essential[0],
@@ -87,7 +89,7 @@ def estimate_two_view(
         parallax = _median_parallax_deg(n1[inliers], n2[inliers], rotation)
         return TwoViewGeometry(matches[inliers], rotation, np.zeros(3), "rotation", parallax, rivals)
     assert essential is not None
-    rotation, translation, inliers = essential
+    rotation, translation, inliers, _ = essential
     return TwoViewGeometry(
         matches[inliers], rotation, translation, "essential", rivals.essential_parallax_deg, rivals
     )
@@ -95,7 +97,8 @@ def estimate_two_view(
 
 def _fit_essential(
     n1: np.ndarray, n2: np.ndarray, threshold: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int] | None:
+    """Rotation, unit translation, inliers in front of both views, and the epipolar inlier count."""
     if len(n1) < 5:
         return None
     identity = np.eye(3)
@@ -110,7 +113,7 @@ def _fit_essential(
     _, rotation, translation, pose_mask = cv2.recoverPose(essential, n1, n2, identity, mask=mask.copy())
     inliers = (pose_mask.ravel() > 0) & (mask.ravel() > 0)
     translation = translation.ravel()
-    return rotation, translation / max(np.linalg.norm(translation), 1e-12), inliers
+    return rotation, translation / max(np.linalg.norm(translation), 1e-12), inliers, int((mask > 0).sum())
 
 
 def _fit_rotation(

@@ -1,0 +1,75 @@
+"""Pose uncertainty per pair and the flags of degenerate configurations (issue 19, defect 2)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from services.recon.backbones.classical.geometry import compose
+from services.recon.backbones.classical.pair_uncertainty import assess_pairs, uncertain_reason
+from services.recon.backbones.classical.two_view import Rivals, TwoViewGeometry, estimate_two_view
+from shared.geometry.reconstruction import PairConfidence
+
+WIDTH, HEIGHT = 640, 480
+FOCAL = WIDTH / 2 / math.tan(math.radians(12.0))  # a 24-degree lens, as templeRing's
+INTRINSIC = np.array([[FOCAL, 0, WIDTH / 2], [0, FOCAL, HEIGHT / 2], [0, 0, 1]])
+
+
+def _orbit(angle_deg: float) -> np.ndarray:
+    """A camera on a circle of radius 10 around the origin, looking at it."""
+    angle = math.radians(angle_deg)
+    rotation = np.array(
+        [[math.cos(angle), 0, -math.sin(angle)], [0, 1, 0], [math.sin(angle), 0, math.cos(angle)]]
+    )
+    return compose(rotation, np.array([0.0, 0.0, 10.0]))
+
+
+def _pair(angle_deg: float, count: int = 120, seed: int = 2):
+    rng = np.random.default_rng(seed)
+    points = rng.uniform([-2.0, -1.5, -1.5], [2.0, 1.5, 1.5], size=(count, 3))  # an object filling the view
+    cameras = [_orbit(0.0), _orbit(angle_deg)]
+    pixels = []
+    for camera in cameras:
+        local = points @ camera[:, :3].T + camera[:, 3]
+        seen = local[:, :2] / local[:, 2:] * FOCAL + INTRINSIC[:2, 2]
+        pixels.append(seen + rng.normal(0, 0.5, seen.shape))
+    matches = np.stack([np.arange(count), np.arange(count)], axis=1)
+    geometry = estimate_two_view(pixels[0], pixels[1], INTRINSIC, INTRINSIC, matches)
+    assert geometry is not None
+    extrinsics = {0: compose(np.eye(3), np.zeros(3)), 1: compose(geometry.rotation, geometry.translation)}
+    tracks = [{0: int(a), 1: int(b)} for a, b in geometry.matches]
+    rays = [points - (-c[:, :3].T @ c[:, 3]) for c in cameras]
+    cosine = np.sum(rays[0] * rays[1], axis=1) / np.prod([np.linalg.norm(r, axis=1) for r in rays], axis=0)
+    angle = float(np.degrees(np.median(np.arccos(np.clip(cosine, -1, 1)))))
+    confidence = [PairConfidence(0, 1, len(tracks), 0.5, angle)]
+    [assessed] = assess_pairs(pixels, [INTRINSIC] * 2, extrinsics, tracks, {(0, 1): geometry}, confidence)
+    return assessed
+
+
+def test_a_short_baseline_pair_is_flagged_with_its_configuration_and_a_wide_one_is_not():
+    short, wide = _pair(1.5), _pair(20.0)
+    assert short.uncertain_reason is not None
+    assert "small triangulation angle (1.5 degrees" in short.uncertain_reason
+    assert short.direction_uncertainty_deg > 3 * wide.direction_uncertainty_deg
+    assert 0 < wide.rotation_uncertainty_deg < 0.5 and 0 < wide.direction_uncertainty_deg < 0.5
+    assert wide.uncertain_reason is None
+
+
+def test_a_turn_taken_for_a_pair_without_translation_is_not_measurable_so_flagged():
+    assert _pair(1.0).uncertain_reason == "relative rotation uncertain (not measurable)"
+
+
+def test_two_models_explaining_the_matches_alike_are_named():
+    pair = PairConfidence(0, 1, 200, 0.4, 12.0, rotation_uncertainty_deg=0.2)
+    rivals = Rivals(essential_inliers=200, epipolar_inliers=200, rotation_inliers=195, homography_inliers=196)
+    geometry = TwoViewGeometry(
+        np.zeros((200, 2), dtype=int), np.eye(3), np.ones(3) / 3**0.5, "essential", 5.0, rivals
+    )
+    assert "near-pure rotation" in uncertain_reason(pair, geometry)
+    planar = Rivals(essential_inliers=200, epipolar_inliers=200, rotation_inliers=40, homography_inliers=196)
+    geometry = TwoViewGeometry(geometry.matches, np.eye(3), geometry.translation, "essential", 5.0, planar)
+    assert "near-planar" in uncertain_reason(pair, geometry)
+    clear = Rivals(essential_inliers=200, epipolar_inliers=200, rotation_inliers=40, homography_inliers=90)
+    geometry = TwoViewGeometry(geometry.matches, np.eye(3), geometry.translation, "essential", 5.0, clear)
+    assert uncertain_reason(pair, geometry) is None
