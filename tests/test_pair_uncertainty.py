@@ -73,3 +73,32 @@ def test_two_models_explaining_the_matches_alike_are_named():
     clear = Rivals(essential_inliers=200, epipolar_inliers=200, rotation_inliers=40, homography_inliers=90)
     geometry = TwoViewGeometry(geometry.matches, np.eye(3), geometry.translation, "essential", 5.0, clear)
     assert uncertain_reason(pair, geometry) is None
+
+
+def test_camera_motion_gives_no_sentence_for_a_pair_flagged_uncertain():
+    from services.recon.motion_inputs import view_pose_problems, without_uncertain_pairs
+    from shared.geometry.camera_motion import describe_pairs
+    from shared.geometry.reconstruction import Reconstruction
+
+    cameras = np.stack([_orbit(0.0), _orbit(10.0), _orbit(20.0)])
+    recon = Reconstruction(
+        points=np.random.default_rng(1).uniform(-1.0, 1.0, size=(50, 3)),
+        colors=np.zeros((50, 3), np.uint8),
+        extrinsics=cameras,
+        intrinsics=np.tile(INTRINSIC, (3, 1, 1)),
+        image_sizes=np.full((3, 2), [WIDTH, HEIGHT]),
+        registered=[True, True, True],
+        backbone="classical",
+        backbone_version="5",
+        pair_confidence=[
+            PairConfidence(0, 1, 100, 0.4, 10.0, 0.2, 0.3),
+            PairConfidence(1, 2, 100, 0.4, 1.0, 2.4, 9.0, "relative rotation uncertain (+-2.4 degrees)"),
+        ],
+    )
+    motions = without_uncertain_pairs(describe_pairs(cameras, view_pose_problems(recon)), recon)
+    assert motions[0].described
+    assert not motions[1].described
+    assert motions[1].sentence == (
+        "From view 2 to view 3 the camera motion is unknown: the relative pose of views 2 and 3 is "
+        "not certain (relative rotation uncertain (+-2.4 degrees))."
+    )

@@ -19,7 +19,7 @@ from services.recon.camera_inputs import INPUTS_VERSION, view_intrinsics
 from services.recon.checkpoints import CATALOGUE, WEIGHTS_ABSENT, locate
 from services.recon.errors import BackboneNotInstalled, BackboneUnavailable, InvalidInput, SceneNotFound
 from services.recon.jobs import ReconstructionJobs
-from services.recon.motion_inputs import motion_scene_scale, view_pose_problems
+from services.recon.motion_inputs import motion_scene_scale, view_pose_problems, without_uncertain_pairs
 from services.recon.offload import run_cpu, run_in_daemon_thread
 from services.recon.scene_store import SceneInput, SceneStore, check_scene_id, validate_geometry
 from services.recon.shared_scenes import SharedScenes
@@ -298,7 +298,7 @@ class ReconService:
         motions = describe_pairs(
             recon.extrinsics, problems, pairs=pairs, up=up, scene_scale=scale, units=recon.units or "relative"
         )
-        return motions, scale
+        return without_uncertain_pairs(motions, recon), scale
 
 
 def _validated_pose(extrinsic: list[list[float]]) -> np.ndarray:
