@@ -25,9 +25,10 @@ def _orbit(angle_deg: float) -> np.ndarray:
     return compose(rotation, np.array([0.0, 0.0, 10.0]))
 
 
-def _pair(angle_deg: float, count: int = 120, seed: int = 2):
+def _pair(angle_deg: float, count: int = 120, seed: int = 2, depth: float = 1.5):
     rng = np.random.default_rng(seed)
-    points = rng.uniform([-2.0, -1.5, -1.5], [2.0, 1.5, 1.5], size=(count, 3))  # an object filling the view
+    # an object filling the view; depth 0: a flat picture facing the first camera
+    points = rng.uniform([-2.0, -1.5, -depth], [2.0, 1.5, depth], size=(count, 3))
     cameras = [_orbit(0.0), _orbit(angle_deg)]
     pixels = []
     for camera in cameras:
@@ -60,19 +61,29 @@ def test_a_turn_taken_for_a_pair_without_translation_is_not_measurable_so_flagge
     assert _pair(1.0).uncertain_reason == "relative rotation uncertain (not measurable)"
 
 
-def test_two_models_explaining_the_matches_alike_are_named():
+def _yaw(angle_deg: float) -> np.ndarray:
+    return _orbit(angle_deg)[:, :3]
+
+
+def test_two_models_explaining_the_matches_alike_and_disagreeing_are_named():
     pair = PairConfidence(0, 1, 200, 0.4, 12.0, rotation_uncertainty_deg=0.2)
-    rivals = Rivals(essential_inliers=200, epipolar_inliers=200, rotation_inliers=195, homography_inliers=196)
-    geometry = TwoViewGeometry(
-        np.zeros((200, 2), dtype=int), np.eye(3), np.ones(3) / 3**0.5, "essential", 5.0, rivals
-    )
-    assert "near-pure rotation" in uncertain_reason(pair, geometry)
-    planar = Rivals(essential_inliers=200, epipolar_inliers=200, rotation_inliers=40, homography_inliers=196)
-    geometry = TwoViewGeometry(geometry.matches, np.eye(3), geometry.translation, "essential", 5.0, planar)
-    assert "near-planar" in uncertain_reason(pair, geometry)
-    clear = Rivals(essential_inliers=200, epipolar_inliers=200, rotation_inliers=40, homography_inliers=90)
-    geometry = TwoViewGeometry(geometry.matches, np.eye(3), geometry.translation, "essential", 5.0, clear)
-    assert uncertain_reason(pair, geometry) is None
+    rotation, translation = _yaw(10.0), np.array([1.0, 0.0, 0.0])
+
+    def geometry(**rivals) -> TwoViewGeometry:
+        counts = {"essential_inliers": 200, "epipolar_inliers": 200, "rotation_inliers": 40}
+        matches = np.zeros((200, 2), dtype=int)
+        return TwoViewGeometry(matches, rotation, translation, "essential", 5.0, Rivals(**(counts | rivals)))
+
+    turn_away = geometry(rotation_inliers=195, turn=_yaw(15.0))
+    assert "near-pure rotation" in uncertain_reason(pair, turn_away)
+    assert uncertain_reason(pair, geometry(rotation_inliers=195, turn=_yaw(10.5))) is None  # same turn
+    assert uncertain_reason(pair, geometry()) is None
+
+
+def test_a_plane_seen_from_two_places_is_flagged_near_planar():
+    flat = _pair(20.0, depth=0.0)
+    assert flat.uncertain_reason is not None and "near-planar" in flat.uncertain_reason, flat
+    assert _pair(20.0).uncertain_reason is None  # the same views of a solid object
 
 
 def test_camera_motion_gives_no_sentence_for_a_pair_flagged_uncertain():

@@ -38,7 +38,7 @@ def _shrunk(numbers: list[int], scale: float) -> tuple[list[np.ndarray], list[np
 def test_weak_texture_orbit_with_the_true_focal_is_refused_not_a_confident_turn():
     images, intrinsics, truth = _shrunk([20, 22], 0.25)
     backbone = ClassicalBackbone()
-    with pytest.raises(BackboneError, match="could be placed with confidence.*too few inliers"):
+    with pytest.raises(BackboneError, match=r"could be placed with confidence \(view 1: too few inliers"):
         backbone.reconstruct(images, intrinsics=intrinsics, intrinsics_sources=["uploaded"] * 2)
     # The same pair at full size has parallax to spare and is placed right.
     full = [load_image(ROOT, CAMERAS[n - 1].name) for n in (20, 22)]
@@ -78,10 +78,18 @@ def test_a_true_turn_passes_and_an_equally_good_move_with_parallax_refuses_it():
     assert confidence[1].positive_depth_fraction == 1.0 and confidence[1].spread > 0.5
 
     # A rival essential model as good as the turn, 12 degrees away and with parallax: ambiguous.
-    rival = Rivals(len(pair.matches), len(pair.matches), len(pair.matches), _turn(32.0), 6.0)
+    count = len(pair.matches)
+    rival = Rivals(
+        essential_inliers=count,
+        epipolar_inliers=count,
+        rotation_inliers=count,
+        essential_rotation=_turn(32.0),
+        essential_parallax_deg=6.0,
+    )
     ambiguous = {(0, 1): type(pair)(pair.matches, pair.rotation, pair.translation, "rotation", 0.1, rival)}
     _, refused = rotation_model_reasons(keypoints, [intrinsic] * 2, sizes, extrinsics, ambiguous)
     assert set(refused) == {0, 1} and "may not only have turned" in refused[1]
+    assert "its matches to view 1 fit a turn in place" in refused[1]  # people count from 1
 
     # Too few rays: the same inlier floor as a model with points.
     few_keypoints, _, few_matches = _turning_pair(30)

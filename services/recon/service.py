@@ -229,7 +229,7 @@ class ReconService:
                 ) from error
             reconstruction.warnings.extend(known.warnings)
             if known.known_views and backbone.name != "posed-rgbd" and not backbone.accepts_intrinsics:
-                views = ", ".join(str(view) for view in known.known_views)
+                views = ", ".join(str(view + 1) for view in known.known_views)
                 reconstruction.warnings.append(
                     f"{backbone.name} predicts its own intrinsics: the uploaded or EXIF intrinsics of "
                     f"view(s) {views} were not used"
@@ -290,7 +290,10 @@ class ReconService:
         for pair in pairs or []:
             for view in pair:
                 if not 0 <= view < views:
-                    raise InvalidInput(f"view {view} is out of range: the scene has views 0..{views - 1}")
+                    raise InvalidInput(
+                        f"view index {view} is out of range: the scene has {views} views, at indices "
+                        f"0..{views - 1} (0-based: view 1 is index 0)"
+                    )
         problems = view_pose_problems(recon)
         usable = [index for index, problem in enumerate(problems) if problem is None]
         up = estimate_up_axis(recon.extrinsics[usable]) if usable else None

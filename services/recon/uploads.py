@@ -128,7 +128,7 @@ class SceneUploads:
             size, failure = await loop.run_in_executor(pool, validate_image, *arguments)
         except BrokenProcessPool as error:  # a worker died (e.g. killed for memory): start afresh
             self.close()
-            raise DecoderFailed(f"the image decoder process failed on image {index}; retry") from error
+            raise DecoderFailed(f"the image decoder process failed on image {index + 1}; retry") from error
         _raise_image_error(failure)
         return size
 
@@ -193,7 +193,7 @@ class SceneUploads:
             raise InvalidInput(f"{len(upload.images)} images; a scene has at most {self.settings.max_images}")
 
         def decode_all() -> _RawScene:
-            files = [decode_base64(text, f"image {i}") for i, text in enumerate(upload.images)]
+            files = [decode_base64(text, f"image {i + 1}") for i, text in enumerate(upload.images)]
             depths = None
             if upload.depths is not None:
                 depths = [decode_base64(t, f"depth {i}") for i, t in enumerate(upload.depths)]
@@ -242,7 +242,7 @@ class SceneUploads:
         """(width, height) from each file's header, without decoding the pixels."""
         sizes = []
         for index, blob in enumerate(files):
-            label = f"image {index}"
+            label = f"image {index + 1}"
             if not blob:
                 raise ImageError(f"{label} is empty")
             if len(blob) > self.settings.max_image_bytes:

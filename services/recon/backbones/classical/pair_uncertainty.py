@@ -18,16 +18,23 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
+import cv2
 import numpy as np
 
 from shared.geometry.reconstruction import PairConfidence
 
-from .geometry import normalized_coordinates
+from .geometry import normalized_coordinates, rotation_angle_deg
 from .two_view import TwoViewGeometry
 
 MAX_ROTATION_SIGMA_DEG = 1.5  # one standard deviation; 3 sigma (4.5) stays under a 5-degree error
 MIN_ANGLE_OVER_SIGMA = 8.0  # triangulation angle against the rotation's standard deviation
 RIVAL_SHARE = 0.9  # a second model explaining this share of the essential inliers is a rival
+RIVAL_GAP_DEG = 2.0  # ... when the pose it implies is this far from the essential model's
+# Below this triangulation angle any scene's image motion is close to a homography, and its
+# decompositions fit the matches alike (a synthetic room 1-2 cm apart: 2-3 degrees apart, same
+# errors); that is the small-angle case, flagged by MIN_ANGLE_OVER_SIGMA, not a plane.
+MIN_PLANAR_ANGLE_DEG = 5.0
+RIVAL_FIT_RATIO = 1.5  # a homography's pose "fits as well" within this ratio of median epipolar errors
 MIN_NOISE_PX = 0.25  # the noise floor: keypoints are not located better than this
 MIN_SHARED = 8
 OUTLIER_PX = 3.0
@@ -43,12 +50,20 @@ def assess_pairs(
     confidence: list[PairConfidence],
 ) -> list[PairConfidence]:
     """Each pair's confidence with its uncertainty and, when flagged, the reason."""
-    direct = [_with_direct_sigmas(keypoints, intrinsics, extrinsics, tracks, pair) for pair in confidence]
+    direct, planar_gaps = [], []
+    for pair in confidence:
+        rays = _shared_rays(keypoints, intrinsics, extrinsics, tracks, pair.first, pair.second)
+        rotation_sigma, direction_sigma = _pose_sigmas(*rays)
+        direct.append(
+            replace(pair, rotation_uncertainty_deg=rotation_sigma, direction_uncertainty_deg=direction_sigma)
+        )
+        wide = pair.triangulation_angle_deg >= MIN_PLANAR_ANGLE_DEG
+        planar_gaps.append(_planar_rival_gap(*rays, pairs.get((pair.first, pair.second))) if wide else 0.0)
     through_model = _chained_sigmas(direct)
     result = []
-    for pair in direct:
+    for pair, planar_gap in zip(direct, planar_gaps, strict=True):
         updated = replace(pair, rotation_uncertainty_deg=through_model[(pair.first, pair.second)])
-        reason = uncertain_reason(updated, pairs.get((pair.first, pair.second)))
+        reason = uncertain_reason(updated, pairs.get((pair.first, pair.second)), planar_gap)
         result.append(replace(updated, uncertain_reason=reason))
     return result
 
@@ -74,40 +89,46 @@ def _chained_sigmas(pairs: list[PairConfidence]) -> dict[tuple[int, int], float]
     return {key: math.sqrt(value) if math.isfinite(value) else math.nan for key, value in chained.items()}
 
 
-def _with_direct_sigmas(
+_Rays = tuple[np.ndarray, np.ndarray, float, np.ndarray, np.ndarray]
+
+
+def _shared_rays(
     keypoints: list[np.ndarray],
     intrinsics: list[np.ndarray],
     extrinsics: dict[int, np.ndarray],
     tracks: list[dict[int, int]],
-    pair: PairConfidence,
-) -> PairConfidence:
-    """The pair's own uncertainty, from the matches of its two views alone."""
-    first, second = pair.first, pair.second
+    first: int,
+    second: int,
+) -> _Rays:
+    """The matches both views share in the model (normalized coordinates), the focal that turns
+    them into pixels, and the model's relative pose (rotation, unit translation or zeros)."""
     shared = np.array(
         [(track[first], track[second]) for track in tracks if first in track and second in track],
         dtype=np.int64,
     ).reshape(-1, 2)
-    rotation_sigma, direction_sigma = _pose_sigmas(
-        keypoints[first][shared[:, 0]],
-        keypoints[second][shared[:, 1]],
-        intrinsics[first],
-        intrinsics[second],
-        extrinsics[first],
-        extrinsics[second],
-    )
-    return replace(pair, rotation_uncertainty_deg=rotation_sigma, direction_uncertainty_deg=direction_sigma)
+    n1 = normalized_coordinates(keypoints[first][shared[:, 0]], intrinsics[first])
+    n2 = normalized_coordinates(keypoints[second][shared[:, 1]], intrinsics[second])
+    focal = float(np.mean([intrinsics[first][0, 0], intrinsics[second][0, 0]]))
+    rotation = extrinsics[second][:, :3] @ extrinsics[first][:, :3].T
+    translation = extrinsics[second][:, 3] - rotation @ extrinsics[first][:, 3]
+    length = float(np.linalg.norm(translation))
+    return n1, n2, focal, rotation, translation / length if length > 1e-12 else np.zeros(3)
 
 
-def uncertain_reason(pair: PairConfidence, geometry: TwoViewGeometry | None) -> str | None:
-    """Why a pair's relative pose is not confident, naming the configuration; None when it is."""
+def uncertain_reason(
+    pair: PairConfidence, geometry: TwoViewGeometry | None, planar_gap_deg: float = 0.0
+) -> str | None:
+    """Why a pair's relative pose is not confident, naming the configuration; None when it is.
+
+    `planar_gap_deg`: how far the pose of a homography's other decomposition is, when that pose
+    explains the matches as well as the model's (0 when none does)."""
     sigma, angle = pair.rotation_uncertainty_deg, pair.triangulation_angle_deg
-    causes = []
-    if geometry is not None and geometry.model == "essential":
-        rivals = geometry.rivals
-        if rivals.rotation_inliers >= RIVAL_SHARE * rivals.essential_inliers:
-            causes.append("near-pure rotation: a turn in place explains the matches about as well")
-        elif rivals.homography_inliers >= RIVAL_SHARE * rivals.essential_inliers:
-            causes.append("near-planar: one homography explains the matches about as well")
+    causes = [] if geometry is None or geometry.model != "essential" else _turn_rival(geometry)
+    if planar_gap_deg > RIVAL_GAP_DEG:
+        causes.append(
+            f"near-planar: one homography explains the matches as well with a pose {planar_gap_deg:.0f} "
+            "degrees away"
+        )
     if math.isfinite(sigma) and math.isfinite(angle) and angle < MIN_ANGLE_OVER_SIGMA * sigma:
         causes.append(f"small triangulation angle ({angle:.1f} degrees against that uncertainty)")
     if not math.isfinite(sigma) or sigma > MAX_ROTATION_SIGMA_DEG or causes:
@@ -116,24 +137,63 @@ def uncertain_reason(pair: PairConfidence, geometry: TwoViewGeometry | None) -> 
     return None
 
 
+def _turn_rival(geometry: TwoViewGeometry) -> list[str]:
+    """A turn in place explaining the matches about as well and disagreeing on the rotation.
+
+    A rival that agrees on the rotation is no ambiguity (at a tiny baseline every scene fits a
+    turn, and its rotation is the essential model's own); one more than RIVAL_GAP_DEG away is."""
+    rivals = geometry.rivals
+    if rivals.turn is None or rivals.rotation_inliers < RIVAL_SHARE * rivals.essential_inliers:
+        return []
+    gap = rotation_angle_deg(rivals.turn @ geometry.rotation.T)
+    if gap <= RIVAL_GAP_DEG:
+        return []
+    return [f"near-pure rotation: a turn in place explains the matches about as well, {gap:.0f} degrees away"]
+
+
+def _planar_rival_gap(
+    n1: np.ndarray,
+    n2: np.ndarray,
+    focal: float,
+    rotation: np.ndarray,
+    translation: np.ndarray,
+    geometry: TwoViewGeometry | None,
+) -> float:
+    """How far (degrees) the farthest homography decomposition that fits the matches as well is.
+
+    A plane seen from two places fits two poses equally (the homography's two physical
+    decompositions); a tiny baseline fits a homography too, but its other decomposition is
+    noise and leaves epipolar errors well above the model's, so it is no rival."""
+    if geometry is None or geometry.rivals.homography is None or len(n1) < MIN_SHARED:
+        return 0.0
+    rivals = geometry.rivals
+    if rivals.homography_inliers < RIVAL_SHARE * rivals.essential_inliers or not translation.any():
+        return 0.0
+    own = _typical(_sampson(n1, n2, rotation, translation) * focal)
+    _, rotations, translations, _ = cv2.decomposeHomographyMat(rivals.homography, np.eye(3))
+    widest = 0.0
+    for other_rotation, other_translation in zip(rotations, translations, strict=True):
+        length = float(np.linalg.norm(other_translation))
+        if length < 1e-12:
+            continue
+        fit = _typical(_sampson(n1, n2, other_rotation, other_translation.ravel() / length) * focal)
+        if fit <= RIVAL_FIT_RATIO * max(own, MIN_NOISE_PX):
+            widest = max(widest, rotation_angle_deg(other_rotation @ rotation.T))
+    return widest
+
+
+def _typical(errors: np.ndarray) -> float:
+    """Median absolute error: the few matches neither pose explains do not decide."""
+    finite = np.abs(errors[np.isfinite(errors)])
+    return float(np.median(finite)) if len(finite) else math.inf
+
+
 def _pose_sigmas(
-    first_pixels: np.ndarray,
-    second_pixels: np.ndarray,
-    first_intrinsic: np.ndarray,
-    second_intrinsic: np.ndarray,
-    first_extrinsic: np.ndarray,
-    second_extrinsic: np.ndarray,
+    n1: np.ndarray, n2: np.ndarray, focal: float, rotation: np.ndarray, translation: np.ndarray
 ) -> tuple[float, float]:
     """Standard deviations (degrees) of the relative rotation and of the direction of travel."""
-    rotation = second_extrinsic[:, :3] @ first_extrinsic[:, :3].T
-    translation = second_extrinsic[:, 3] - rotation @ first_extrinsic[:, 3]
-    length = np.linalg.norm(translation)
-    if len(first_pixels) < MIN_SHARED or length < 1e-12:
+    if len(n1) < MIN_SHARED or not translation.any():
         return math.nan, math.nan
-    translation = translation / length
-    n1 = normalized_coordinates(first_pixels, first_intrinsic)
-    n2 = normalized_coordinates(second_pixels, second_intrinsic)
-    focal = float(np.mean([first_intrinsic[0, 0], second_intrinsic[0, 0]]))
     across = np.linalg.svd(translation.reshape(1, 3))[2][1:]  # two unit vectors orthogonal to t
 
     def residuals(parameters: np.ndarray, keep: slice | np.ndarray = slice(None)) -> np.ndarray:

@@ -128,10 +128,10 @@ def _rival_reason(
     if gap is None:
         return (
             f"a turn in place explains only {rotation_count} of the {rivals.epipolar_inliers} matches "
-            f"to view {other} that fit an epipolar geometry: it may not only have turned"
+            f"to view {other + 1} that fit an epipolar geometry: it may not only have turned"
         )
     return (
-        f"its matches to view {other} fit a turn in place ({rotation_count} rays) and a move with "
+        f"its matches to view {other + 1} fit a turn in place ({rotation_count} rays) and a move with "
         f"{rivals.essential_parallax_deg:.0f} degrees of parallax ({rivals.essential_inliers}) about "
         f"equally well, and the two rotations differ by {gap:.0f} degrees: it may not only have turned"
     )

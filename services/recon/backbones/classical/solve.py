@@ -160,7 +160,7 @@ def _refuse_unobservable_focal(solution: Solution, free: list[bool]) -> None:
         return
     first, second = sorted(model.extrinsics)
     raise BackboneError(
-        f"the focal length cannot be determined from two views (only views {first} and {second} "
+        f"the focal length cannot be determined from two views (only views {first + 1} and {second + 1} "
         "could be placed, and two views fit a range of focal lengths), so their relative pose "
         "would be a guess; send the intrinsics or photos with an EXIF focal length "
         "(FocalLengthIn35mmFilm), or more views of the scene"
@@ -280,7 +280,7 @@ def _verified(
         reasons.update(rejected)
         model = _without_views(model, set(rejected))
         if len(model.extrinsics) < 2:
-            details = "; ".join(f"view {v}: {r}" for v, r in sorted(reasons.items()))
+            details = "; ".join(f"view {v + 1}: {r}" for v, r in sorted(reasons.items()))
             raise BackboneError(f"no two views could be placed with confidence ({details})")
         adjusted = bundle_adjust(
             keypoints, image_sizes, intrinsics, free, model.extrinsics, model.points, model.tracks, False
@@ -305,7 +305,7 @@ def _verified(
                 f"median at best, {MIN_CONFIDENT_ANGLE_DEG:g} needed); its rotation is reliable"
             )
             confidence[view] = replace(confidence[view], uncertain_reason=reason)
-            warnings.append(f"view {view}'s {reason.removeprefix('its ')}")
+            warnings.append(f"view {view + 1}'s {reason.removeprefix('its ')}")
     return Solution(model, intrinsics, source, confidence, pair_confidence, reasons, warnings)
 
 
@@ -329,7 +329,7 @@ def _verified_rotations(
         reasons.update(rejected)
         model = _without_views(model, set(rejected))
         if len(model.extrinsics) < 2:
-            details = "; ".join(f"view {v}: {r}" for v, r in sorted(reasons.items()))
+            details = "; ".join(f"view {v + 1}: {r}" for v, r in sorted(reasons.items()))
             raise BackboneError(f"no two views could be placed with confidence ({details})")
 
 

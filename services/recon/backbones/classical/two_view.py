@@ -35,6 +35,8 @@ class Rivals:
     homography_inliers: int = 0  # a general homography: a plane seen from two places, or a turn
     essential_rotation: np.ndarray | None = None  # the essential model's rotation, when fitted
     essential_parallax_deg: float = 0.0  # its median ray angle once its rotation is removed
+    turn: np.ndarray | None = None  # the rotation-only model's rotation, when fitted
+    homography: np.ndarray | None = None  # the general homography, normalized coordinates
 
 
 @dataclass(frozen=True)
@@ -83,9 +85,11 @@ def estimate_two_view(
         0 if rotation_fit is None else int(rotation_fit[2]),
         None if essential is None else essential[0],
         0.0 if essential is None else _median_parallax_deg(n1[essential[2]], n2[essential[2]], essential[0]),
+        None if rotation_fit is None else rotation_fit[0],
+        None if rotation_fit is None else rotation_fit[3],
     )
     if rotation_fit is not None and rotation_count >= ROTATION_SHARE * essential_count:
-        rotation, inliers, _ = rotation_fit
+        rotation, inliers, _, _ = rotation_fit
         parallax = _median_parallax_deg(n1[inliers], n2[inliers], rotation)
         return TwoViewGeometry(matches[inliers], rotation, np.zeros(3), "rotation", parallax, rivals)
     assert essential is not None
@@ -124,10 +128,10 @@ def _fit_rotation(
     matches: np.ndarray,
     first_intrinsic: np.ndarray,
     second_intrinsic: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, int] | None:
+) -> tuple[np.ndarray, np.ndarray, int, np.ndarray] | None:
     """Rotation-only model: RANSAC homography in normalized coordinates, made a rotation.
 
-    Also returns how many matches the general homography itself explains."""
+    Also returns how many matches the general homography itself explains, and that homography."""
     focal = float(second_intrinsic[0, 0])
     homography, mask = cv2.findHomography(n1, n2, cv2.RANSAC, ROTATION_THRESHOLD_PX / focal, maxIters=4000)
     if homography is None or mask is None:
@@ -146,7 +150,7 @@ def _fit_rotation(
             return None
         rotation = rotation_between_bearings(rays1[inliers], rays2[inliers])
         inliers = _rotation_inliers(rotation, n1, second_pixels[matches[:, 1]], second_intrinsic)
-    return rotation, inliers, int((mask.ravel() > 0).sum())
+    return rotation, inliers, int((mask.ravel() > 0).sum()), homography
 
 
 def _rotation_inliers(
