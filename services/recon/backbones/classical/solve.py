@@ -306,6 +306,11 @@ def _verified(
             )
             confidence[view] = replace(confidence[view], uncertain_reason=reason)
             warnings.append(f"view {view + 1}'s {reason.removeprefix('its ')}")
+    warnings += [
+        f"the relative pose of views {p.first + 1} and {p.second + 1} is uncertain: {p.uncertain_reason}"
+        for p in pair_confidence
+        if p.uncertain_reason
+    ]
     return Solution(model, intrinsics, source, confidence, pair_confidence, reasons, warnings)
 
 
