@@ -219,8 +219,8 @@ def test_unrelated_and_blank_views_are_flagged_not_invented(scene, arc):
     result = ClassicalBackbone(densify=False).reconstruct([images[0], blank, images[1], images[2], unrelated])
     assert result.registered.tolist() == [True, False, True, True, False], result.warnings
     assert np.isnan(result.extrinsics[[1, 4]]).all()
-    assert any("view 1" in warning for warning in result.warnings)
-    assert any("view 4" in warning for warning in result.warnings)
+    assert any(warning.startswith("view 2 could not be registered") for warning in result.warnings)
+    assert any(warning.startswith("view 5 could not be registered") for warning in result.warnings)
     true_rotation, _ = relative_pose(cameras[0], cameras[2])
     rotation, _ = relative_pose(result.extrinsics[0], result.extrinsics[3])  # images[2] sits at index 3
     assert rotation_error_deg(rotation, true_rotation) < 5.0

@@ -103,7 +103,7 @@ def test_pi3x_reconstruction_is_metric_and_in_our_convention(pi3x) -> None:
     assert placed.any() and recon.num_points > 0
     for index in np.flatnonzero(~placed):
         assert np.isnan(recon.extrinsics[index]).all() and not recon.depths[index].any()
-        assert f"view {index} could not be registered: pi3x gave no usable camera" in recon.warnings
+        assert f"view {index + 1} could not be registered: pi3x gave no usable camera" in recon.warnings
     expected = extrinsics_from_poses(direct["camera_poses"][0].numpy())
     np.testing.assert_allclose(recon.extrinsics[placed], expected[placed], atol=1e-5)
     depth = direct["local_points"][0, ..., 2].numpy()

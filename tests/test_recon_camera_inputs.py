@@ -237,6 +237,9 @@ def partial_scene(client, room) -> str:
     scene = client.upload_scene([encode_image(image) for image in (images[0], blank, images[1], images[2])])
     summary = client.reconstruct(scene.scene_id)
     assert [c.registered for c in summary.cameras] == [True, False, True, True], summary.warnings
+    # People count views from 1, in /reconstruct's warnings as in camera motion's sentences.
+    assert any(w.startswith("view 2 could not be registered (") for w in summary.warnings), summary.warnings
+    assert summary.cameras[1].index == 1  # the JSON index field keeps its 0-based meaning
     return scene.scene_id
 
 
@@ -264,7 +267,10 @@ def test_partially_registered_scene_gets_per_pair_motion(recon, partial_scene):
     out_of_range = httpx.post(
         recon.url + "/v1/camera-motion", json={"scene_id": partial_scene, "pairs": [[0, 9]]}, timeout=60
     )
-    assert out_of_range.status_code == 422 and "out of range" in out_of_range.json()["detail"]
+    assert out_of_range.status_code == 422
+    assert out_of_range.json()["detail"] == (
+        "view index 9 is out of range: the scene has 4 views, at indices 0..3 (0-based: view 1 is index 0)"
+    )
 
 
 def test_motion_of_a_view_with_an_uncertain_position_is_not_stated(recon, client):

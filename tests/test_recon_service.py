@@ -99,7 +99,7 @@ def test_upload_is_content_addressed(recon, client, views):
     ("files", "status", "message"),
     [
         ([("images", ("a.txt", b"hello, not an image"))], 400, "not an image"),
-        ([("images", ("t.png", b"\x89PNG\r\n\x1a\n" + b"\x00" * 40))], 400, "image 0"),
+        ([("images", ("t.png", b"\x89PNG\r\n\x1a\n" + b"\x00" * 40))], 400, "image 1"),
         ([("notes", ("n.txt", b"no images here"))], 422, "no images"),
         ([("images", (f"i{i}.png", b"x")) for i in range(7)], 422, "at most 6"),
         ([("images", ("big.bin", b"\x00" * 2_100_000))], 413, "limit"),

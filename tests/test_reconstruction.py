@@ -122,7 +122,7 @@ def test_confidence_and_intrinsics_sources_round_trip():
         ViewConfidence(80, 0.25, 0.7, 0.98),
         ViewConfidence(unregistered_reason="too few inliers (12, at least 30 needed)"),
     ]
-    original.pair_confidence = [PairConfidence(0, 1, 60, 0.5, 7.5)]
+    original.pair_confidence = [PairConfidence(0, 1, 60, 0.5, 7.5, 0.3, 1.2, "relative rotation uncertain")]
     restored = Reconstruction.from_bytes(original.to_bytes())
     assert restored.intrinsics_source == original.intrinsics_source
     assert restored.pair_confidence == original.pair_confidence

@@ -90,11 +90,11 @@ def test_zero_field_of_view_over_http(tmp_path: Path) -> None:
         known = np.array([[150.0, 0.0, 79.5], [0.0, 150.0, 23.5], [0.0, 0.0, 1.0]])
         scene = client.upload_scene(pngs, intrinsics=[known, None, None])  # vggt predicts its own
         summary = client.reconstruct(scene.scene_id)
-        assert any("were not used" in w and "view(s) 0" in w for w in summary.warnings), summary.warnings
+        assert any("were not used" in w and "view(s) 1" in w for w in summary.warnings), summary.warnings
         [bad] = [camera for camera in summary.cameras if not camera.registered]
         assert bad.index == zero[0] and bad.extrinsic is None and bad.intrinsic is None
         assert [camera.intrinsics_source for camera in summary.cameras] == ["predicted"] * 3
-        assert any(f"view {zero[0]}" in w and "zero field of view" in w for w in summary.warnings)
+        assert any(f"view {zero[0] + 1}" in w and "zero field of view" in w for w in summary.warnings)
         body = {"scene_id": scene.scene_id}
         response = httpx.post(service.url + "/v1/camera-motion", json=body, timeout=60)
         assert response.status_code == 200, response.text

@@ -46,7 +46,7 @@ def view_intrinsics(scene: SceneInput) -> ViewIntrinsics:
             continue
         exif, note = camera_from_exif(blob)
         if note:
-            warnings.append(f"view {index}: {note}; its focal length is unknown")
+            warnings.append(f"view {index + 1}: {note}; its focal length is unknown")
         if exif is not None:
             intrinsics.append(exif.intrinsic)
             sources.append(EXIF)

@@ -15,7 +15,7 @@ def validate_image(
     and is raised again in the service.
     """
     try:
-        rgb = decode_image(blob, max_bytes=max_bytes, max_pixels=max_pixels, label=f"image {index}")
+        rgb = decode_image(blob, max_bytes=max_bytes, max_pixels=max_pixels, label=f"image {index + 1}")
     except ImageError as error:
         return None, (str(error), error.over_limit)
     return (int(rgb.shape[1]), int(rgb.shape[0])), None

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from shared.geometry.camera_motion import robust_extent
+from shared.geometry.camera_motion import CameraMotion, UnknownMotion, robust_extent, unknown_motion
 from shared.geometry.motion_determinacy import FOCAL_HYPOTHESIS_REASON
 from shared.geometry.poses import validate_extrinsic
 from shared.geometry.reconstruction import Reconstruction
@@ -34,6 +34,35 @@ def view_pose_problems(recon: Reconstruction) -> list[str | None]:
         # A motion sentence states the step and the turn together: a half-known pose gives none.
         problems.append(f"view {index + 1}'s pose is not certain ({uncertain})" if uncertain else None)
     return problems
+
+
+def pair_pose_problems(recon: Reconstruction) -> dict[tuple[int, int], str]:
+    """Pairs of usable views whose relative pose the backbone flagged uncertain, with why.
+
+    Both views may be fine alone while their relative pose is not (a short baseline through a
+    narrow lens, two models explaining their matches alike): no motion sentence for such a pair."""
+    return {
+        (pair.first, pair.second): (
+            f"the relative pose of views {pair.first + 1} and {pair.second + 1} is not certain "
+            f"({pair.uncertain_reason})"
+        )
+        for pair in recon.pair_confidence
+        if pair.uncertain_reason
+    }
+
+
+def without_uncertain_pairs(
+    motions: list[CameraMotion | UnknownMotion], recon: Reconstruction
+) -> list[CameraMotion | UnknownMotion]:
+    """The motions, with those of pairs flagged uncertain replaced by why they are not given."""
+    uncertain = pair_pose_problems(recon)
+    result = []
+    for motion in motions:
+        key = (min(motion.from_view, motion.to_view), max(motion.from_view, motion.to_view))
+        if motion.described and key in uncertain:
+            motion = unknown_motion(motion.from_view, motion.to_view, uncertain[key])
+        result.append(motion)
+    return result
 
 
 def motion_scene_scale(recon: Reconstruction, usable: list[int]) -> float:

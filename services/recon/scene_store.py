@@ -233,7 +233,10 @@ class SceneStore:
         path = self._path(scene_id)
         count = self.info(scene_id, tenant)["num_images"]
         if not 0 <= index < count:
-            raise SceneNotFound(f"scene {scene_id} has images 0..{count - 1}; there is no image {index}")
+            raise SceneNotFound(
+                f"scene {scene_id} has {count} images, at indices 0..{count - 1} (0-based); "
+                f"there is no index {index}"
+            )
         return (path / f"image_{index:03d}").read_bytes()
 
     def load(self, scene_id: str, decode, tenant: str = DEFAULT_TENANT) -> SceneInput:
@@ -241,7 +244,8 @@ class SceneStore:
         path = self._path(scene_id)
         meta = self.info(scene_id, tenant)
         files = [(path / f"image_{i:03d}").read_bytes() for i in range(meta["num_images"])]
-        scene = SceneInput(image_files=files, images=[decode(f, f"image {i}") for i, f in enumerate(files)])
+        images = [decode(file, f"image {i + 1}") for i, file in enumerate(files)]
+        scene = SceneInput(image_files=files, images=images)
         geometry = path / "geometry.npz"
         if geometry.exists():
             with np.load(io.BytesIO(geometry.read_bytes())) as data:
@@ -264,7 +268,7 @@ def validate_geometry(scene: SceneInput) -> None:
             raise InvalidInput(f"{len(scene.depths)} depth maps for {views} images")
         for index, depth in enumerate(scene.depths):
             if depth.ndim != 2 or min(depth.shape) < 2:
-                raise InvalidInput(f"depth {index} must be a 2-D array (H, W), got shape {depth.shape}")
+                raise InvalidInput(f"depth {index + 1} must be a 2-D array (H, W), got shape {depth.shape}")
     for name, shape in (("extrinsics", (3, 4)), ("intrinsics", (3, 3))):
         value = getattr(scene, name)
         if value is None:
@@ -284,6 +288,6 @@ def validate_geometry(scene: SceneInput) -> None:
             fx, fy = intrinsic[0, 0], intrinsic[1, 1]
             if fx <= 0 or fy <= 0 or not np.allclose(intrinsic[2], [0.0, 0.0, 1.0]):
                 raise InvalidInput(
-                    f"intrinsics {index} must be [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0 "
+                    f"intrinsics {index + 1} must be [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0 "
                     "(pixels)"
                 )

@@ -20,7 +20,13 @@ from services.recon.checkpoints import CATALOGUE, WEIGHTS_ABSENT, locate
 from services.recon.durable import DurableStore
 from services.recon.errors import BackboneNotInstalled, BackboneUnavailable, InvalidInput, SceneNotFound
 from services.recon.jobs import ReconstructionJobs
-from services.recon.motion_inputs import motion_scene_scale, pixel_point, scene_centre, view_pose_problems
+from services.recon.motion_inputs import (
+    motion_scene_scale,
+    pixel_point,
+    scene_centre,
+    view_pose_problems,
+    without_uncertain_pairs,
+)
 from services.recon.offload import run_cpu, run_in_daemon_thread
 from services.recon.scene_store import (
     SceneInput,
@@ -282,7 +288,7 @@ class ReconService:
                 ) from error
             reconstruction.warnings.extend(known.warnings)
             if known.known_views and backbone.name != "posed-rgbd" and not backbone.accepts_intrinsics:
-                views = ", ".join(str(view) for view in known.known_views)
+                views = ", ".join(str(view + 1) for view in known.known_views)
                 reconstruction.warnings.append(
                     f"{backbone.name} predicts its own intrinsics: the uploaded or EXIF intrinsics of "
                     f"view(s) {views} were not used"
@@ -361,7 +367,10 @@ class ReconService:
         for pair in pairs or []:
             for view in pair:
                 if not 0 <= view < views:
-                    raise InvalidInput(f"view {view} is out of range: the scene has views 0..{views - 1}")
+                    raise InvalidInput(
+                        f"view index {view} is out of range: the scene has {views} views, at indices "
+                        f"0..{views - 1} (0-based: view 1 is index 0)"
+                    )
         problems = view_pose_problems(recon)
         usable = [index for index, problem in enumerate(problems) if problem is None]
         up = estimate_up_axis(recon.extrinsics[usable]) if usable else None
@@ -383,6 +392,7 @@ class ReconService:
             up_reliable=bool(usable) and up_is_reliable(recon.extrinsics[usable]),
             **aim,
         )
+        motions = without_uncertain_pairs(motions, recon)
         return [with_motion_over_focal(motion, recon.focal_hypotheses) for motion in motions], scale
 
 

@@ -11,6 +11,7 @@ import asyncio
 import io
 import json
 import multiprocessing
+import os
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
@@ -25,6 +26,7 @@ from starlette.requests import Request
 
 from services.recon.decode_worker import validate_image
 from services.recon.errors import InvalidInput, Overloaded, PayloadTooLarge, ReconServiceError
+from services.recon.lifetime import die_with_parent
 from services.recon.offload import run_cpu
 from services.recon.scene_store import SceneInput
 from shared.imaging.codecs import ImageError, decode_base64, decode_image
@@ -105,13 +107,17 @@ class SceneUploads:
         """The decoding processes, started with the first upload (they import only Pillow/numpy)."""
         if self.settings.decode_processes and self._pool is None:
             self._pool = ProcessPoolExecutor(
-                self.settings.decode_processes, mp_context=multiprocessing.get_context("spawn")
+                self.settings.decode_processes,
+                mp_context=multiprocessing.get_context("spawn"),
+                initializer=die_with_parent,  # no orphans, even when the service is killed
+                initargs=(os.getpid(),),
             )
         return self._pool
 
-    def close(self) -> None:
+    def close(self, wait: bool = True) -> None:
+        """Stop the decoding processes; `wait`: until they have exited (service shutdown)."""
         if self._pool is not None:
-            self._pool.shutdown(wait=False, cancel_futures=True)
+            self._pool.shutdown(wait=wait, cancel_futures=True)
             self._pool = None
 
     async def _validate(self, blob: bytes, index: int) -> tuple[int, int]:
@@ -127,8 +133,8 @@ class SceneUploads:
         try:
             size, failure = await loop.run_in_executor(pool, validate_image, *arguments)
         except BrokenProcessPool as error:  # a worker died (e.g. killed for memory): start afresh
-            self.close()
-            raise DecoderFailed(f"the image decoder process failed on image {index}; retry") from error
+            self.close(wait=False)
+            raise DecoderFailed(f"the image decoder process failed on image {index + 1}; retry") from error
         _raise_image_error(failure)
         return size
 
@@ -193,7 +199,7 @@ class SceneUploads:
             raise InvalidInput(f"{len(upload.images)} images; a scene has at most {self.settings.max_images}")
 
         def decode_all() -> _RawScene:
-            files = [decode_base64(text, f"image {i}") for i, text in enumerate(upload.images)]
+            files = [decode_base64(text, f"image {i + 1}") for i, text in enumerate(upload.images)]
             depths = None
             if upload.depths is not None:
                 depths = [decode_base64(t, f"depth {i}") for i, t in enumerate(upload.depths)]
@@ -242,7 +248,7 @@ class SceneUploads:
         """(width, height) from each file's header, without decoding the pixels."""
         sizes = []
         for index, blob in enumerate(files):
-            label = f"image {index}"
+            label = f"image {index + 1}"
             if not blob:
                 raise ImageError(f"{label} is empty")
             if len(blob) > self.settings.max_image_bytes:

@@ -83,11 +83,11 @@ def _fuse_view(
     """Check one posed RGB-D view and back-project it, each point coloured by the pixel under it."""
     image = np.asarray(image)
     if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
-        raise ValueError(f"image {view} must be uint8 (H, W, 3), got {image.dtype} {image.shape}")
+        raise ValueError(f"image {view + 1} must be uint8 (H, W, 3), got {image.dtype} {image.shape}")
     depth_map = _check_depth(depth)
     height, width = image.shape[:2]
     if depth_map.shape[0] > height or depth_map.shape[1] > width:
-        raise ValueError(f"depth {view} {depth_map.shape} is larger than its image {image.shape[:2]}")
+        raise ValueError(f"depth {view + 1} {depth_map.shape} is larger than its image {image.shape[:2]}")
     pose = validate_extrinsic(extrinsic)[:3]
     intrinsic = _check_intrinsic(intrinsic)
     scale_x, scale_y = depth_map.shape[1] / width, depth_map.shape[0] / height

@@ -64,6 +64,11 @@ class PairConfidence:
     inliers: int
     reprojection_error_px: float  # median over both views' observations of the shared points
     triangulation_angle_deg: float  # median angle between the two rays to a shared point
+    # One standard deviation of the relative rotation and of the direction of travel (degrees),
+    # NaN when not estimated; a pair flagged uncertain says why (the configuration) in the reason.
+    rotation_uncertainty_deg: float = math.nan
+    direction_uncertainty_deg: float = math.nan
+    uncertain_reason: str | None = None
 
 
 @dataclass

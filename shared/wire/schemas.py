@@ -75,16 +75,35 @@ class ViewConfidenceInfo(_Model):
     )
 
 
+# JSON index fields are 0-based; every text for people says "view 1" for the first photo, as
+# questions say "image 1" (docs/ARCHITECTURE.md, "View numbers").
+VIEW_NUMBERS = ' Texts (warnings, reasons, errors, sentences) count views from 1: index 0 is "view 1".'
+
+
 class PairConfidenceInfo(_Model):
-    first: int
-    second: int
+    first: int = Field(..., description="Index of the first view (0-based, as `cameras[].index`).")
+    second: int = Field(..., description="Index of the second view (0-based).")
     inliers: int = Field(..., description="Points both views see.")
     reprojection_error_px: float | None = None
     triangulation_angle_deg: float | None = Field(None, description="Median angle between their rays.")
+    rotation_uncertainty_deg: float | None = Field(
+        None, description="One standard deviation of their relative rotation, degrees; null if not estimated."
+    )
+    direction_uncertainty_deg: float | None = Field(
+        None, description="One standard deviation of the direction of travel between them, degrees."
+    )
+    uncertain_reason: str | None = Field(
+        None,
+        description="Why their relative pose is not confident, naming the configuration (small "
+        "triangulation angle, near-pure rotation, near-planar); null when it is confident.",
+    )
 
 
 class CameraInfo(_Model):
-    index: int
+    index: int = Field(
+        ...,
+        description="0-based position of the photo in the upload." + VIEW_NUMBERS,
+    )
     extrinsic: Matrix | None = Field(..., description="3x4 camera-from-world; null when not registered.")
     intrinsic: Matrix | None = Field(..., description="3x3 in pixels; null when the backbone has none.")
     intrinsics_source: str | None = Field(
@@ -149,7 +168,9 @@ class MotionTarget(_Model):
 
 class CameraMotionRequest(_Model):
     scene_id: str
-    pairs: list[tuple[int, int]] | None = Field(None, description="0-based view pairs; consecutive if unset.")
+    pairs: list[tuple[int, int]] | None = Field(
+        None, description="0-based view pairs; consecutive if unset." + VIEW_NUMBERS
+    )
     from_view: int | None = Field(
         None, ge=1, description="With to_view: the one pair from_view -> to_view, 1-based as the sentences "
         "and questions count views (any pair, not only consecutive ones). Not together with pairs."
@@ -259,8 +280,8 @@ class MotionOverFocalItem(_Model):
 class CameraMotionItem(_Model):
     """One pair of views: a description, or (described = false) the reason there is none."""
 
-    from_view: int
-    to_view: int
+    from_view: int = Field(..., description="0-based index of the first view." + VIEW_NUMBERS)
+    to_view: int = Field(..., description="0-based index of the second view.")
     described: bool = Field(True, description="False when the motion is unknown; `reason` says why.")
     reason: str | None = Field(None, description="Why there is no description (unregistered view, ...).")
     direction: str | None = Field(None, description="Horizontal direction, or 'no significant movement'.")

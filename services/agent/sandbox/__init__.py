@@ -8,8 +8,8 @@ hold each of them to account):
    of only the interpreter, site-packages and this package, as uid 65534 without capabilities,
    with no-new-privs, dying with its parent, behind a seccomp allow-list (default EPERM; traced over
    the benign corpus: scripts/trace_sandbox_syscalls.py) that leaves out new processes, exec,
-   signals to others, sockets, sessions, mounts, writable opens, SysV IPC, memfds and pipes. No jail, no programs
-   (unless the operator opts out with PYSPATIAL_SANDBOX_JAIL=off).
+   signals to others, sockets, sessions, mounts, writable opens, SysV IPC, memfds and pipes. No jail,
+   no programs (unless the operator opts out with PYSPATIAL_SANDBOX_JAIL=off).
 1. validation.py checks the syntax tree before anything runs (own AST checker rather than
    RestrictedPython: the allowed language is tiny, so rejecting outright is simpler than
    RestrictedPython's rewrite-and-guard model, needs no guard functions to get right, and gives the

@@ -55,9 +55,9 @@ def check_rgb_images(images: Sequence[np.ndarray], backbone: str) -> None:
             or image.ndim != 3
             or image.shape[2] != 3
         ):
-            raise BackboneError(f"image {index} is not a uint8 (H, W, 3) RGB array")
+            raise BackboneError(f"image {index + 1} is not a uint8 (H, W, 3) RGB array")
         if min(image.shape[:2]) < 2:
-            raise BackboneError(f"image {index} is too small: {image.shape[1]}x{image.shape[0]}")
+            raise BackboneError(f"image {index + 1} is too small: {image.shape[1]}x{image.shape[0]}")
 
 
 # name -> "module:factory"; imported lazily so that e.g. torch loads only for backbones that need it.

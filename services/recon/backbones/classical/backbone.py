@@ -58,7 +58,7 @@ class _PreparedView:
 
 class ClassicalBackbone(Backbone):
     name = "classical"
-    version = "5"  # 5: an unobservable focal is solved over field-of-view hypotheses, not refused
+    version = "6"  # 6: rotation-only models verified, pair uncertainty flags; 5: focal hypotheses
     accepts_intrinsics = True
 
     def __init__(
@@ -140,10 +140,12 @@ class ClassicalBackbone(Backbone):
     ) -> _PreparedView:
         image = np.asarray(image)
         if image.dtype != np.uint8 or image.ndim != 3 or image.shape[2] != 3:
-            raise BackboneError(f"image {index} must be uint8 RGB (H, W, 3), got {image.dtype} {image.shape}")
+            raise BackboneError(
+                f"image {index + 1} must be uint8 RGB (H, W, 3), got {image.dtype} {image.shape}"
+            )
         height, width = image.shape[:2]
         if min(height, width) < 16:
-            raise BackboneError(f"image {index} is too small ({width}x{height})")
+            raise BackboneError(f"image {index + 1} is too small ({width}x{height})")
         scale = min(1.0, self.max_image_side / max(width, height))
         working = (
             image
@@ -309,12 +311,12 @@ def _given_intrinsics(
         usable = matrix.shape == (3, 3) and np.all(np.isfinite(matrix))
         if not usable or matrix[0, 0] <= 0 or matrix[1, 1] <= 0:
             raise BackboneError(
-                f"intrinsics of view {index} must be a finite 3x3 with positive focal lengths"
+                f"intrinsics of view {index + 1} must be a finite 3x3 with positive focal lengths"
             )
         label = (sources[index] if sources is not None else None) or "uploaded"
         if label not in GIVEN_SOURCES:
             raise BackboneError(
-                f"intrinsics source of view {index} must be one of {GIVEN_SOURCES}, got {label!r}"
+                f"intrinsics source of view {index + 1} must be one of {GIVEN_SOURCES}, got {label!r}"
             )
         given.append(matrix)
         labels.append(label)
@@ -340,7 +342,7 @@ def _confidence_in_image_pixels(
                 else "too few reliable matches to placed views"
             )
     for index, reason in sorted(reasons.items()):
-        warnings.append(f"view {index} could not be registered ({reason}); its extrinsic is NaN")
+        warnings.append(f"view {index + 1} could not be registered ({reason}); its extrinsic is NaN")
     confidence = [
         solution.view_confidence.get(index, ViewConfidence(unregistered_reason=reasons.get(index)))
         for index in range(len(views))

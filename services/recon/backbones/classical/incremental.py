@@ -213,7 +213,7 @@ class IncrementalMapper:
                 return None
             baseline = self._typical_baseline()
             self.warnings.append(
-                f"view {view}: its distance from view {anchor} is a guess (no shared 3D points); "
+                f"view {view + 1}: its distance from view {anchor + 1} is a guess (no shared 3D points); "
                 "its direction and rotation are estimated"
             )
         # x_view = R_rel x_anchor + baseline * t_rel, with x_anchor = anchor pose applied to world.

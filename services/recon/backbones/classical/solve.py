@@ -30,6 +30,8 @@ from .bundle_adjustment import bundle_adjust, robust_cost
 from .focal_hypotheses import flag_hypothesis_views, horizontal_fov_deg, solve_over_focal
 from .incremental import IncrementalMapper, SparseModel
 from .intrinsics import guess_intrinsics
+from .pair_uncertainty import assess_pairs
+from .rotation_verification import rotation_model_reasons
 from .two_view import TwoViewGeometry, estimate_two_view
 from .verification import (
     MIN_CONFIDENT_ANGLE_DEG,
@@ -239,7 +241,7 @@ def _refuse_unobservable_focal(solution: Solution, free: list[bool]) -> None:
         return
     first, second = sorted(model.extrinsics)
     raise BackboneError(
-        f"the focal length cannot be determined from two views (only views {first} and {second} "
+        f"the focal length cannot be determined from two views (only views {first + 1} and {second + 1} "
         "could be placed, and two views fit a range of focal lengths), so their relative pose "
         "would be a guess; send the intrinsics or photos with an EXIF focal length "
         "(FocalLengthIn35mmFilm), or more views of the scene"
@@ -336,13 +338,7 @@ def _verified(
     """Unregister the views the data does not support; report everyone's confidence."""
     warnings = [*warnings, *model.warnings]
     if model.pure_rotation:
-        confidence = {
-            view: ViewConfidence(
-                inliers=max((len(p.matches) for k, p in pairs.items() if view in k), default=0)
-            )
-            for view in model.extrinsics
-        }
-        return Solution(model, intrinsics, source, confidence, [], {}, warnings)
+        return _verified_rotations(keypoints, image_sizes, intrinsics, pairs, model, source, warnings)
     reasons: dict[int, str] = {}
     while True:  # a rejected view takes its points along; the rest are checked again
         by_view = {v: intrinsics[v] for v in model.extrinsics}
@@ -365,13 +361,20 @@ def _verified(
         reasons.update(rejected)
         model = _without_views(model, set(rejected))
         if len(model.extrinsics) < 2:
-            details = "; ".join(f"view {v}: {r}" for v, r in sorted(reasons.items()))
+            details = "; ".join(f"view {v + 1}: {r}" for v, r in sorted(reasons.items()))
             raise BackboneError(f"no two views could be placed with confidence ({details})")
         adjusted = bundle_adjust(
             keypoints, image_sizes, intrinsics, free, model.extrinsics, model.points, model.tracks, False
         )
         model = _adjusted_model(model, adjusted)
-    pair_confidence = pair_confidences(seen, model.extrinsics, model.points, [1.0] * len(keypoints))
+    pair_confidence = assess_pairs(
+        keypoints,
+        intrinsics,
+        model.extrinsics,
+        model.tracks,
+        pairs,
+        pair_confidences(seen, model.extrinsics, model.points, [1.0] * len(keypoints)),
+    )
     for view in sorted(model.extrinsics):
         angles = [
             p.triangulation_angle_deg for p in pair_confidence if view in (p.first, p.second) and p.inliers
@@ -383,8 +386,37 @@ def _verified(
                 f"median at best, {MIN_CONFIDENT_ANGLE_DEG:g} needed); its rotation is reliable"
             )
             confidence[view] = replace(confidence[view], uncertain_reason=reason)
-            warnings.append(f"view {view}'s {reason.removeprefix('its ')}")
+            warnings.append(f"view {view + 1}'s {reason.removeprefix('its ')}")
+    warnings += [
+        f"the relative pose of views {p.first + 1} and {p.second + 1} is uncertain: {p.uncertain_reason}"
+        for p in pair_confidence
+        if p.uncertain_reason
+    ]
     return Solution(model, intrinsics, source, confidence, pair_confidence, reasons, warnings)
+
+
+def _verified_rotations(
+    keypoints: list[np.ndarray],
+    image_sizes: list[tuple[int, int]],
+    intrinsics: list[np.ndarray],
+    pairs: dict[tuple[int, int], TwoViewGeometry],
+    model: SparseModel,
+    source: str,
+    warnings: list[str],
+) -> Solution:
+    """A rotation-only model through the same checks, on its matched rays (no points to check)."""
+    reasons: dict[int, str] = {}
+    while True:  # a refused view takes its rays along; the others are checked again
+        confidence, rejected = rotation_model_reasons(
+            keypoints, intrinsics, image_sizes, model.extrinsics, pairs
+        )
+        if not rejected:
+            return Solution(model, intrinsics, source, confidence, [], reasons, warnings)
+        reasons.update(rejected)
+        model = _without_views(model, set(rejected))
+        if len(model.extrinsics) < 2:
+            details = "; ".join(f"view {v + 1}: {r}" for v, r in sorted(reasons.items()))
+            raise BackboneError(f"no two views could be placed with confidence ({details})")
 
 
 def _without_views(model: SparseModel, removed: set[int]) -> SparseModel:

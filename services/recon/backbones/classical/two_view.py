@@ -10,7 +10,7 @@ translation.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -24,6 +24,22 @@ ROTATION_SHARE = 0.9  # rotation must explain this share of the essential inlier
 
 
 @dataclass(frozen=True)
+class Rivals:
+    """How well each candidate model explained the pair's matches: verification and uncertainty
+    weigh the chosen model against the others (two models explaining the matches about equally
+    well leave the pose ambiguous)."""
+
+    essential_inliers: int = 0  # epipolar inliers that also triangulate in front of both views
+    epipolar_inliers: int = 0  # epipolar inliers of the essential matrix, before that check
+    rotation_inliers: int = 0
+    homography_inliers: int = 0  # a general homography: a plane seen from two places, or a turn
+    essential_rotation: np.ndarray | None = None  # the essential model's rotation, when fitted
+    essential_parallax_deg: float = 0.0  # its median ray angle once its rotation is removed
+    turn: np.ndarray | None = None  # the rotation-only model's rotation, when fitted
+    homography: np.ndarray | None = None  # the general homography, normalized coordinates
+
+
+@dataclass(frozen=True)
 class TwoViewGeometry:
     """x_second = rotation @ x_first + translation (camera axes); translation is unit or zero."""
 
@@ -32,6 +48,7 @@ class TwoViewGeometry:
     translation: np.ndarray
     model: str  # "essential" or "rotation"
     median_parallax_deg: float  # angle between the rays of a match after removing the rotation
+    rivals: Rivals = field(default_factory=Rivals)
 
     @property
     def is_rotation(self) -> bool:
@@ -61,19 +78,31 @@ def estimate_two_view(
     if max(essential_count, rotation_count) < MIN_INLIERS:
         return None
 
+    rivals = Rivals(
+        essential_count,
+        0 if essential is None else int(essential[3]),
+        rotation_count,
+        0 if rotation_fit is None else int(rotation_fit[2]),
+        None if essential is None else essential[0],
+        0.0 if essential is None else _median_parallax_deg(n1[essential[2]], n2[essential[2]], essential[0]),
+        None if rotation_fit is None else rotation_fit[0],
+        None if rotation_fit is None else rotation_fit[3],
+    )
     if rotation_fit is not None and rotation_count >= ROTATION_SHARE * essential_count:
-        rotation, inliers = rotation_fit
+        rotation, inliers, _, _ = rotation_fit
         parallax = _median_parallax_deg(n1[inliers], n2[inliers], rotation)
-        return TwoViewGeometry(matches[inliers], rotation, np.zeros(3), "rotation", parallax)
+        return TwoViewGeometry(matches[inliers], rotation, np.zeros(3), "rotation", parallax, rivals)
     assert essential is not None
-    rotation, translation, inliers = essential
-    parallax = _median_parallax_deg(n1[inliers], n2[inliers], rotation)
-    return TwoViewGeometry(matches[inliers], rotation, translation, "essential", parallax)
+    rotation, translation, inliers, _ = essential
+    return TwoViewGeometry(
+        matches[inliers], rotation, translation, "essential", rivals.essential_parallax_deg, rivals
+    )
 
 
 def _fit_essential(
     n1: np.ndarray, n2: np.ndarray, threshold: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int] | None:
+    """Rotation, unit translation, inliers in front of both views, and the epipolar inlier count."""
     if len(n1) < 5:
         return None
     identity = np.eye(3)
@@ -88,7 +117,7 @@ def _fit_essential(
     _, rotation, translation, pose_mask = cv2.recoverPose(essential, n1, n2, identity, mask=mask.copy())
     inliers = (pose_mask.ravel() > 0) & (mask.ravel() > 0)
     translation = translation.ravel()
-    return rotation, translation / max(np.linalg.norm(translation), 1e-12), inliers
+    return rotation, translation / max(np.linalg.norm(translation), 1e-12), inliers, int((mask > 0).sum())
 
 
 def _fit_rotation(
@@ -99,8 +128,10 @@ def _fit_rotation(
     matches: np.ndarray,
     first_intrinsic: np.ndarray,
     second_intrinsic: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray] | None:
-    """Rotation-only model: RANSAC homography in normalized coordinates, made a rotation."""
+) -> tuple[np.ndarray, np.ndarray, int, np.ndarray] | None:
+    """Rotation-only model: RANSAC homography in normalized coordinates, made a rotation.
+
+    Also returns how many matches the general homography itself explains, and that homography."""
     focal = float(second_intrinsic[0, 0])
     homography, mask = cv2.findHomography(n1, n2, cv2.RANSAC, ROTATION_THRESHOLD_PX / focal, maxIters=4000)
     if homography is None or mask is None:
@@ -119,7 +150,7 @@ def _fit_rotation(
             return None
         rotation = rotation_between_bearings(rays1[inliers], rays2[inliers])
         inliers = _rotation_inliers(rotation, n1, second_pixels[matches[:, 1]], second_intrinsic)
-    return rotation, inliers
+    return rotation, inliers, int((mask.ravel() > 0).sum()), homography
 
 
 def _rotation_inliers(

@@ -124,7 +124,7 @@ def disagreement_with_pairs(
     if angle > MAX_PAIR_DISAGREEMENT_DEG:
         other = first if second == view else second
         return (
-            f"its pose disagrees with its matches to view {other} by {angle:.0f} degrees "
+            f"its pose disagrees with its matches to view {other + 1} by {angle:.0f} degrees "
             "(inconsistent with the other views)"
         )
     return None
@@ -190,7 +190,7 @@ def weakly_tied_views(pairs: list[PairConfidence]) -> dict[int, str]:
         )
         shared = 0 if best is None else best.inliers
         result[view] = (
-            f"only weakly tied to views {', '.join(map(str, kept))} ({shared} shared points, "
+            f"only weakly tied to views {', '.join(str(v + 1) for v in kept)} ({shared} shared points, "
             f"at least {MIN_PAIR_POINTS} needed)"
         )
     return result

@@ -152,7 +152,7 @@ class Pi3FamilyBackbone(Backbone):
         intrinsics, sources = self.view_intrinsics(outputs["local_points"], confidence, scales, conditions)
         registered &= np.isfinite(intrinsics).all(axis=(1, 2))
         for index in np.flatnonzero(~registered):
-            warnings.append(f"view {index} could not be registered: {self.name} gave no usable camera")
+            warnings.append(f"view {index + 1} could not be registered: {self.name} gave no usable camera")
         keep = (confidence >= self.confidence_threshold) & registered[:, None, None]
         keep &= np.isfinite(outputs["points"]).all(axis=-1) & (outputs["local_points"][..., 2] > 0)
         extrinsics = extrinsics_from_poses(poses)

@@ -120,7 +120,7 @@ class VGGTBackbone(Backbone):
             raise BackboneError(f"VGGT gave no usable camera: {problems[0]} (and likewise for every view)")
         for index, problem in enumerate(problems):
             if problem is not None:
-                warnings.append(f"view {index} could not be registered: VGGT predicted {problem}")
+                warnings.append(f"view {index + 1} could not be registered: VGGT predicted {problem}")
         if point_source == "depth":
             with np.errstate(invalid="ignore", divide="ignore", over="ignore"):  # bad views are dropped
                 world = unproject_depth_maps(arrays["depth"], arrays["extrinsic"], arrays["intrinsic"])
@@ -143,7 +143,7 @@ class VGGTBackbone(Backbone):
                 depth_confidence[-1] = np.zeros_like(depth_confidence[-1])
             if placement.dropped_rows:
                 warnings.append(
-                    f"view {index}: {placement.dropped_rows} of {placement.resized_size[1]} resized rows "
+                    f"view {index + 1}: {placement.dropped_rows} of {placement.resized_size[1]} resized rows "
                     "fell outside VGGT's centre crop and have no depth"
                 )
         extrinsics = arrays["extrinsic"].astype(np.float64)
