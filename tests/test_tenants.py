@@ -44,7 +44,7 @@ def stack(tmp_path_factory):
     with running_service(RECON_APP, recon_env) as recon:
         agent_env = {
             "PYSPATIAL_RECON_URL": recon.url,
-            "PYSPATIAL_RECON_API_KEY": SERVICE,
+            "PYSPATIAL_RECON_API_KEY": f"*:{SERVICE}",  # the entry as recon lists it: the agent sends the key
             "PYSPATIAL_API_KEYS": "alpha:agent-alpha,beta:agent-beta",
         }
         with running_service(AGENT_APP, agent_env) as agent:

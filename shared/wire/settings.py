@@ -9,7 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Literal
 
-from pydantic import AliasChoices, Field, SecretStr
+from pydantic import AliasChoices, Field, SecretStr, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 DEFAULT_DATA_DIR = Path.home() / ".cache" / "pyspatial"
@@ -140,7 +140,9 @@ class ReconSettings(AccessSettings):
 class AgentSettings(AccessSettings):
     recon_url: str = Field(f"http://127.0.0.1:{DEFAULT_RECON_PORT}", description="Reconstruction service.")
     recon_api_key: SecretStr | None = Field(
-        None, description="Bearer key the agent sends to the recon service (one of recon's API keys)."
+        None,
+        description="Bearer key the agent sends to the recon service (one of recon's API keys); given as "
+        "recon lists it, `*:key` (a service key), the agent sends `key`.",
     )
     readiness_timeout_s: float = Field(
         5.0, gt=0, description="Longest /readyz waits for the recon service before answering 503."
@@ -193,3 +195,11 @@ class AgentSettings(AccessSettings):
     max_images: int = Field(32, ge=1, description="Most images in one /v1/solve request.")
     max_image_bytes: int = Field(25 * 2**20, ge=1024, description="Largest encoded image file.")
     max_request_bytes: int = Field(300 * 2**20, ge=1024, description="Largest request body.")
+
+    @field_validator("recon_api_key", mode="after")
+    @classmethod
+    def _service_key_entry(cls, value: SecretStr | None) -> SecretStr | None:
+        """One secret for both sides: recon lists `*:key` (a service key), the agent sends `key`."""
+        if value is not None and value.get_secret_value().startswith("*:"):
+            return SecretStr(value.get_secret_value()[2:])
+        return value
