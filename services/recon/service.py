@@ -205,7 +205,9 @@ class ReconService:
         validate_geometry(scene)
 
         def save() -> tuple[str, bool]:
-            scene_id = self.scene_ids().scene_id(tenant, scene.content_id())
+            scene_id = scene.content_id()  # the default tenant's id; the others' need the secret
+            if tenant != DEFAULT_TENANT:
+                scene_id = self.scene_ids().scene_id(tenant, scene_id)
             return self.store.save(scene, scene_id, tenant)
 
         return await run_cpu(save)
