@@ -20,8 +20,10 @@ import redis
 from PIL import Image
 
 from services.recon.durable import DurableStore
+from services.recon.service import ReconService
 from services.recon.store_gc import STALE_TMP_S, collect
 from shared.wire.client import AgentClient, ReconClient
+from shared.wire.settings import ReconSettings
 from tests.support.processes import ServiceProcess, running_service, start_redis, start_service
 from tests.support.scenes import orbit_views
 from tests.test_agent_service import motion_question
@@ -269,3 +271,25 @@ def test_gc_by_age_and_by_size_keeps_the_recently_used(tmp_path):
     assert report.kept_bytes <= 25_000
     assert sorted(p.name for p in store.scenes.iterdir()) == ids[2:]
     assert store.get_blob(f"{ids[3]}:classical:1") == b"x" * 1000
+
+
+def test_each_replica_runs_the_gc_when_a_limit_is_set(tmp_path):
+    settings = ReconSettings(
+        data_dir=tmp_path / "data",
+        store_dir=tmp_path / "store",
+        store_max_age_days=1e-5,  # ~0.9 s
+        store_gc_interval_s=0.1,
+    )
+    service = ReconService(settings)
+    durable = service.store.durable
+    durable.put_scene("c" * 24, _scene_dir(tmp_path, "old", 100))
+    collector = service.start_store_gc()
+    try:
+        deadline = time.monotonic() + 10
+        while durable.has_scene("c" * 24) and time.monotonic() < deadline:
+            time.sleep(0.1)
+    finally:
+        collector.stop()
+    assert not durable.has_scene("c" * 24)  # older than ~0.9 s: collected by the thread
+    no_limits = ReconSettings(data_dir=tmp_path / "d2", store_dir=tmp_path / "s2")
+    assert ReconService(no_limits).start_store_gc() is None
