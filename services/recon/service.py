@@ -157,9 +157,8 @@ class ReconService:
         warnings = []
         shared = self.store.shared
         if shared is not None and shared.pending and shared.catch_up():
-            warnings.append(
-                f"{shared.pending} scenes are stored on this replica only (shared store: {shared.last_error})"
-            )
+            where = "in the durable store, not yet in Redis" if self.store.durable else "on this replica only"
+            warnings.append(f"{shared.pending} scenes are stored {where} (Redis: {shared.last_error})")
         return StorageStatus(True, "ok", warnings)
 
     def start_store_gc(self) -> StoreCollector | None:
