@@ -28,7 +28,9 @@ class AccessSettings(_Settings):
     """Access control of one service (both have these; shared/wire/access.py applies them to /v1/)."""
 
     api_keys: SecretStr | None = Field(
-        None, description="Comma-separated bearer keys accepted on /v1/; no authentication when unset."
+        None,
+        description="Comma-separated bearer keys accepted on /v1/, each `tenant:key` (a plain key: the "
+        "tenant `default`; `*:key`: a service key); no authentication when unset.",
     )
     rate_limit_per_minute: int = Field(
         0, ge=0, description="Requests per minute per key (per client address without keys); 0 = off."
