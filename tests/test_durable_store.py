@@ -1,8 +1,9 @@
 """The durable store of record: scenes survive Redis forgetting them (restart, FLUSHALL, eviction).
 
 Two recon replicas with their own data dirs share one store dir (the volume every replica mounts)
-and a throwaway Redis; the agent solves by scene id against the replica that did not take the
-uploads, so every scene it serves comes from Redis or, once Redis has forgotten it, the store.
+and a throwaway Redis. Replica A takes the uploads; replica B, which has none of them, is asked by
+id what a solve asks of recon (reconstruct, camera motion; the slow case runs real agent solves),
+so every scene it serves comes from Redis or, once Redis has forgotten it, from the store.
 """
 
 from __future__ import annotations
