@@ -199,7 +199,8 @@ def test_nginx_accepts_the_config(tmp_path):
 def test_recon_is_reachable_only_with_the_agents_key():
     recon_keys = SERVICES["recon"]["environment"]["PYSPATIAL_API_KEYS"]
     agent_key = SERVICES["agent"]["environment"]["PYSPATIAL_RECON_API_KEY"]
-    assert recon_keys == agent_key and recon_keys.startswith("${PYSPATIAL_RECON_API_KEY:?")  # required
+    # recon takes it as a service key (it acts for the tenant the agent names), the agent sends it
+    assert recon_keys == "*:" + agent_key and agent_key.startswith("${PYSPATIAL_RECON_API_KEY:?")  # required
 
 
 @pytest.mark.parametrize("name", ["recon", "agent"])
@@ -212,4 +213,4 @@ def test_containers_run_as_a_non_root_user(name):
     assert f"--uid {SERVICE_UID}" in text
     assert text.index("\nUSER ") > text.index("pip install --no-cache-dir .")  # installs ran as root
     if name == "recon":
-        assert f"chown {SERVICE_UID}:{SERVICE_UID} /data" in text
+        assert f"chown {SERVICE_UID}:{SERVICE_UID} /data /hf /store" in text  # volumes it writes

@@ -1,32 +1,50 @@
 """The durable store of record: scenes survive Redis forgetting them (restart, FLUSHALL, eviction).
 
 Two recon replicas with their own data dirs share one store dir (the volume every replica mounts)
-and a throwaway Redis; the agent solves by scene id against the replica that did not take the
-uploads, so every scene it serves comes from Redis or, once Redis has forgotten it, the store.
+and a throwaway Redis. Replica A takes the uploads; replica B, which has none of them, is asked by
+id what a solve asks of recon (reconstruct, camera motion; the slow case runs real agent solves),
+so every scene it serves comes from Redis or, once Redis has forgotten it, from the store.
 """
 
 from __future__ import annotations
 
-import contextlib
+import io
 import os
 import threading
 import time
 import uuid
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
 import redis
+from PIL import Image
 
 from services.recon.durable import DurableStore
+from services.recon.service import ReconService
 from services.recon.store_gc import STALE_TMP_S, collect
 from shared.wire.client import AgentClient, ReconClient
-from tests.support.processes import running_service, start_redis
+from shared.wire.settings import ReconSettings
+from tests.support.processes import ServiceProcess, running_service, start_redis, start_service
 from tests.support.scenes import orbit_views
 from tests.test_agent_service import motion_question
 from tests.test_recon_runtime import jittered
 
 RECON_APP = "services.recon.app:create_app"
 AGENT_APP = "services.agent.app:create_app"
+
+
+def start_together(specs: list[tuple[str, dict[str, str]]]) -> list[ServiceProcess]:
+    """Start the (app, environment) services at once (half the wait of one after the other); all or none."""
+    with ThreadPoolExecutor(len(specs)) as pool:
+        starting = [pool.submit(start_service, app, env) for app, env in specs]
+    started = [future.result() for future in starting if future.exception() is None]
+    failed = [future.exception() for future in starting if future.exception() is not None]
+    if failed:
+        for service in started:
+            service.stop()
+        raise failed[0]
+    return started
 
 
 def replica_env(tmp_path, name: str, redis_url: str, namespace: str) -> dict[str, str]:
@@ -46,21 +64,24 @@ class Stack:
         self.redis = start_redis()
         self.port = int(self.redis.url.rsplit(":", 1)[1].split("/")[0])
         namespace = f"durable-{uuid.uuid4().hex[:8]}"
-        self._services = contextlib.ExitStack()
-        self.first, self.second = (
-            self._services.enter_context(
-                running_service(RECON_APP, replica_env(tmp_path, name, self.redis.url, namespace))
+        try:
+            self.first, self.second = start_together(
+                [(RECON_APP, replica_env(tmp_path, name, self.redis.url, namespace)) for name in "ab"]
             )
-            for name in "ab"
-        )
+        except BaseException:
+            self.redis.stop()
+            raise
 
-    def restart_redis_empty(self, down_s: float = 1.0) -> None:
+    def restart_redis_empty(self, while_down=lambda: time.sleep(1.0)) -> None:
         self.redis.stop()
-        time.sleep(down_s)
-        self.redis = start_redis(self.port)
+        try:
+            while_down()
+        finally:
+            self.redis = start_redis(self.port)
 
     def close(self) -> None:
-        self._services.close()
+        for service in (self.first, self.second):
+            service.stop()
         self.redis.stop()
 
 
@@ -76,6 +97,20 @@ def stack(tmp_path_factory):
 @pytest.fixture(scope="module")
 def views():
     return orbit_views(seed=5, num_views=3)
+
+
+def noisy_pngs(images: list[np.ndarray], seed: int) -> list[bytes]:
+    """The views with the two low bits flipped at random: a new scene, and bytes that do not compress
+    (to fill Redis). Fast zlib: the default level spends seconds on noise."""
+    rng = np.random.default_rng(seed)
+    files = []
+    for image in images:
+        buffer = io.BytesIO()
+        Image.fromarray(image ^ rng.integers(0, 4, image.shape, dtype=np.uint8)).save(
+            buffer, format="PNG", compress_level=1
+        )
+        files.append(buffer.getvalue())
+    return files
 
 
 def _upload_and_reconstruct(url: str, views, seeds) -> list[str]:
@@ -116,17 +151,25 @@ def _by_id_under_load(url: str, scene_ids: list[str], fault) -> tuple[list[str],
 
 
 def test_redis_restarted_empty_and_flushed_under_load_fails_nothing(stack, views):
-    scene_ids = _upload_and_reconstruct(stack.first.url, views, range(300, 304))
+    scene_ids = _upload_and_reconstruct(stack.first.url, views, range(300, 303))
+
+    uploaded_while_down: list[str] = []
+
+    def upload_while_down() -> None:  # stored, and served by the other replica, with no Redis at all
+        uploaded_while_down.extend(_upload_and_reconstruct(stack.first.url, views, [350]))
+        with ReconClient(stack.second.url, timeout=60) as client:
+            assert client.camera_motion(uploaded_while_down[0], [(0, 1)]).motions
 
     def faults() -> None:
         time.sleep(0.2)
-        stack.restart_redis_empty()
+        stack.restart_redis_empty(upload_while_down)
         time.sleep(0.5)
         redis.Redis.from_url(stack.redis.url).flushall()
         time.sleep(0.5)
 
     failures, count = _by_id_under_load(stack.second.url, scene_ids, faults)
     assert failures == [] and count >= 2 * len(scene_ids)
+    assert len(uploaded_while_down) == 1
     # the replica that took the uploads was restarted-from too: a fresh upload lands, and it solves
     late = _upload_and_reconstruct(stack.first.url, views, [399])
     with ReconClient(stack.second.url, timeout=60) as client:
@@ -137,15 +180,16 @@ def test_a_6mb_allkeys_lru_redis_over_two_dozen_scenes_fails_nothing_by_id(stack
     control = redis.Redis.from_url(stack.redis.url)
     control.config_set("maxmemory-policy", "allkeys-lru")
     control.config_set("maxmemory", "6mb")
-    big = orbit_views(seed=5, num_views=3, width=320, height=240)  # noisy PNGs: ~0.5 MB a scene
+    big = orbit_views(seed=5, num_views=3, width=320, height=240)  # noisy PNGs: ~0.4 MB a scene
     try:
-        with ReconClient(stack.first.url, timeout=120) as client:
-            ids = [client.upload_scene(jittered(big.images, seed)).scene_id for seed in range(500, 524)]
+        with ReconClient(stack.first.url, timeout=120) as client, ThreadPoolExecutor(4) as pool:
+            uploads = [noisy_pngs(big.images, seed) for seed in range(500, 524)]
+            ids = [created.scene_id for created in pool.map(client.upload_scene, uploads)]
         assert control.info("stats")["evicted_keys"] > 0  # Redis did forget scenes
         with ReconClient(stack.second.url, timeout=120) as other:
             infos = [other.scene_info(scene_id) for scene_id in ids]
             images = [other.scene_image(scene_id, 2) for scene_id in ids[:3]]
-            motion = [other.camera_motion(scene_id, [(0, 1)]) for scene_id in (ids[0], ids[-1])]
+            motion = [other.camera_motion(ids[0], [(0, 1)])]  # the first upload: evicted first
     finally:
         control.config_set("maxmemory", "0")
     assert [info.num_images for info in infos] == [3] * 24
@@ -228,3 +272,25 @@ def test_gc_by_age_and_by_size_keeps_the_recently_used(tmp_path):
     assert report.kept_bytes <= 25_000
     assert sorted(p.name for p in store.scenes.iterdir()) == ids[2:]
     assert store.get_blob(f"{ids[3]}:classical:1") == b"x" * 1000
+
+
+def test_each_replica_runs_the_gc_when_a_limit_is_set(tmp_path):
+    settings = ReconSettings(
+        data_dir=tmp_path / "data",
+        store_dir=tmp_path / "store",
+        store_max_age_days=1e-5,  # ~0.9 s
+        store_gc_interval_s=0.1,
+    )
+    service = ReconService(settings)
+    durable = service.store.durable
+    durable.put_scene("c" * 24, _scene_dir(tmp_path, "old", 100))
+    collector = service.start_store_gc()
+    try:
+        deadline = time.monotonic() + 10
+        while durable.has_scene("c" * 24) and time.monotonic() < deadline:
+            time.sleep(0.1)
+    finally:
+        collector.stop()
+    assert not durable.has_scene("c" * 24)  # older than ~0.9 s: collected by the thread
+    no_limits = ReconSettings(data_dir=tmp_path / "d2", store_dir=tmp_path / "s2")
+    assert ReconService(no_limits).start_store_gc() is None

@@ -44,7 +44,7 @@ def stack(tmp_path_factory):
     with running_service(RECON_APP, recon_env) as recon:
         agent_env = {
             "PYSPATIAL_RECON_URL": recon.url,
-            "PYSPATIAL_RECON_API_KEY": SERVICE,
+            "PYSPATIAL_RECON_API_KEY": f"*:{SERVICE}",  # the entry as recon lists it: the agent sends the key
             "PYSPATIAL_API_KEYS": "alpha:agent-alpha,beta:agent-beta",
         }
         with running_service(AGENT_APP, agent_env) as agent:
@@ -102,9 +102,12 @@ def test_the_service_key_acts_only_for_the_tenant_it_names(stack, views):
         assert service.for_tenant("alpha").scene_info(scene).num_images == 3
         assert _status(lambda: service.for_tenant("beta").scene_info(scene)) == 404
         assert _status(lambda: service.scene_info(scene)) == 404  # no header: the default tenant
-        # a tenant key's header is ignored: alpha cannot claim to be beta, nor beta to be alpha
-        with ReconClient(recon.url, api_key=BETA) as beta:
-            assert _status(lambda: beta.for_tenant("alpha").scene_info(scene)) == 404
+        # a tenant key means its own tenant: naming another is refused (an agent given a tenant's
+        # key instead of the service key fails loudly rather than mixing tenants)
+        with ReconClient(recon.url, api_key=BETA) as beta, ReconClient(recon.url, api_key=PLAIN) as plain:
+            assert _status(lambda: beta.for_tenant("alpha").scene_info(scene)) == 403
+            assert _status(lambda: plain.for_tenant("alpha").scene_info(scene)) == 403
+            assert _status(lambda: alpha.for_tenant("alpha").scene_info(scene)) == 200
         headers = {"Authorization": f"Bearer {SERVICE}", "X-PySpatial-Tenant": "../etc"}
         assert httpx.get(f"{recon.url}/v1/scenes/{scene}", headers=headers).status_code == 400
 

@@ -165,9 +165,8 @@ class ReconService:
         warnings = []
         shared = self.store.shared
         if shared is not None and shared.pending and shared.catch_up():
-            warnings.append(
-                f"{shared.pending} scenes are stored on this replica only (shared store: {shared.last_error})"
-            )
+            where = "in the durable store, not yet in Redis" if self.store.durable else "on this replica only"
+            warnings.append(f"{shared.pending} scenes are stored {where} (Redis: {shared.last_error})")
         return StorageStatus(True, "ok", warnings)
 
     def start_store_gc(self) -> StoreCollector | None:
@@ -213,7 +212,9 @@ class ReconService:
         validate_geometry(scene)
 
         def save() -> tuple[str, bool]:
-            scene_id = self.scene_ids().scene_id(tenant, scene.content_id())
+            scene_id = scene.content_id()  # the default tenant's id; the others' need the secret
+            if tenant != DEFAULT_TENANT:
+                scene_id = self.scene_ids().scene_id(tenant, scene_id)
             return self.store.save(scene, scene_id, tenant)
 
         return await run_cpu(save)

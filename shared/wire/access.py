@@ -3,8 +3,8 @@
 Tenants: each key belongs to one (`tenant:key` entries in PYSPATIAL_API_KEYS; a plain `key` is the
 default tenant's). The tenant of a request is put in `scope["state"]["tenant"]` for the routes. A
 service key (`*:key`, the agent's key for recon) acts for the tenant named in `X-PySpatial-Tenant`;
-so does every caller when no keys are configured (nothing is authenticated then). The header from
-any other key is ignored: a tenant key always means its own tenant.
+so does every caller when no keys are configured (nothing is authenticated then). A tenant key
+always means its own tenant: naming another one in the header is a 403.
 
 Only the API (`/v1/...`) is guarded: `/healthz` and `/readyz` stay open for probes and load
 balancers (they carry no data, only whether the service can work), and so do the docs when
@@ -128,9 +128,9 @@ class AccessMiddleware:
                 )
                 return
             identity = "key:" + hashlib.sha256(key).hexdigest()[:16]  # never keep the key itself
-        tenant = _tenant(scope, owner)
+        tenant, refusal = _tenant(scope, owner)
         if tenant is None:
-            await _reply(send, 400, f"{TENANT_HEADER} must be a tenant name ({TENANT_NAME.pattern})", {})
+            await _reply(send, 403 if owner not in (None, SERVICE_TENANT) else 400, refusal or "", {})
             return
         scope.setdefault("state", {})["tenant"] = tenant
         if self.limiter is not None:
@@ -152,17 +152,25 @@ class AccessMiddleware:
         return f"address:{client[0] if client else 'unknown'}"
 
 
-def _tenant(scope: Scope, owner: str | None) -> str | None:
-    """A tenant key's own tenant; else (service key, no keys) the one named in the header, or the
-    default; None when the header names no valid tenant."""
+def _tenant(scope: Scope, owner: str | None) -> tuple[str | None, str | None]:
+    """(tenant, None), or (None, why not). A tenant key means its own tenant (a header naming
+    another is refused, so a misconfigured agent fails loudly instead of mixing tenants); a service
+    key, or any caller without keys, means the tenant the header names, else the default."""
+    wanted = TENANT_HEADER.lower().encode()
+    headers = scope.get("headers", [])
+    named = next((value.decode("latin-1") for name, value in headers if name == wanted), None)
     if owner is not None and owner != SERVICE_TENANT:
-        return owner
-    header = TENANT_HEADER.lower().encode()
-    named = next((value for name, value in scope.get("headers", []) if name == header), None)
+        if named is not None and named != owner:
+            return None, (
+                f"this key belongs to tenant {owner!r} and cannot act for {named!r}; a caller that "
+                "names tenants (the agent) needs a service key, listed as '*:key'"
+            )
+        return owner, None
     if named is None:
-        return DEFAULT_TENANT
-    text = named.decode("latin-1")
-    return text if TENANT_NAME.match(text) else None
+        return DEFAULT_TENANT, None
+    if not TENANT_NAME.match(named):
+        return None, f"{TENANT_HEADER} must be a tenant name ({TENANT_NAME.pattern})"
+    return named, None
 
 
 def _bearer_token(scope: Scope) -> bytes | None:

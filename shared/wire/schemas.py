@@ -43,7 +43,11 @@ class SceneUpload(_Model):
 
 
 class SceneInfo(_Model):
-    scene_id: str = Field(..., description="Content hash of the images (and depths/cameras) in order.")
+    scene_id: str = Field(
+        ...,
+        description="Content hash of the images (and depths/cameras) in order; for a named tenant, an HMAC "
+        "of it under the tenant's secret (the same upload is the same id within a tenant only).",
+    )
     num_images: int
     image_sizes: list[tuple[int, int]] = Field(..., description="(width, height) per image.")
     has_depth: bool

@@ -9,7 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Literal
 
-from pydantic import AliasChoices, Field, SecretStr
+from pydantic import AliasChoices, Field, SecretStr, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 DEFAULT_DATA_DIR = Path.home() / ".cache" / "pyspatial"
@@ -28,7 +28,9 @@ class AccessSettings(_Settings):
     """Access control of one service (both have these; shared/wire/access.py applies them to /v1/)."""
 
     api_keys: SecretStr | None = Field(
-        None, description="Comma-separated bearer keys accepted on /v1/; no authentication when unset."
+        None,
+        description="Comma-separated bearer keys accepted on /v1/, each `tenant:key` (a plain key: the "
+        "tenant `default`; `*:key`: a service key); no authentication when unset.",
     )
     rate_limit_per_minute: int = Field(
         0, ge=0, description="Requests per minute per key (per client address without keys); 0 = off."
@@ -140,7 +142,9 @@ class ReconSettings(AccessSettings):
 class AgentSettings(AccessSettings):
     recon_url: str = Field(f"http://127.0.0.1:{DEFAULT_RECON_PORT}", description="Reconstruction service.")
     recon_api_key: SecretStr | None = Field(
-        None, description="Bearer key the agent sends to the recon service (one of recon's API keys)."
+        None,
+        description="Bearer key the agent sends to the recon service (one of recon's API keys); given as "
+        "recon lists it, `*:key` (a service key), the agent sends `key`.",
     )
     readiness_timeout_s: float = Field(
         5.0, gt=0, description="Longest /readyz waits for the recon service before answering 503."
@@ -193,3 +197,11 @@ class AgentSettings(AccessSettings):
     max_images: int = Field(32, ge=1, description="Most images in one /v1/solve request.")
     max_image_bytes: int = Field(25 * 2**20, ge=1024, description="Largest encoded image file.")
     max_request_bytes: int = Field(300 * 2**20, ge=1024, description="Largest request body.")
+
+    @field_validator("recon_api_key", mode="after")
+    @classmethod
+    def _service_key_entry(cls, value: SecretStr | None) -> SecretStr | None:
+        """One secret for both sides: recon lists `*:key` (a service key), the agent sends `key`."""
+        if value is not None and value.get_secret_value().startswith("*:"):
+            return SecretStr(value.get_secret_value()[2:])
+        return value
