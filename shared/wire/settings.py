@@ -38,9 +38,30 @@ class AccessSettings(_Settings):
         "", description="Comma-separated origins allowed by CORS (`*` for any); CORS is off when empty."
     )
     docs_enabled: bool = Field(True, description="Serve /docs, /redoc and /openapi.json.")
+    trusted_proxies: str = Field(
+        "127.0.0.1",
+        description="Comma-separated addresses or networks (CIDR) of the proxies whose X-Forwarded-For "
+        "is believed (nginx in compose, the ingress in k8s); `*` trusts any; others' is ignored.",
+    )
+    auth_failures_per_minute: int = Field(
+        10, ge=0, description="Failed authentications per client address per minute before 429; 0 = off."
+    )
 
 
-class ReconSettings(AccessSettings):
+class ServiceSettings(AccessSettings):
+    """What both services enforce alike: the drain on SIGTERM and the limits of an upload."""
+
+    drain_s: float = Field(20.0, gt=0, description="On SIGTERM: longest wait for running work before exit.")
+    max_images: int = Field(32, ge=1, le=256, description="Most images in one upload.")
+    max_image_bytes: int = Field(25 * 2**20, ge=1024, description="Largest encoded image file.")
+    max_image_pixels: int = Field(40_000_000, ge=1, description="Largest decoded image (width x height).")
+    max_request_bytes: int = Field(300 * 2**20, ge=1024, description="Largest upload request body.")
+    max_request_pixels: int = Field(
+        400_000_000, ge=1, description="Most decoded pixels in one upload (all images together)."
+    )
+
+
+class ReconSettings(ServiceSettings):
     backbone: str = Field(
         "classical",
         description="Default backbone: classical, posed-rgbd, vggt, pi3, pi3x, or auto (Pi3X when its "
@@ -81,10 +102,6 @@ class ReconSettings(AccessSettings):
     cache_ttl_s: int = Field(7 * 24 * 3600, ge=1, description="Lifetime of cached reconstructions.")
     memory_cache_mb: int = Field(512, ge=1, description="In-process cache size (also the Redis-down buffer).")
     data_dir: Path = Field(DEFAULT_DATA_DIR, description="Where uploaded scenes are stored.")
-    max_images: int = Field(32, ge=1, le=256, description="Most images in one scene.")
-    max_image_bytes: int = Field(25 * 2**20, ge=1024, description="Largest encoded image file.")
-    max_image_pixels: int = Field(40_000_000, ge=1, description="Largest decoded image (width x height).")
-    max_request_bytes: int = Field(300 * 2**20, ge=1024, description="Largest upload request body.")
     max_render_side: int = Field(2048, ge=16, description="Largest rendered image side.")
     reconstruct_workers: int = Field(1, ge=1, description="Reconstructions run at once (CPU/GPU bound).")
     reconstruct_lease_s: int = Field(
@@ -105,9 +122,6 @@ class ReconSettings(AccessSettings):
         True, description="With REDIS_URL: publish scenes to Redis so every replica serves every scene."
     )
     scene_ttl_s: int = Field(30 * 24 * 3600, ge=60, description="Lifetime of a shared scene in Redis.")
-    max_request_pixels: int = Field(
-        400_000_000, ge=1, description="Most decoded pixels in one upload (all images together)."
-    )
     max_decoding_pixels: int = Field(
         800_000_000, ge=1, description="Most pixels decoded at once; more uploads get 503 + Retry-After."
     )
@@ -115,10 +129,9 @@ class ReconSettings(AccessSettings):
         2, ge=0, description="Processes that decode uploaded images (0: threads of the service process)."
     )
     max_motion_pairs: int = Field(1024, ge=1, description="Most view pairs in one camera-motion request.")
-    drain_s: float = Field(20.0, gt=0, description="On SIGTERM: longest wait for running work before exit.")
 
 
-class AgentSettings(AccessSettings):
+class AgentSettings(ServiceSettings):
     recon_url: str = Field(f"http://127.0.0.1:{DEFAULT_RECON_PORT}", description="Reconstruction service.")
     recon_api_key: SecretStr | None = Field(
         None, description="Bearer key the agent sends to the recon service (one of recon's API keys)."
@@ -171,6 +184,3 @@ class AgentSettings(AccessSettings):
         description="TEST ONLY: skip the Python-level sandbox checks to prove the OS jail alone; "
         "refused unless the jail is active.",
     )
-    max_images: int = Field(32, ge=1, description="Most images in one /v1/solve request.")
-    max_image_bytes: int = Field(25 * 2**20, ge=1024, description="Largest encoded image file.")
-    max_request_bytes: int = Field(300 * 2**20, ge=1024, description="Largest request body.")
