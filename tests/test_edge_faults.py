@@ -15,10 +15,15 @@ import threading
 import time
 
 import httpx
+import pytest
 
-from tests.support.misbehaving import MisbehavingServer, hang
-from tests.support.processes import REPO_ROOT, free_port
+from shared.wire.client import ReconClient, RetryPolicy, ServiceError, ServiceUnreachable
+from tests.support.misbehaving import MisbehavingServer, flaky, hang
+from tests.support.processes import REPO_ROOT, free_port, running_service
+from tests.support.stack import recon_env
 from tests.test_compose import dockerfile_command
+
+RECON_APP = "services.recon.app:create_app"
 
 
 def container_command(name: str, port: int) -> list[str]:
@@ -78,3 +83,47 @@ def test_the_container_entry_point_drains_and_a_cut_off_request_gets_a_503(tmp_p
     assert cut_off.status_code == 503, cut_off.text
     assert cut_off.headers["retry-after"] == "1" and "shutting down" in cut_off.json()["detail"]
     assert exited_s < 1 + 5, exited_s  # PYSPATIAL_DRAIN_S, not the recon timeout (600 s)
+
+
+# ---- the agent's recon client retries what is safe to retry ---------------------------------------
+
+
+@pytest.fixture(scope="module")
+def recon(tmp_path_factory, redis_url):
+    with running_service(RECON_APP, recon_env(tmp_path_factory.mktemp("recon"), redis_url)) as service:
+        yield service
+
+
+def recon_port(recon) -> int:
+    return int(recon.url.rsplit(":", 1)[1])
+
+
+def test_recon_calls_are_retried_through_resets_and_503s(recon):
+    with MisbehavingServer(flaky(recon_port(recon), ["reset", "503", "reset"])) as proxy:
+        retry = RetryPolicy(attempts=4, backoff_base_s=0.05)
+        with ReconClient(proxy.url, timeout=10, retry=retry) as client:
+            menu = client.backbones()
+    assert "classical" in str(menu) and proxy.connections == 4  # three failures, then the real recon
+
+
+def test_retries_stop_at_the_attempts_and_the_window(recon):
+    with MisbehavingServer(flaky(recon_port(recon), ["503"] * 10)) as proxy:
+        with ReconClient(proxy.url, timeout=10, retry=RetryPolicy(attempts=3, backoff_base_s=0.05)) as client:
+            with pytest.raises(ServiceError) as refused:
+                client.backbones()
+        assert refused.value.status_code == 503 and proxy.connections == 3
+    with MisbehavingServer(flaky(recon_port(recon), ["reset"] * 10)) as proxy:
+        retry = RetryPolicy(attempts=10, backoff_base_s=0.3, window_s=0.5)
+        with ReconClient(proxy.url, timeout=10, retry=retry) as client:
+            started = time.monotonic()
+            with pytest.raises(ServiceUnreachable):
+                client.backbones()
+        assert time.monotonic() - started < 0.5 + 1 and proxy.connections < 10  # the window, not 10 tries
+
+
+def test_a_refusal_is_not_retried(recon):
+    with MisbehavingServer(flaky(recon_port(recon), [])) as proxy:
+        with ReconClient(proxy.url, timeout=10, retry=RetryPolicy(attempts=3)) as client:
+            with pytest.raises(ServiceError) as missing:
+                client.scene_info("0" * 24)
+    assert missing.value.status_code == 404 and proxy.connections == 1

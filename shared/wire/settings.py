@@ -142,6 +142,12 @@ class AgentSettings(ServiceSettings):
     recon_timeout_s: float = Field(
         600.0, gt=0, description="Timeout of one call to the recon service (above its reconstruct_wait_s)."
     )
+    recon_attempts: int = Field(
+        3, ge=1, le=10, description="Tries of one recon call on a reset connection or a 502/503 (1 = none)."
+    )
+    recon_retry_window_s: float = Field(
+        20.0, gt=0, description="No retry of a recon call starts later than this after its first try."
+    )
     code_model: str | None = Field(None, description="Code model name; the offline planner when unset.")
     code_model_base_url: str | None = Field(None, description="OpenAI-compatible endpoint of the code model.")
     code_model_api_key: SecretStr | None = Field(None, description="API key of the code model endpoint.")

@@ -6,6 +6,7 @@ They listen on 127.0.0.1 in a thread of the test process; each counts the connec
 
 from __future__ import annotations
 
+import contextlib
 import socket
 import struct
 import threading
@@ -87,3 +88,39 @@ def reply_503(connection: socket.socket, retry_after: str | None = "0") -> None:
         head += f"retry-after: {retry_after}\r\n".encode()
     head += f"content-length: {len(body)}\r\nconnection: close\r\n\r\n".encode()
     connection.sendall(head + body)
+
+
+def forward(connection: socket.socket, port: int) -> None:
+    """Pipe this connection to a real server on 127.0.0.1:`port`, both ways, until either closes."""
+    with socket.create_connection(("127.0.0.1", port)) as upstream:
+
+        def pump(source: socket.socket, target: socket.socket) -> None:
+            try:
+                while data := source.recv(65536):
+                    target.sendall(data)
+            except OSError:
+                pass
+            finally:
+                with contextlib.suppress(OSError):
+                    target.shutdown(socket.SHUT_WR)
+
+        back = threading.Thread(target=pump, args=(upstream, connection), daemon=True)
+        back.start()
+        pump(connection, upstream)
+        back.join()
+
+
+def flaky(port: int, failures: list[str]) -> Callable[[socket.socket, int], None]:
+    """The n-th connection fails as `failures[n - 1]` says ("reset" or "503"), later ones reach
+    the real server on `port`."""
+
+    def behave(connection: socket.socket, number: int) -> None:
+        if number > len(failures):
+            forward(connection, port)
+        elif failures[number - 1] == "reset":
+            read_request_head(connection)
+            reset_connection(connection)
+        else:
+            reply_503(connection)
+
+    return behave
