@@ -7,8 +7,10 @@ misbehave (tests/support/misbehaving.py).
 from __future__ import annotations
 
 import contextlib
+import io
 import os
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -16,6 +18,7 @@ import time
 
 import httpx
 import pytest
+from PIL import Image
 
 from shared.wire.client import ReconClient, RetryPolicy, ServiceError, ServiceUnreachable
 from tests.support.misbehaving import MisbehavingServer, flaky, hang
@@ -24,6 +27,7 @@ from tests.support.stack import recon_env
 from tests.test_compose import dockerfile_command
 
 RECON_APP = "services.recon.app:create_app"
+AGENT_APP = "services.agent.app:create_app"
 
 
 def container_command(name: str, port: int) -> list[str]:
@@ -127,3 +131,100 @@ def test_a_refusal_is_not_retried(recon):
             with pytest.raises(ServiceError) as missing:
                 client.scene_info("0" * 24)
     assert missing.value.status_code == 404 and proxy.connections == 1
+
+
+# ---- the agent's edge: bounded before the work starts -------------------------------------------
+
+EDGE_LIMIT = 20_000_000  # bytes of one request, for these tests
+
+
+@pytest.fixture(scope="module")
+def edge_agent(tmp_path_factory):
+    spool = tmp_path_factory.mktemp("spool")  # where the multipart parser spools files
+    env = {
+        "PYSPATIAL_RECON_URL": f"http://127.0.0.1:{free_port()}",  # refused before recon is asked
+        "PYSPATIAL_MAX_REQUEST_BYTES": str(EDGE_LIMIT),
+        "TMPDIR": str(spool),
+    }
+    with running_service(AGENT_APP, env) as agent:
+        agent.spool = spool
+        yield agent
+
+
+def peak_rss_mb(pid: int) -> tuple[float, float]:
+    """(current, peak) resident memory of a process, MB (VmRSS, VmHWM)."""
+    fields = dict(line.split(":", 1) for line in open(f"/proc/{pid}/status").read().splitlines())
+    return float(fields["VmRSS"].split()[0]) / 1024, float(fields["VmHWM"].split()[0]) / 1024
+
+
+def _chunked_upload(url: str, total_bytes: int) -> tuple[bytes, int]:
+    """A chunked multipart upload of `total_bytes` over a raw socket, stopped when the service
+    answers; (the response, bytes of the body sent)."""
+    host, port = url.removeprefix("http://").split(":")
+    boundary = "edgeboundary"
+    head = (
+        f"POST /v1/solve HTTP/1.1\r\nHost: {host}\r\nTransfer-Encoding: chunked\r\n"
+        f"Content-Type: multipart/form-data; boundary={boundary}\r\n\r\n"
+    ).encode()
+    part = (
+        f'--{boundary}\r\nContent-Disposition: form-data; name="images"; filename="big.png"\r\n'
+        "Content-Type: image/png\r\n\r\n"
+    ).encode()
+    chunk = b"\0" * (1 << 20)
+    sent = 0
+    with socket.create_connection((host, int(port))) as connection:
+        connection.sendall(head + f"{len(part):x}\r\n".encode() + part + b"\r\n")
+        connection.settimeout(0)
+        answer = b""
+        while sent < total_bytes:
+            try:
+                answer += connection.recv(65536)
+                if answer:
+                    break
+            except BlockingIOError:
+                pass
+            try:
+                connection.settimeout(5)
+                connection.sendall(f"{len(chunk):x}\r\n".encode() + chunk + b"\r\n")
+                connection.settimeout(0)
+                sent += len(chunk)
+            except OSError:
+                break  # the service closed the connection after its answer
+        connection.settimeout(10)
+        with contextlib.suppress(OSError):
+            while b"\r\n\r\n" not in answer:
+                data = connection.recv(65536)
+                if not data:
+                    break
+                answer += data
+    return answer, sent
+
+
+def test_a_1_gb_chunked_upload_stops_at_the_limit_with_413(edge_agent):
+    answer, sent = _chunked_upload(edge_agent.url, 1 << 30)
+    assert answer.startswith(b"HTTP/1.1 413"), answer[:200]
+    assert b"exceeds the limit of 20000000 bytes" in answer
+    assert sent < 4 * EDGE_LIMIT, sent  # it stopped near the limit, not after the gigabyte
+    assert sum(path.stat().st_size for path in edge_agent.spool.rglob("*") if path.is_file()) == 0
+
+
+def test_a_png_past_the_pixel_budget_is_refused_before_it_is_decoded(edge_agent):
+    buffer = io.BytesIO()
+    Image.new("1", (12_000, 12_000)).save(buffer, format="PNG")  # 144 Mpx: 430 MB once decoded
+    idle_mb, _ = peak_rss_mb(edge_agent.process.pid)
+    response = httpx.post(
+        edge_agent.url + "/v1/solve",
+        data={"question": "What is in the room?"},
+        files=[("images", ("huge.png", buffer.getvalue(), "image/png"))],
+        timeout=120,
+    )
+    assert response.status_code == 413, response.text
+    assert "12000x12000 pixels; the limit is 40000000" in response.json()["detail"]
+    _, peak_mb = peak_rss_mb(edge_agent.process.pid)
+    assert peak_mb - idle_mb < 200, (idle_mb, peak_mb)
+
+
+def test_too_many_files_are_refused_while_parsing(edge_agent):
+    files = [("images", (f"{n}.png", b"\x89PNG", "image/png")) for n in range(40)]
+    response = httpx.post(edge_agent.url + "/v1/solve", data={"question": "q?"}, files=files, timeout=60)
+    assert response.status_code == 422 and "at most 32" in response.json()["detail"], response.text
