@@ -6,6 +6,7 @@ misbehave (tests/support/misbehaving.py).
 
 from __future__ import annotations
 
+import base64
 import contextlib
 import io
 import os
@@ -28,6 +29,7 @@ from tests.test_compose import dockerfile_command
 
 RECON_APP = "services.recon.app:create_app"
 AGENT_APP = "services.agent.app:create_app"
+NO_SCENE = "/v1/scenes/" + "0" * 24
 
 
 def container_command(name: str, port: int) -> list[str]:
@@ -43,7 +45,8 @@ def container_command(name: str, port: int) -> list[str]:
 def wait_healthy(url: str, process: subprocess.Popen, timeout_s: float = 60.0) -> None:
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
-        assert process.poll() is None, process.stdout.read().decode(errors="replace")
+        output = process.stdout.read().decode(errors="replace") if process.stdout and process.poll() else ""
+        assert process.poll() is None, output
         with contextlib.suppress(httpx.HTTPError):
             if httpx.get(url + "/healthz", timeout=1.0).status_code == 200:
                 return
@@ -228,3 +231,37 @@ def test_too_many_files_are_refused_while_parsing(edge_agent):
     files = [("images", (f"{n}.png", b"\x89PNG", "image/png")) for n in range(40)]
     response = httpx.post(edge_agent.url + "/v1/solve", data={"question": "q?"}, files=files, timeout=60)
     assert response.status_code == 422 and "at most 32" in response.json()["detail"], response.text
+
+
+# ---- keys never reach a log, in any encoding ------------------------------------------------------
+
+KEY = "edge-key-Zq8wPm3Lr7"
+
+
+def test_a_key_in_any_encoding_never_reaches_the_log(tmp_path):
+    port = free_port()
+    env = {**os.environ, "PYSPATIAL_API_KEYS": KEY, "PYSPATIAL_DATA_DIR": str(tmp_path / "data")}
+    env["REDIS_URL"] = ""
+    log_path = tmp_path / "recon.log"
+    with open(log_path, "wb") as log:  # the info-level log of `pyspatial serve`, access lines included
+        process = subprocess.Popen(
+            container_command("recon", port), cwd=tmp_path, env=env, stdout=log, stderr=log
+        )
+    url = f"http://127.0.0.1:{port}"
+    basic = base64.b64encode(f"someone:{KEY}".encode()).decode()
+    try:
+        wait_healthy(url, process)
+        with httpx.Client(base_url=url, timeout=60) as client:
+            assert client.get(NO_SCENE, params={"api_key": KEY}).status_code == 401
+            assert client.get(NO_SCENE, params={"key": KEY}).status_code == 401
+            assert client.get(NO_SCENE, headers={"Authorization": f"Basic {basic}"}).status_code == 401
+            encoded = base64.urlsafe_b64encode(KEY.encode()).decode()
+            assert client.get(f"/v1/scenes/{encoded}", headers={"Authorization": f"Bearer {KEY}"}).status_code
+    finally:
+        process.send_signal(signal.SIGTERM)
+        process.wait(timeout=30)
+    text = log_path.read_text(errors="replace")
+    assert "GET /v1/scenes/" in text  # the access log is on: the lines are there, redacted
+    assert "[redacted]" in text
+    for form in (KEY, basic, base64.b64encode(KEY.encode()).decode().rstrip("="), KEY[:12]):
+        assert form not in text, form

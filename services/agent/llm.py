@@ -29,6 +29,7 @@ import openai
 from pydantic import BaseModel, Field, SecretStr
 
 from services.agent import cancellation
+from shared.wire.scrubbing import scrub
 
 # Local servers (vLLM, Ollama, llama.cpp) ignore the key, but the openai package insists on one.
 _PLACEHOLDER_KEY = "not-needed"
@@ -141,27 +142,9 @@ _DETERMINISTIC_SERVER_ERROR = re.compile(
 )
 _TRANSIENT_STATUSES = {408, 429, 502, 503, 504}
 
-# Credentials a server may echo back in an error (header echoes, query strings, provider key shapes).
-_SECRET_PATTERNS = (
-    re.compile(r"(?i)(authorization[\"']?\s*[:=]\s*[\"']?)(?:bearer|basic|token)?\s*[^\s\"',;}]+"),
-    re.compile(r"(?i)\b(bearer\s+)[A-Za-z0-9._~+/=-]{6,}"),
-    re.compile(
-        r"(?i)((?:api[_-]?key|x-api-key|access[_-]?token|secret|password)[\"']?\s*[:=]\s*[\"']?)[^\s\"',;&}]+"
-    ),
-    re.compile(r"\b(?:sk|rk|pk)-[A-Za-z0-9_-]{12,}"),
-    re.compile(r"\bhf_[A-Za-z0-9]{20,}"),
-)
-REDACTED = "[redacted]"
-
-
 def scrub_secrets(text: str, secrets: list[str] | tuple[str, ...] = ()) -> str:
-    """`text` with the given secret values and anything shaped like a credential replaced."""
-    for secret in secrets:
-        if secret and len(secret) >= 4:
-            text = text.replace(secret, REDACTED)
-    for pattern in _SECRET_PATTERNS:
-        text = pattern.sub(lambda match: (match.group(1) if match.groups() else "") + REDACTED, text)
-    return text
+    """`text` with the given secret values (in every encoding) and credential-shaped strings replaced."""
+    return scrub(text, secrets)
 
 
 def plain_text_content(content: Any) -> str:

@@ -27,6 +27,7 @@ from fastapi import FastAPI
 from starlette.middleware.cors import CORSMiddleware
 from starlette.types import ASGIApp, Receive, Scope, Send
 
+from shared.wire.scrubbing import install_log_scrubbing
 from shared.wire.settings import AccessSettings
 
 GUARDED_PREFIX = "/v1/"
@@ -196,9 +197,11 @@ def install_access_control(app: FastAPI, settings: AccessSettings) -> None:
     if settings.auth_failures_per_minute > 0:
         per_minute = settings.auth_failures_per_minute
         auth_failures = TokenBucket(per_minute, burst=per_minute)
+    keys = parse_keys(settings)
+    install_log_scrubbing([key.decode() for key in keys])  # a key sent in a URL is logged redacted
     app.add_middleware(
         AccessMiddleware,
-        keys=parse_keys(settings),
+        keys=keys,
         limiter=limiter,
         proxies=TrustedProxies(settings.trusted_proxies),
         auth_failures=auth_failures,

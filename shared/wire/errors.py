@@ -18,6 +18,7 @@ from starlette.requests import Request
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from shared.wire.schemas import ErrorBody
+from shared.wire.scrubbing import scrub
 
 log = logging.getLogger("pyspatial.errors")
 
@@ -133,7 +134,8 @@ def install_error_shape(app: FastAPI) -> None:
 
     @app.exception_handler(RequestValidationError)
     async def validation_error(_: Request, error: RequestValidationError) -> JSONResponse:
-        return JSONResponse({"detail": first_validation_message(error.errors())}, status_code=422)
+        # shape-based scrubbing: a message never echoes a credential the client put in a field
+        return JSONResponse({"detail": scrub(first_validation_message(error.errors()))}, status_code=422)
 
     app.add_middleware(CatchAllMiddleware)
     _document_only_declared_422(app)
