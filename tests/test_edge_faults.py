@@ -265,3 +265,17 @@ def test_a_key_in_any_encoding_never_reaches_the_log(tmp_path):
     assert "[redacted]" in text
     for form in (KEY, basic, base64.b64encode(KEY.encode()).decode().rstrip("="), KEY[:12]):
         assert form not in text, form
+
+
+# ---- malformed bodies are the documented 422 ------------------------------------------------------
+
+
+@pytest.mark.parametrize("path", ["/v1/camera-motion", "/v1/render", f"/v1/scenes/{'0' * 24}/reconstruct"])
+@pytest.mark.parametrize("body", [b'{"scene_id": "\xff\xfe"}', b"[" * 5000 + b"]" * 5000, b"{"])
+def test_a_malformed_json_body_is_a_422_with_the_standard_body(recon, path, body):
+    response = httpx.post(
+        recon.url + path, content=body, headers={"Content-Type": "application/json"}, timeout=30
+    )
+    assert response.status_code == 422, response.text
+    assert list(response.json()) == ["detail"] and isinstance(response.json()["detail"], str)
+    assert response.json()["detail"].startswith("invalid request")

@@ -12,8 +12,10 @@ import asyncio
 import logging
 
 from fastapi import FastAPI
+from fastapi.exception_handlers import http_exception_handler
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import JSONResponse
+from fastapi.responses import JSONResponse, Response
+from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.requests import Request
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
@@ -50,6 +52,7 @@ def first_validation_message(errors: list) -> str:
     return f"invalid request: {location + ': ' if location else ''}{first.get('msg', 'invalid')}"
 
 
+FASTAPI_BODY_ERROR = "There was an error parsing the body"
 # A request the SIGTERM drain cut off: another replica can take it at once.
 DRAIN_RETRY_AFTER_S = 1
 # A 503 whose handler named no wait (not ready, dependency down): when a retry is worth trying.
@@ -131,6 +134,17 @@ def with_retry_after(start: Message) -> Message:
 
 def install_error_shape(app: FastAPI) -> None:
     """422 in the `{"detail": str}` shape, its OpenAPI schema to match, and the catch-all 500."""
+
+    @app.exception_handler(StarletteHTTPException)
+    async def http_error(request: Request, error: StarletteHTTPException) -> Response:
+        # FastAPI answers a JSON body it cannot read for other reasons than a syntax error (bytes
+        # that are not UTF-8, nesting past the parser's depth) with an undocumented 400; it is a
+        # malformed body like any other: 422 with the standard body.
+        if error.status_code == 400 and error.detail == FASTAPI_BODY_ERROR:
+            reason = type(error.__cause__).__name__ if error.__cause__ else "unreadable"
+            detail = f"invalid request: the body is not valid JSON ({reason})"
+            return JSONResponse({"detail": detail}, status_code=422)
+        return await http_exception_handler(request, error)
 
     @app.exception_handler(RequestValidationError)
     async def validation_error(_: Request, error: RequestValidationError) -> JSONResponse:
