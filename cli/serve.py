@@ -53,19 +53,22 @@ def describe_configuration(which: str) -> str:
 
 
 def run_one(which: str, host: str, port: int) -> None:
+    """One service in this process: the entry point of `pyspatial serve` and of the containers."""
     import uvicorn
 
     configure_logging()
     console.print(f"[bold]{which} service[/] on http://{reachable_host(host)}:{port} (API docs at /docs)")
     console.print(f"  {describe_configuration(which)}")
-    drain_s = round(ReconSettings().drain_s) if which == "recon" else None  # bounded SIGTERM drain
+    settings = ReconSettings() if which == "recon" else AgentSettings()
     uvicorn.run(
         APP_FACTORIES[which],
         factory=True,
         host=host,
         port=port,
         log_level="info",
-        timeout_graceful_shutdown=drain_s,
+        timeout_graceful_shutdown=max(1, round(settings.drain_s)),  # bounded SIGTERM drain
+        # X-Forwarded-For is read by the app, from PYSPATIAL_TRUSTED_PROXIES only (shared/wire/access.py)
+        proxy_headers=False,
     )
 
 

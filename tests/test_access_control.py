@@ -136,3 +136,53 @@ def test_refused_request_leaves_the_pooled_connection_usable(guarded_recon):
             )
             assert refused.status_code == 401
             assert client.get("/healthz").status_code == 200
+
+
+# ---- who the client is, and guessing keys -------------------------------------------------------
+
+
+NO_SCENE = "/v1/scenes/" + "0" * 24  # a cheap guarded request: 404 once let through
+
+
+def _limited_recon(tmp_path_factory, **extra: str):
+    env = {
+        "PYSPATIAL_DATA_DIR": str(tmp_path_factory.mktemp("limited")),
+        "PYSPATIAL_RATE_LIMIT_PER_MINUTE": "1",
+        "PYSPATIAL_RATE_LIMIT_BURST": "1",
+        **extra,
+    }
+    return running_service(RECON_APP, env)
+
+
+@pytest.mark.parametrize("proxies", ["10.9.9.9", "127.0.0.1"])
+def test_x_forwarded_for_counts_only_from_a_trusted_proxy(tmp_path_factory, proxies):
+    """Two "clients" behind one peer: separate limits only when the peer is a trusted proxy."""
+    with _limited_recon(tmp_path_factory, PYSPATIAL_TRUSTED_PROXIES=proxies) as recon:
+        statuses = [
+            httpx.get(recon.url + NO_SCENE, headers={"X-Forwarded-For": client}, timeout=60).status_code
+            for client in ("203.0.113.7", "203.0.113.8")
+        ]
+        spoofed_chain = httpx.get(
+            recon.url + NO_SCENE, headers={"X-Forwarded-For": "198.51.100.1, 203.0.113.7"}, timeout=60
+        )
+    if proxies == "10.9.9.9":  # the test's own address is no proxy: its X-Forwarded-For is ignored
+        assert statuses == [404, 429]
+    else:  # nginx's: each forwarded client has its own bucket
+        assert statuses == [404, 404]
+        # the client wrote the left entry itself; the proxy appended the right one, which counts
+        assert spoofed_chain.status_code == 429
+
+
+def test_failed_authentication_is_throttled_per_address(tmp_path_factory):
+    env = {"PYSPATIAL_API_KEYS": "the-only-key", "PYSPATIAL_AUTH_FAILURES_PER_MINUTE": "3"}
+    with _limited_recon(tmp_path_factory, PYSPATIAL_RATE_LIMIT_PER_MINUTE="0", **env) as recon:
+        with httpx.Client(base_url=recon.url, timeout=60) as client:
+            guesses = [client.get(NO_SCENE, headers=bearer(f"guess-{n}")) for n in range(5)]
+            statuses = [guess.status_code for guess in guesses]
+            assert statuses == [401, 401, 401, 429, 429]
+            assert int(guesses[-1].headers["retry-after"]) >= 1
+            assert "too many failed authentications" in guesses[-1].json()["detail"]
+            # another address (through a trusted proxy) is not held back; nor is the right key
+            other = client.get(NO_SCENE, headers={**bearer("nope"), "X-Forwarded-For": "203.0.113.9"})
+            assert other.status_code == 401
+            assert client.get(NO_SCENE, headers=bearer("the-only-key")).status_code == 404

@@ -159,6 +159,8 @@ def test_readyz_and_solve_when_recon_hangs_then_dies(tmp_path_factory, redis_url
                 agent.url + "/v1/solve", json={"question": "q?", "scene_id": scene_id}, timeout=30
             )
             assert solve.status_code == 503 and "cannot reach" in solve.json()["detail"]
+            for unavailable in (ready, down, solve):  # every 503 says when to come back
+                assert int(unavailable.headers["retry-after"]) >= 1, unavailable.headers
 
 
 @pytest.mark.parametrize("accept", ["application/json", "text/event-stream"])
@@ -205,6 +207,7 @@ def test_recon_killed_while_the_program_runs_is_a_503_with_the_attempts(
                 assert body["status_code"] == 503
             else:
                 assert response.status_code == 503, response.text
+                assert int(response.headers["retry-after"]) >= 1
                 body = response.json()
             assert "reconstruction service failed while the program ran" in body["detail"]
             assert len(body["attempts"]) == 1 and body["attempts"][0]["program"].startswith("def program")

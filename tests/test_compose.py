@@ -107,8 +107,9 @@ def test_environment_names_are_settings_fields():
             assert value == f"${{{variable}:-}}", f"{variable} must pass through with an empty default"
 
 
-@pytest.mark.parametrize("name,module", [("recon", "services.recon.app"), ("agent", "services.agent.app")])
-def test_each_dockerfile_runs_its_app_factory(name, module):
+@pytest.mark.parametrize("name", ["recon", "agent"])
+def test_each_dockerfile_starts_through_pyspatial_serve(name):
+    """The containers start as `pyspatial serve` does, so the serve settings (drain, proxies) apply."""
     build = SERVICES[name]["build"]
     dockerfile = REPO_ROOT / build["context"] / build["dockerfile"]
     assert dockerfile.is_file()
@@ -116,13 +117,12 @@ def test_each_dockerfile_runs_its_app_factory(name, module):
     assert text.startswith("#") and "FROM python:3.11-slim" in text
     assert "libgomp1" in text and "libusb-1.0-0" in text
     command = dockerfile_command(dockerfile)
-    assert command[0] == "uvicorn" and "--factory" in command
-    target = command[1]
-    module_name, factory_name = target.split(":")
-    assert module_name == module
-    assert callable(getattr(importlib.import_module(module_name), factory_name))
-    assert command[command.index("--port") + 1] == str(APP_SERVICES[name])
-    assert command[command.index("--forwarded-allow-ips") + 1] == "*"  # client address from nginx
+    assert command[:3] == ["pyspatial", "serve", name], command
+    assert "uvicorn" not in text.split("CMD ")[-1]  # plain uvicorn would ignore PYSPATIAL_DRAIN_S
+    assert command[command.index("--host") + 1] == "0.0.0.0"
+    assert command[command.index(f"--{name}-port") + 1] == str(APP_SERVICES[name])
+    assert "pyspatial = \"cli.main:app\"" in (REPO_ROOT / "pyproject.toml").read_text()  # the console script
+    assert "--forwarded-allow-ips" not in command  # X-Forwarded-For: PYSPATIAL_TRUSTED_PROXIES only
 
 
 def test_readme_documents_every_setting():

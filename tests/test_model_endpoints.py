@@ -146,6 +146,25 @@ def test_a_text_model_answers_a_text_clue_the_offline_rules_cannot_read(text_age
     assert "view 1 to view 2" in answer_request["messages"][0]["content"]
 
 
+@pytest.mark.parametrize(
+    ("raw", "content_type", "what"),
+    [
+        ("<html><body>502 Bad Gateway</body></html>", "text/html", "not JSON (text/html"),
+        ('{"object": "chat.completion"}', "application/json", "'choices' is missing"),
+    ],
+)
+def test_a_code_model_reply_that_is_no_completion_is_a_502_naming_the_endpoint(
+    vision_agent, llm, scene_id, raw, content_type, what
+):
+    llm.reset()
+    llm.script([{"raw_body": raw, "content_type": content_type}], model="coder")
+    response = solve(vision_agent, scene_id, "Which way did I move? A. left B. right")
+    assert response.status_code == 502, response.text
+    detail = response.json()["detail"]
+    assert f"model 'coder' at {llm.base_url}" in detail and what in detail
+    assert len(llm.requests()) == 1  # a broken endpoint answers the same again: not retried
+
+
 # ---- keys and secrets ----------------------------------------------------------------------------
 
 

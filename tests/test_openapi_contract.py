@@ -330,9 +330,11 @@ def exercise_agent(observe: Observer, stack, views, scene_id: str) -> None:
     photo = "/v1/examples/{name}/images/{file}"
     agent("GET", photo, examples[0]["images"][0], 200)
     agent("GET", photo, "/v1/examples/living_room/images/nothing.png", 404)
+    agent("GET", photo, "/v1/examples/%C2%84/images/0", 422)  # found by bench.fuzz (schemathesis)
     thumbnail = "/v1/examples/{name}/thumbnail"
     agent("GET", thumbnail, examples[0]["thumbnail"], 200)
     agent("GET", thumbnail, "/v1/examples/nothing/thumbnail", 404)
+    agent("GET", thumbnail, "/v1/examples/Not-A-Name/thumbnail", 422)
     agent("GET", "/v1/example", "/v1/example", 200)
     agent("GET", "/v1/example/images/{name}", "/v1/example/images/nothing.png", 404)
     image = agent("GET", "/v1/example", "/v1/example", 200).json()["images"][0]

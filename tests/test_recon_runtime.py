@@ -277,8 +277,11 @@ def test_sigterm_drains_within_the_drain_time_and_releases_the_lease(tmp_path, r
     env = recon_env(tmp_path, redis_url, PYSPATIAL_DRAIN_S="1", PYSPATIAL_MAX_REQUEST_BYTES="20000000")
     with running_service(APP, env) as service, ReconClient(service.url, timeout=300) as client:
         scene_id = client.upload_scene(jittered(slow.images, 8)).scene_id
+        answers: list[httpx.Response] = []
         worker = threading.Thread(
-            target=lambda: httpx.post(f"{service.url}/v1/scenes/{scene_id}/reconstruct", timeout=300)
+            target=lambda: answers.append(
+                httpx.post(f"{service.url}/v1/scenes/{scene_id}/reconstruct", timeout=300)
+            )
         )
         worker.start()
         _wait_for_lease(redis_url, env["PYSPATIAL_CACHE_NAMESPACE"], scene_id)
@@ -288,6 +291,9 @@ def test_sigterm_drains_within_the_drain_time_and_releases_the_lease(tmp_path, r
         exited_s = time.monotonic() - started
         worker.join()
     assert exited_s < 1 + 5, exited_s  # drain time plus shutdown, not the reconstruction's length
+    (cut_off,) = answers  # the request the drain cut off has its own code, not uvicorn's 500
+    assert cut_off.status_code == 503 and cut_off.headers["retry-after"] == "1", cut_off.text
+    assert "shutting down" in cut_off.json()["detail"]
     leases = redis.Redis.from_url(redis_url).keys(
         f"pyspatial:{env['PYSPATIAL_CACHE_NAMESPACE']}:recon:lease:*"
     )

@@ -27,6 +27,7 @@ from shared.wire.access import docs_urls, install_access_control
 from shared.wire.bodies import install_input_error_handlers
 from shared.wire.client import ServiceError, ServiceUnreachable
 from shared.wire.errors import install_error_shape
+from shared.wire.scrubbing import install_log_scrubbing
 from shared.wire.settings import AgentSettings
 
 log = logging.getLogger("pyspatial.agent")
@@ -43,6 +44,9 @@ def create_app(settings: AgentSettings | None = None) -> FastAPI:
         **docs_urls(settings),
     )
     app.state.settings = settings
+    # The keys the agent sends (recon's, the models') are scrubbed from its logs like its own.
+    sent_keys = (settings.recon_api_key, settings.code_model_api_key, settings.answer_model_api_key)
+    install_log_scrubbing([key.get_secret_value() for key in sent_keys if key is not None])
     app.state.pipeline = SolvePipeline(settings)
     app.state.web_page = build_page()
     install_error_shape(app)

@@ -11,7 +11,8 @@ and no images; a server that answers list content with an error saying so (llama
 templates: `can only concatenate str (not "list") to str`) is reported as `ContentPartsRefused`,
 which names the setting to turn on. A rejected key (401/403) is `ModelAuthError`. Every error text
 is scrubbed of the key and of anything that looks like a credential before it leaves this module
-(servers echo the Authorization header back in their errors).
+(servers echo the Authorization header back in their errors). A 200 whose body is not JSON or not
+shaped like a chat completion is `ModelReplyMalformed`, naming the endpoint and what was wrong.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ import openai
 from pydantic import BaseModel, Field, SecretStr
 
 from services.agent import cancellation
+from shared.wire.scrubbing import scrub
 
 # Local servers (vLLM, Ollama, llama.cpp) ignore the key, but the openai package insists on one.
 _PLACEHOLDER_KEY = "not-needed"
@@ -62,6 +64,11 @@ class ModelNotFound(ModelConfigurationError):
 
 class ContentPartsRefused(ModelConfigurationError):
     """The server cannot take list content (text + image parts): the model must be set text-only."""
+
+
+class ModelReplyMalformed(ModelConfigurationError):
+    """A 200 whose body is not JSON, or JSON that is not a chat completion: not an OpenAI-compatible
+    endpoint (a proxy's HTML page, a wrong path), so the solve ends as a 502 that says so."""
 
 
 class ChatModelConfig(BaseModel):
@@ -135,27 +142,9 @@ _DETERMINISTIC_SERVER_ERROR = re.compile(
 )
 _TRANSIENT_STATUSES = {408, 429, 502, 503, 504}
 
-# Credentials a server may echo back in an error (header echoes, query strings, provider key shapes).
-_SECRET_PATTERNS = (
-    re.compile(r"(?i)(authorization[\"']?\s*[:=]\s*[\"']?)(?:bearer|basic|token)?\s*[^\s\"',;}]+"),
-    re.compile(r"(?i)\b(bearer\s+)[A-Za-z0-9._~+/=-]{6,}"),
-    re.compile(
-        r"(?i)((?:api[_-]?key|x-api-key|access[_-]?token|secret|password)[\"']?\s*[:=]\s*[\"']?)[^\s\"',;&}]+"
-    ),
-    re.compile(r"\b(?:sk|rk|pk)-[A-Za-z0-9_-]{12,}"),
-    re.compile(r"\bhf_[A-Za-z0-9]{20,}"),
-)
-REDACTED = "[redacted]"
-
-
 def scrub_secrets(text: str, secrets: list[str] | tuple[str, ...] = ()) -> str:
-    """`text` with the given secret values and anything shaped like a credential replaced."""
-    for secret in secrets:
-        if secret and len(secret) >= 4:
-            text = text.replace(secret, REDACTED)
-    for pattern in _SECRET_PATTERNS:
-        text = pattern.sub(lambda match: (match.group(1) if match.groups() else "") + REDACTED, text)
-    return text
+    """`text` with the given secret values (in every encoding) and credential-shaped strings replaced."""
+    return scrub(text, secrets)
 
 
 def plain_text_content(content: Any) -> str:
@@ -210,6 +199,27 @@ def _status_detail(error: openai.APIStatusError) -> str:
     body = error.body
     message = body.get("message") if isinstance(body, dict) else None
     return f"HTTP {error.status_code}: {message or error.message}"
+
+
+def completion_shape_problem(body: Any) -> str | None:
+    """What is wrong with a chat completion body, in the fields this client reads; None if fine."""
+    if not isinstance(body, dict):
+        return f"the body is a JSON {type(body).__name__}, not an object"
+    choices = body.get("choices")
+    if not isinstance(choices, list):
+        return "'choices' is missing or not a list"
+    if not choices:
+        return None  # an empty list is the model's answer: `_reply` says "returned no choices"
+    first = choices[0]
+    message = first.get("message") if isinstance(first, dict) else None
+    if not isinstance(message, dict):
+        return "'choices[0].message' is missing or not an object"
+    if not isinstance(message.get("content"), (str, type(None))):
+        return "'choices[0].message.content' is not a string"
+    usage = body.get("usage")
+    if usage is not None and not isinstance(usage, dict):
+        return "'usage' is not an object"
+    return None
 
 
 class ChatClient:
@@ -274,7 +284,7 @@ class ChatClient:
             if stop is not None:
                 stop.check()
             try:
-                completion = self._client.chat.completions.create(
+                raw = self._client.chat.completions.with_raw_response.create(
                     model=config.model, messages=messages, **options
                 )
             except openai.APITimeoutError:
@@ -293,7 +303,7 @@ class ChatClient:
                         f"{config.max_retry_after_s:g}s we wait: {last_reason}"
                     ) from None
             else:
-                return self._reply(completion, started, attempt)
+                return self._reply(self._completion(raw), started, attempt)
             if attempt == total_attempts:
                 break
             # A server's Retry-After wins; a little jitter keeps clients from returning in lockstep.
@@ -333,6 +343,25 @@ class ChatClient:
                 f"{label} failed on this request in a way a retry would repeat (not retried): {reason}"
             ) from None
 
+    def _completion(self, raw: Any) -> Any:
+        """The parsed completion, after checking that the body is one (the openai package would
+        hand back a bare string for a non-JSON body, and never checks the fields it reads)."""
+        response = raw.http_response
+        try:
+            body = response.json()
+        except ValueError:
+            kind = response.headers.get("content-type") or "no content type"
+            snippet = self.scrub(response.text[:200])
+            raise ModelReplyMalformed(
+                f"{self.config.label} replied with a body that is not JSON ({kind}): {snippet!r}"
+            ) from None
+        problem = completion_shape_problem(body)
+        if problem:
+            raise ModelReplyMalformed(
+                f"{self.config.label} replied with JSON that is not a chat completion: {problem}"
+            )
+        return raw.parse()
+
     def _reply(self, completion: Any, started: float, attempts: int) -> ChatReply:
         if not completion.choices:
             raise ModelError(f"{self.config.label} returned no choices")
@@ -369,6 +398,7 @@ __all__ = [
     "ModelConfigurationError",
     "ModelError",
     "ModelNotFound",
+    "ModelReplyMalformed",
     "ModelUnavailable",
     "TokenUsage",
     "as_text_only",

@@ -27,7 +27,7 @@ from services.agent.stages.scene import reconstruct, upload
 from services.agent.steps import SolveLog
 from shared.questions.intent import QuestionIntent, parse_question
 from shared.wire.access import DEFAULT_TENANT
-from shared.wire.client import ReconClient
+from shared.wire.client import ReconClient, RetryPolicy
 from shared.wire.schemas import AnswerStep, ReconstructionStep, SceneStep, SolveResponse
 from shared.wire.settings import AgentSettings
 
@@ -53,7 +53,11 @@ class SolvePipeline:
     def __init__(self, settings: AgentSettings) -> None:
         self.settings = settings
         recon_key = settings.recon_api_key.get_secret_value() if settings.recon_api_key else None
-        self.recon = ReconClient(settings.recon_url, timeout=settings.recon_timeout_s, api_key=recon_key)
+        # Recon calls are idempotent: retried with backoff on a reset or a 502/503, within a window.
+        retry = RetryPolicy(attempts=settings.recon_attempts, window_s=settings.recon_retry_window_s)
+        self.recon = ReconClient(
+            settings.recon_url, timeout=settings.recon_timeout_s, api_key=recon_key, retry=retry
+        )
         code = _model_config(settings, "code")
         answer = _model_config(settings, "answer")
         self.code_client = ChatClient(code) if code else None

@@ -57,6 +57,39 @@ def decode_image(data: bytes, *, max_bytes: int, max_pixels: int, label: str = "
     return rgb
 
 
+def header_size(data: bytes, *, max_bytes: int, max_pixels: int, label: str = "image") -> tuple[int, int]:
+    """(width, height) read from the file's header only (PIL opens lazily: no pixel is decoded),
+    refused with ImageError (over_limit) past the byte or pixel limit. An unreadable header is
+    left to `decode_image`, which says why."""
+    if len(data) > max_bytes:
+        raise ImageError(f"{label} is {len(data)} bytes; the limit is {max_bytes}", over_limit=True)
+    try:
+        with Image.open(io.BytesIO(data)) as probe:
+            width, height = probe.size
+    except (UnidentifiedImageError, OSError, SyntaxError, ValueError, Image.DecompressionBombError):
+        return (0, 0)
+    if width * height > max_pixels:
+        message = f"{label} is {width}x{height} pixels; the limit is {max_pixels} pixels"
+        raise ImageError(message, over_limit=True)
+    return width, height
+
+
+def check_upload_pixels(
+    files: list[bytes], *, max_bytes: int, max_pixels: int, max_total_pixels: int
+) -> None:
+    """Every image within the byte and pixel limits, and all of them within the upload's pixel
+    budget, from the headers alone: a 12k x 12k PNG is refused before 430 MB are decoded."""
+    sizes = [
+        header_size(blob, max_bytes=max_bytes, max_pixels=max_pixels, label=f"image {index + 1}")
+        for index, blob in enumerate(files)
+    ]
+    total = sum(width * height for width, height in sizes)
+    if total > max_total_pixels:
+        raise ImageError(
+            f"the images hold {total} pixels in all; one upload may hold {max_total_pixels}", over_limit=True
+        )
+
+
 def _to_rgb(image: Image.Image, label: str) -> np.ndarray:
     """Any Pillow mode -> uint8 RGB, keeping the brightness the file means."""
     mode = image.mode

@@ -19,6 +19,15 @@ import httpx
 
 from shared.local.services import free_port
 
+# Per client address; off by default here: a bench's load comes from one address.
+PER_CLIENT_LIMITS = """    limit_conn_zone $binary_remote_addr zone=per_client:10m;
+    limit_req_zone $binary_remote_addr zone=per_client_rate:10m rate=20r/s;
+    limit_conn per_client 32;
+    limit_req zone=per_client_rate burst=40 nodelay;
+    limit_conn_status 429;
+    limit_req_status 429;
+"""
+
 CONFIG = """worker_processes 1;
 pid {prefix}/nginx.pid;
 error_log {prefix}/error.log warn;
@@ -31,7 +40,12 @@ http {{
     uwsgi_temp_path {prefix}/uwsgi;
     scgi_temp_path {prefix}/scgi;
     client_max_body_size 0;  # the services enforce their own limits
-    upstream replicas {{
+    # the edge limits of deploy/nginx/nginx.conf (tests/test_nginx_edge.py checks they agree)
+    client_header_timeout {header_timeout};
+    client_body_timeout {body_timeout};
+    send_timeout 60s;
+    keepalive_timeout 65s;
+{per_client_limits}    upstream replicas {{
 {servers}
         keepalive 32;
     }}
@@ -71,15 +85,30 @@ class Nginx:
         shutil.rmtree(self.prefix, ignore_errors=True)
 
 
-def start_nginx(upstreams: Sequence[str]) -> Nginx:
-    """nginx on a free port balancing round-robin over `upstreams` ("http://host:port")."""
+def start_nginx(
+    upstreams: Sequence[str],
+    header_timeout: str = "10s",
+    body_timeout: str = "30s",
+    per_client_limits: bool = False,
+) -> Nginx:
+    """nginx on a free port balancing round-robin over `upstreams` ("http://host:port"), with the
+    deployment's edge timeouts (shorter when a test wants to watch them act) and, when asked, its
+    per-client connection and request limits."""
     binary = shutil.which("nginx") or "/usr/sbin/nginx"
     if not Path(binary).exists():
         raise RuntimeError("nginx is not installed: run scripts/setup.sh (apt-get install nginx)")
     prefix = Path(tempfile.mkdtemp(prefix="pyspatial-nginx-"))
     port = free_port()
     servers = "\n".join(f"        server {url.removeprefix('http://')};" for url in upstreams)
-    (prefix / "nginx.conf").write_text(CONFIG.format(prefix=prefix, servers=servers, port=port))
+    config = CONFIG.format(
+        prefix=prefix,
+        servers=servers,
+        port=port,
+        header_timeout=header_timeout,
+        body_timeout=body_timeout,
+        per_client_limits=PER_CLIENT_LIMITS if per_client_limits else "",
+    )
+    (prefix / "nginx.conf").write_text(config)
     process = subprocess.Popen(
         [binary, "-p", str(prefix), "-c", str(prefix / "nginx.conf"), "-g", "daemon off;"],
         stdout=subprocess.DEVNULL,
@@ -102,8 +131,8 @@ def start_nginx(upstreams: Sequence[str]) -> Nginx:
 
 
 @contextlib.contextmanager
-def running_nginx(upstreams: Sequence[str]) -> Iterator[Nginx]:
-    balancer = start_nginx(upstreams)
+def running_nginx(upstreams: Sequence[str], **options) -> Iterator[Nginx]:
+    balancer = start_nginx(upstreams, **options)
     try:
         yield balancer
     finally:

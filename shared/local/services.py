@@ -118,6 +118,7 @@ def start_service(
             str(port),
             "--log-level",
             "warning",
+            "--no-proxy-headers",  # X-Forwarded-For: the app's PYSPATIAL_TRUSTED_PROXIES, as in `serve`
             # SIGTERM: finish requests for at most this long, then stop (PYSPATIAL_DRAIN_S)
             "--timeout-graceful-shutdown",
             str(max(1, round(float(process_env.get("PYSPATIAL_DRAIN_S", "20"))))),

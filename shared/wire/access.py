@@ -10,12 +10,19 @@ Only the API (`/v1/...`) is guarded: `/healthz` and `/readyz` stay open for prob
 balancers (they carry no data, only whether the service can work), and so do the docs when
 they are switched on. The rate limit is a token bucket per key in this process: with N replicas
 a key may send up to N times the configured rate (see docs/ARCHITECTURE.md).
+
+The client address is the peer's, unless the peer is one of `PYSPATIAL_TRUSTED_PROXIES`: then it
+is the right-most X-Forwarded-For entry that is not a trusted proxy (entries further left were
+written by the client and prove nothing). Failed authentications are counted per client
+address and answered 429 + Retry-After past `PYSPATIAL_AUTH_FAILURES_PER_MINUTE`, so keys cannot
+be guessed at speed.
 """
 
 from __future__ import annotations
 
 import hashlib
 import hmac
+import ipaddress
 import json
 import math
 import re
@@ -28,6 +35,7 @@ from starlette.middleware.cors import CORSMiddleware
 from starlette.types import ASGIApp, Receive, Scope, Send
 
 from shared.wire.schemas import TENANT_HEADER
+from shared.wire.scrubbing import install_log_scrubbing
 from shared.wire.settings import AccessSettings
 
 GUARDED_PREFIX = "/v1/"
@@ -93,13 +101,57 @@ class TokenBucket:
         return wait
 
 
-class AccessMiddleware:
-    """401 without a valid bearer key (when keys are configured), 429 + Retry-After over the rate."""
+Network = ipaddress.IPv4Network | ipaddress.IPv6Network
 
-    def __init__(self, app: ASGIApp, keys: dict[bytes, str], limiter: TokenBucket | None) -> None:
+
+class TrustedProxies:
+    """The proxies whose X-Forwarded-For is believed (`*`: any peer), and the client they name."""
+
+    def __init__(self, setting: str) -> None:
+        entries = [entry.strip() for entry in setting.split(",") if entry.strip()]
+        self.any = "*" in entries
+        self.networks: list[Network] = [
+            ipaddress.ip_network(entry, strict=False) for entry in entries if entry != "*"
+        ]
+
+    def trusts(self, address: str) -> bool:
+        if self.any:
+            return True
+        try:
+            ip = ipaddress.ip_address(address)
+        except ValueError:
+            return False
+        return any(ip in network for network in self.networks)
+
+    def client_address(self, scope: Scope) -> str:
+        client = scope.get("client")
+        peer = client[0] if client else "unknown"
+        if not self.trusts(peer):
+            return peer  # a client's own X-Forwarded-For is ignored: it would pick its limits
+        hops = [hop.strip() for hop in _header(scope, b"x-forwarded-for").split(",") if hop.strip()]
+        for hop in reversed(hops):
+            if not self.trusts(hop):
+                return hop
+        return hops[0] if hops else peer
+
+
+class AccessMiddleware:
+    """401 without a valid bearer key (when keys are configured), 429 + Retry-After over the rate
+    or after too many failed authentications from one client address."""
+
+    def __init__(
+        self,
+        app: ASGIApp,
+        keys: dict[bytes, str],
+        limiter: TokenBucket | None,
+        proxies: TrustedProxies,
+        auth_failures: TokenBucket | None,
+    ) -> None:
         self.app = app
         self.keys = keys
         self.limiter = limiter
+        self.proxies = proxies
+        self.auth_failures = auth_failures
 
     def _owner(self, key: bytes) -> str | None:
         """The key's tenant, or None; every known key is compared (no early exit: constant time)."""
@@ -113,19 +165,15 @@ class AccessMiddleware:
         if scope["type"] != "http" or not scope["path"].startswith(GUARDED_PREFIX):
             await self.app(scope, receive, send)
             return
-        identity = self._client_identity(scope)
+        address = self.proxies.client_address(scope)
+        scope.setdefault("state", {})["client_address"] = address  # for the routes and logs
+        identity = f"address:{address}"
         owner = None
         if self.keys:
             key = _bearer_token(scope)
             owner = self._owner(key) if key is not None else None
             if owner is None:
-                reason = "missing bearer API key" if key is None else "invalid API key"
-                await _reply(
-                    send,
-                    401,
-                    f"{reason}: send 'Authorization: Bearer <key>'",
-                    {"www-authenticate": 'Bearer realm="pyspatial"'},
-                )
+                await self._refuse(send, address, key is None)
                 return
             identity = "key:" + hashlib.sha256(key).hexdigest()[:16]  # never keep the key itself
         tenant, refusal = _tenant(scope, owner)
@@ -136,20 +184,34 @@ class AccessMiddleware:
         if self.limiter is not None:
             wait = self.limiter.take(identity)
             if wait > 0:
-                retry_after = max(1, math.ceil(wait))
-                await _reply(
-                    send,
-                    429,
-                    f"rate limit exceeded; retry in {retry_after} s",
-                    {"retry-after": str(retry_after)},
-                )
+                await _too_many(send, wait, "rate limit exceeded")
                 return
         await self.app(scope, receive, send)
 
-    @staticmethod
-    def _client_identity(scope: Scope) -> str:
-        client = scope.get("client")
-        return f"address:{client[0] if client else 'unknown'}"
+    async def _refuse(self, send: Send, address: str, missing: bool) -> None:
+        """401, or 429 once this address has failed too often (each failure spends a token)."""
+        wait = self.auth_failures.take(address) if self.auth_failures is not None else 0.0
+        if wait > 0:
+            await _too_many(send, wait, "too many failed authentications from this address")
+            return
+        reason = "missing bearer API key" if missing else "invalid API key"
+        await _reply(
+            send,
+            401,
+            f"{reason}: send 'Authorization: Bearer <key>'",
+            {"www-authenticate": 'Bearer realm="pyspatial"'},
+        )
+
+
+async def _too_many(send: Send, wait: float, reason: str) -> None:
+    retry_after = max(1, math.ceil(wait))
+    await _reply(send, 429, f"{reason}; retry in {retry_after} s", {"retry-after": str(retry_after)})
+
+
+def _header(scope: Scope, name: bytes) -> str:
+    """All values of one request header, comma-joined (as repeated headers combine)."""
+    values = [value.decode("latin-1") for key, value in scope.get("headers", []) if key == name]
+    return ",".join(values)
 
 
 def _tenant(scope: Scope, owner: str | None) -> tuple[str | None, str | None]:
@@ -196,7 +258,19 @@ def install_access_control(app: FastAPI, settings: AccessSettings) -> None:
     limiter = None
     if settings.rate_limit_per_minute > 0:
         limiter = TokenBucket(settings.rate_limit_per_minute, settings.rate_limit_burst)
-    app.add_middleware(AccessMiddleware, keys=parse_tenant_keys(settings), limiter=limiter)
+    auth_failures = None
+    if settings.auth_failures_per_minute > 0:
+        per_minute = settings.auth_failures_per_minute
+        auth_failures = TokenBucket(per_minute, burst=per_minute)
+    keys = parse_tenant_keys(settings)
+    install_log_scrubbing([key.decode() for key in keys])  # a key sent in a URL is logged redacted
+    app.add_middleware(
+        AccessMiddleware,
+        keys=keys,
+        limiter=limiter,
+        proxies=TrustedProxies(settings.trusted_proxies),
+        auth_failures=auth_failures,
+    )
     origins = parse_origins(settings)
     if origins:
         app.add_middleware(

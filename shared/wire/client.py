@@ -1,4 +1,10 @@
-"""Python clients of the two services (httpx). Errors carry the service's own message."""
+"""Python clients of the two services (httpx). Errors carry the service's own message.
+
+The recon client retries its calls (all idempotent: scenes are content-addressed, reconstructions
+cached by scene) on a reset or refused connection and on 502/503, with exponential backoff and
+jitter, honouring Retry-After, and never past its retry window: a replica restarting or nginx
+failing over costs a second, not a solve. The agent's solve is not idempotent and is not retried.
+"""
 
 from __future__ import annotations
 
@@ -6,6 +12,8 @@ import base64
 import copy
 import io
 import json
+import random
+import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -14,7 +22,7 @@ from urllib.parse import quote
 import httpx
 import numpy as np
 from httpx_sse import connect_sse
-from pydantic import TypeAdapter
+from pydantic import BaseModel, Field, TypeAdapter
 
 from shared.geometry.reconstruction import Reconstruction
 from shared.imaging.codecs import encode_image
@@ -94,6 +102,28 @@ def _npy(array: np.ndarray) -> bytes:
     return buffer.getvalue()
 
 
+class RetryPolicy(BaseModel):
+    """How a client retries a call that failed on the way (never a timeout: that took its time)."""
+
+    attempts: int = Field(1, ge=1, description="Tries in all; 1 = no retry.")
+    backoff_base_s: float = Field(0.25, ge=0, description="First backoff; doubles each retry.")
+    backoff_max_s: float = Field(4.0, ge=0, description="Longest backoff between two tries.")
+    window_s: float = Field(30.0, gt=0, description="No retry starts later than this after the first try.")
+
+    def delay_s(self, attempt: int, retry_after: float | None) -> float:
+        """Before try `attempt + 1`: Retry-After when the server said, else half to all of the backoff."""
+        if retry_after is not None:
+            return retry_after * (1.0 + 0.1 * random.random())
+        ceiling = min(self.backoff_max_s, self.backoff_base_s * 2 ** (attempt - 1))
+        return ceiling * (0.5 + 0.5 * random.random())
+
+
+NO_RETRY = RetryPolicy()
+RETRIED_STATUSES = {502, 503}  # a replica or the balancer failing over; the call is idempotent
+# Failures on the way where the server cannot have acted on a full request, or acts idempotently.
+RETRIED_ERRORS = (httpx.ConnectError, httpx.ReadError, httpx.WriteError, httpx.RemoteProtocolError)
+
+
 class _ServiceClient:
     service_name = "service"
 
@@ -103,10 +133,12 @@ class _ServiceClient:
         timeout: float = 600.0,
         client: httpx.Client | None = None,
         api_key: str | None = None,
+        retry: RetryPolicy = NO_RETRY,
     ) -> None:
         self.base_url = base_url.rstrip("/")
         headers = {"Authorization": f"Bearer {api_key}"} if api_key else {}
         self._http = client or httpx.Client(base_url=self.base_url, timeout=timeout, headers=headers)
+        self.retry = retry
         self._headers: dict[str, str] = {}  # sent with every request of this client (its tenant)
         self._owns_http = True
 
@@ -121,6 +153,32 @@ class _ServiceClient:
         return view
 
     def _request(self, method: str, path: str, **kwargs) -> httpx.Response:
+        started = time.monotonic()
+        for attempt in range(1, self.retry.attempts + 1):
+            try:
+                return self._attempt(method, path, **kwargs)
+            except (ServiceError, ServiceUnreachable) as error:
+                delay = self._retry_delay(error, attempt, started)
+                if delay is None:
+                    raise
+                time.sleep(delay)
+        raise AssertionError("unreachable: the last attempt raises")
+
+    def _retry_delay(self, error: Exception, attempt: int, started: float) -> float | None:
+        """Seconds to wait before retrying after `error`, or None to give up now."""
+        if attempt >= self.retry.attempts or isinstance(error, ServiceTimeout):
+            return None
+        if isinstance(error, ServiceError):
+            if error.status_code not in RETRIED_STATUSES:
+                return None
+            delay = self.retry.delay_s(attempt, error.retry_after)
+        elif isinstance(error.__cause__, RETRIED_ERRORS):
+            delay = self.retry.delay_s(attempt, None)
+        else:
+            return None
+        return delay if time.monotonic() - started + delay <= self.retry.window_s else None
+
+    def _attempt(self, method: str, path: str, **kwargs) -> httpx.Response:
         if self._headers:
             kwargs["headers"] = {**self._headers, **kwargs.get("headers", {})}
         try:

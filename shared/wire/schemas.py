@@ -143,11 +143,20 @@ class ReconstructionSummary(_Model):
     timings_ms: dict[str, float]
 
 
+# A pose as routes take it: 3 or 4 rows of 4 numbers (the schema says so; rotation checked by the service).
+PoseMatrix = Annotated[
+    list[Annotated[list[float], Field(min_length=4, max_length=4)]], Field(min_length=3, max_length=4)
+]
+RENDER_SIDE = "Pixels; at most PYSPATIAL_MAX_RENDER_SIDE (2048 by default), else a 422."
+
+
 class RenderRequest(_Model):
-    scene_id: str
-    extrinsic: Matrix = Field(..., description="3x4 or 4x4 camera-from-world, OpenCV axes.")
-    width: Annotated[int, Field(ge=16)] = 512
-    height: Annotated[int, Field(ge=16)] = 512
+    scene_id: str = Field(..., pattern=SCENE_ID_PATTERN, description="A scene id from POST /v1/scenes.")
+    extrinsic: PoseMatrix = Field(
+        ..., description="3x4 or 4x4 camera-from-world, OpenCV axes; the rotation must be orthonormal."
+    )
+    width: Annotated[int, Field(ge=16, description=RENDER_SIDE)] = 512
+    height: Annotated[int, Field(ge=16, description=RENDER_SIDE)] = 512
     zoom_out: Annotated[float, Field(gt=0.0, le=4.0)] = 0.5
     format: ImageFormat = "png"
     backbone: str | None = None
@@ -171,7 +180,7 @@ class MotionTarget(_Model):
 
 
 class CameraMotionRequest(_Model):
-    scene_id: str
+    scene_id: str = Field(..., pattern=SCENE_ID_PATTERN, description="A scene id from POST /v1/scenes.")
     pairs: list[tuple[int, int]] | None = Field(
         None, description="0-based view pairs; consecutive if unset." + VIEW_NUMBERS
     )

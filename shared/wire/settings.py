@@ -40,9 +40,30 @@ class AccessSettings(_Settings):
         "", description="Comma-separated origins allowed by CORS (`*` for any); CORS is off when empty."
     )
     docs_enabled: bool = Field(True, description="Serve /docs, /redoc and /openapi.json.")
+    trusted_proxies: str = Field(
+        "127.0.0.1",
+        description="Comma-separated addresses or networks (CIDR) of the proxies whose X-Forwarded-For "
+        "is believed (nginx in compose, the ingress in k8s); `*` trusts any; others' is ignored.",
+    )
+    auth_failures_per_minute: int = Field(
+        10, ge=0, description="Failed authentications per client address per minute before 429; 0 = off."
+    )
 
 
-class ReconSettings(AccessSettings):
+class ServiceSettings(AccessSettings):
+    """What both services enforce alike: the drain on SIGTERM and the limits of an upload."""
+
+    drain_s: float = Field(20.0, gt=0, description="On SIGTERM: longest wait for running work before exit.")
+    max_images: int = Field(32, ge=1, le=256, description="Most images in one upload.")
+    max_image_bytes: int = Field(25 * 2**20, ge=1024, description="Largest encoded image file.")
+    max_image_pixels: int = Field(40_000_000, ge=1, description="Largest decoded image (width x height).")
+    max_request_bytes: int = Field(300 * 2**20, ge=1024, description="Largest upload request body.")
+    max_request_pixels: int = Field(
+        400_000_000, ge=1, description="Most decoded pixels in one upload (all images together)."
+    )
+
+
+class ReconSettings(ServiceSettings):
     backbone: str = Field(
         "classical",
         description="Default backbone: classical, posed-rgbd, vggt, pi3, pi3x, or auto (Pi3X when its "
@@ -102,10 +123,6 @@ class ReconSettings(AccessSettings):
     store_gc_interval_s: float = Field(
         3600.0, gt=0, description="How often each replica runs the store's GC (when a limit is set)."
     )
-    max_images: int = Field(32, ge=1, le=256, description="Most images in one scene.")
-    max_image_bytes: int = Field(25 * 2**20, ge=1024, description="Largest encoded image file.")
-    max_image_pixels: int = Field(40_000_000, ge=1, description="Largest decoded image (width x height).")
-    max_request_bytes: int = Field(300 * 2**20, ge=1024, description="Largest upload request body.")
     max_render_side: int = Field(2048, ge=16, description="Largest rendered image side.")
     reconstruct_workers: int = Field(1, ge=1, description="Reconstructions run at once (CPU/GPU bound).")
     reconstruct_lease_s: int = Field(
@@ -126,9 +143,6 @@ class ReconSettings(AccessSettings):
         True, description="With REDIS_URL: publish scenes to Redis so every replica serves every scene."
     )
     scene_ttl_s: int = Field(30 * 24 * 3600, ge=60, description="Lifetime of a shared scene in Redis.")
-    max_request_pixels: int = Field(
-        400_000_000, ge=1, description="Most decoded pixels in one upload (all images together)."
-    )
     max_decoding_pixels: int = Field(
         800_000_000, ge=1, description="Most pixels decoded at once; more uploads get 503 + Retry-After."
     )
@@ -136,10 +150,9 @@ class ReconSettings(AccessSettings):
         2, ge=0, description="Processes that decode uploaded images (0: threads of the service process)."
     )
     max_motion_pairs: int = Field(1024, ge=1, description="Most view pairs in one camera-motion request.")
-    drain_s: float = Field(20.0, gt=0, description="On SIGTERM: longest wait for running work before exit.")
 
 
-class AgentSettings(AccessSettings):
+class AgentSettings(ServiceSettings):
     recon_url: str = Field(f"http://127.0.0.1:{DEFAULT_RECON_PORT}", description="Reconstruction service.")
     recon_api_key: SecretStr | None = Field(
         None,
@@ -151,6 +164,12 @@ class AgentSettings(AccessSettings):
     )
     recon_timeout_s: float = Field(
         600.0, gt=0, description="Timeout of one call to the recon service (above its reconstruct_wait_s)."
+    )
+    recon_attempts: int = Field(
+        3, ge=1, le=10, description="Tries of one recon call on a reset connection or a 502/503 (1 = none)."
+    )
+    recon_retry_window_s: float = Field(
+        20.0, gt=0, description="No retry of a recon call starts later than this after its first try."
     )
     code_model: str | None = Field(None, description="Code model name; the offline planner when unset.")
     code_model_base_url: str | None = Field(None, description="OpenAI-compatible endpoint of the code model.")
@@ -194,9 +213,6 @@ class AgentSettings(AccessSettings):
         description="TEST ONLY: skip the Python-level sandbox checks to prove the OS jail alone; "
         "refused unless the jail is active.",
     )
-    max_images: int = Field(32, ge=1, description="Most images in one /v1/solve request.")
-    max_image_bytes: int = Field(25 * 2**20, ge=1024, description="Largest encoded image file.")
-    max_request_bytes: int = Field(300 * 2**20, ge=1024, description="Largest request body.")
 
     @field_validator("recon_api_key", mode="after")
     @classmethod

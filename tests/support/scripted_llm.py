@@ -3,8 +3,9 @@
 It is the one stand-in the tests use: a FastAPI app under a real uvicorn process, spoken to over HTTP
 by the real `openai` package. Each POST /v1/chat/completions takes the next entry of the script
 (the queue of the requested model, else the default queue) and records the request, so tests can
-assert on prompts. An entry is a text reply, an HTTP error (429 with Retry-After, 500, 400, ...)
-and/or a delay before answering (longer than the client timeout to provoke one; a client that
+assert on prompts. An entry is a text reply, an HTTP error (429 with Retry-After, 500, 400, ...),
+a raw body sent verbatim (not JSON, or JSON that is no chat completion: a broken server) and/or a
+delay before answering (longer than the client timeout to provoke one; a client that
 closes the connection during it is recorded, `client_left`). An entry may
 carry the `finish_reason` and `usage` a real server reported (the recorded replies of
 tests/support/model_replies.py replay that way), and an error message may contain
@@ -32,7 +33,7 @@ from typing import Any
 
 import httpx
 from fastapi import FastAPI, Request
-from fastapi.responses import JSONResponse
+from fastapi.responses import JSONResponse, Response
 from pydantic import BaseModel, Field, model_validator
 
 from tests.support.processes import ServiceProcess, start_service
@@ -48,6 +49,10 @@ class ScriptEntry(BaseModel):
     delay_s: float = Field(0.0, ge=0, description="Wait this long before answering.")
     finish_reason: str = "stop"
     usage: dict[str, int] | None = Field(None, description="Reported token usage; counted words if None.")
+    raw_body: str | None = Field(
+        None, description="Send this body verbatim (200) instead of a completion: a broken server."
+    )
+    content_type: str = Field("application/json", description="Content type of a raw body.")
 
     @model_validator(mode="before")
     @classmethod
@@ -226,6 +231,8 @@ def create_app() -> FastAPI:
             message = entry.error_message or f"scripted HTTP {entry.status}"
             message = message.replace("{authorization}", request.headers.get("authorization", ""))
             return _error(entry.status, message, headers)
+        if entry.raw_body is not None:
+            return Response(entry.raw_body.encode(), media_type=entry.content_type)
         return JSONResponse(_completion(model or "scripted", entry, body["messages"]))
 
     return app

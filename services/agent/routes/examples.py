@@ -75,7 +75,7 @@ async def examples() -> ExampleList:
 @router.get(
     "/v1/examples/{name}/images/{file}",
     response_class=FileResponse,
-    responses=error_responses(401, 404, 429),
+    responses=error_responses(401, 404, 422, 429),  # 422: a name that is no example name
 )
 async def example_photo(name: str = Path(pattern=EXAMPLE_NAME), file: str = Path()) -> FileResponse:
     if file not in _spec(name)["images"]:
@@ -86,7 +86,7 @@ async def example_photo(name: str = Path(pattern=EXAMPLE_NAME), file: str = Path
 @router.get(
     "/v1/examples/{name}/thumbnail",
     response_class=FileResponse,
-    responses=error_responses(401, 404, 429),
+    responses=error_responses(401, 404, 422, 429),  # 422: a name that is no example name
 )
 async def example_thumbnail(name: str = Path(pattern=EXAMPLE_NAME)) -> FileResponse:
     """A small JPEG of the example's first photo, for the gallery."""

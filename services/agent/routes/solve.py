@@ -14,13 +14,14 @@ import pydantic_core
 from fastapi import APIRouter, Request, Response
 from pydantic import ValidationError
 from starlette.datastructures import UploadFile
+from starlette.formparsers import MultiPartException, MultiPartParser
 
 from services.agent.cancellation import Cancellation, SolveCancelled, cancel_when_client_leaves
 from services.agent.errors import SolveError
 from services.agent.routes.dependencies import PipelineDep, SettingsDep, TenantDep
 from services.agent.solve_stream import event_stream, wants_event_stream
-from shared.imaging.codecs import decode_base64
-from shared.wire.bodies import read_body_limited
+from shared.imaging.codecs import check_upload_pixels, decode_base64
+from shared.wire.bodies import limited_stream, read_body_limited
 from shared.wire.errors import error_responses, first_validation_message
 from shared.wire.schemas import SolveRequest, SolveResponse
 from shared.wire.settings import AgentSettings
@@ -77,6 +78,17 @@ async def solve(
     """Answer a question; with `Accept: text/event-stream`, stream the stages (SSE) then the result."""
     body = await _read_solve_request(request, settings)
     files = [decode_base64(text, f"image {i + 1}") for i, text in enumerate(body.images or [])]
+    if len(files) > settings.max_images:
+        raise SolveError(422, f"{len(files)} images; at most {settings.max_images}")
+    # The pixel budget from the headers, before the solve starts and before any pixel is decoded.
+    await anyio.to_thread.run_sync(
+        lambda: check_upload_pixels(
+            files,
+            max_bytes=settings.max_image_bytes,
+            max_pixels=settings.max_image_pixels,
+            max_total_pixels=settings.max_request_pixels,
+        )
+    )
     cancellation = Cancellation()  # fired when the client goes away: the solve's work stops
 
     def run(progress=None) -> SolveResponse:
@@ -109,10 +121,28 @@ async def _read_solve_request(request: Request, settings: AgentSettings) -> Solv
 
 
 async def _read_multipart(request: Request, settings: AgentSettings) -> SolveRequest:
+    # The parser reads a counted stream: a chunked body stops at the byte limit (413), and the
+    # files spooled to disk meanwhile can never hold more than that limit. One file too many stops
+    # the parser at once.
+    parser = MultiPartParser(
+        request.headers,
+        limited_stream(request, settings.max_request_bytes),
+        max_files=settings.max_images,
+        max_fields=16,
+    )
     try:
-        form = await request.form(max_files=settings.max_images + 1, max_fields=16)
-    except Exception as error:  # starlette raises several parser errors for malformed bodies
-        raise SolveError(422, f"could not parse the multipart request: {error}") from error
+        form = await parser.parse()
+    except MultiPartException as error:
+        if "Too many files" in error.message:
+            raise SolveError(422, f"too many images; at most {settings.max_images}") from error
+        raise SolveError(422, f"could not parse the multipart request: {error.message}") from error
+    try:
+        return await _solve_request_from(form, settings)
+    finally:
+        await form.close()
+
+
+async def _solve_request_from(form, settings: AgentSettings) -> SolveRequest:
     images = []
     for item in form.getlist("images"):
         if not isinstance(item, UploadFile):
