@@ -89,9 +89,9 @@ def test_cors_allows_only_the_configured_origin(guarded_recon, open_recon):
         simple = client.get("/v1/backbones", headers={"Origin": ALLOWED_ORIGIN, **bearer("alpha-key")})
         assert simple.headers["access-control-allow-origin"] == ALLOWED_ORIGIN
     # Off by default: no CORS header for any origin.
-    response = httpx.get(open_recon.url + "/v1/backbones", headers={"Origin": ALLOWED_ORIGIN})
+    response = httpx.get(open_recon.url + "/v1/backbones", headers={"Origin": ALLOWED_ORIGIN}, timeout=30)
     assert response.status_code == 200 and "access-control-allow-origin" not in response.headers
-    assert httpx.options(open_recon.url + "/v1/scenes", headers=preflight).status_code == 405
+    assert httpx.options(open_recon.url + "/v1/scenes", headers=preflight, timeout=30).status_code == 405
 
 
 def test_docs_can_be_switched_off(guarded_recon, open_recon):
