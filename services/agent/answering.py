@@ -31,6 +31,7 @@ from services.agent.llm import (
     text_part,
 )
 from services.agent.motion_clue import (
+    UNDETERMINED,
     VISION_MODEL_HINT,
     MotionStatement,
     hypothetical_statements,
@@ -324,9 +325,6 @@ def _answer_from_motion(intent: QuestionIntent, statements: list[MotionStatement
         f"Option {letter} ({intent.options[letter]!r}) states the same motion.",
         method="offline_text",
     )
-
-
-UNDETERMINED = "cannot be determined from these photos"
 
 
 def _answer_over_focal(intent: QuestionIntent, statement: MotionStatement) -> AnswerResult:
