@@ -17,7 +17,7 @@ from bench.templering_data import load_cameras, load_image, pair_errors, realdat
 from services.recon.backbones.base import BackboneError
 from services.recon.backbones.classical import ClassicalBackbone
 from shared.imaging.codecs import encode_image
-from shared.wire.client import ReconClient
+from shared.wire.client import AgentClient, ReconClient
 from tests.support.processes import running_service
 
 ROOT = realdata_dir()
@@ -92,6 +92,11 @@ def test_two_views_without_a_focal_are_solved_over_focal_hypotheses(backbone):
     assert motion.direction_determined and motion.directions == [expected["direction"]] == ["left"]
     assert not motion.turn_determined and set(motion.turns) == {"right", "none"}
     assert any("central hypothesis" in warning for warning in result.warnings)
+    # What /v1/camera-motion makes of it (its functions, in process): the sentence of what holds.
+    from bench.determinacy_synthetic import pair_motion
+
+    described = pair_motion(result, (0, 1))
+    assert described.over_focal["directions"] == ["left"] and described.sentence == motion.sentence
     # The focal given: no hypotheses, nothing extra to pay.
     given = backbone.reconstruct(images, intrinsics=intrinsics, intrinsics_sources=["exif"] * 2)
     assert given.registered.all() and given.intrinsics_source == ["exif"] * 2
@@ -100,7 +105,19 @@ def test_two_views_without_a_focal_are_solved_over_focal_hypotheses(backbone):
     assert rotation <= 2.0 and direction <= 3.0
 
 
-def test_camera_motion_over_http_says_what_the_focal_range_determines(tmp_path, redis_url):
+_ASKS = "Based on these two images (image 1 and 2) showing the same scene: "
+_MOVE = _ASKS + "How did I move from image 1 to image 2? A. forward B. right C. left D. backward"
+_TURN = _ASKS + (
+    "How did I turn from image 1 to image 2? A. turned left by about 30 degrees "
+    "B. turned right by about 30 degrees C. did not turn"
+)
+
+
+# Two services and two solves, ~30-60 s; the parts have lean tests in the default run.
+@pytest.mark.slow
+def test_camera_motion_render_and_agent_over_http_say_what_the_focal_range_determines(tmp_path, redis_url):
+    # Two sideways photos 23 degrees apart, no EXIF: the step is "left" at every focal, the turn
+    # (3 to 44 degrees right) is "no turn" at some and "right" at others.
     env = {"PYSPATIAL_DATA_DIR": str(tmp_path), "PYSPATIAL_BACKBONE": "classical", "REDIS_URL": redis_url}
     images, _, _ = _scene([1, 4])
     sideways = [np.ascontiguousarray(np.rot90(image, -1)) for image in images]
@@ -111,6 +128,11 @@ def test_camera_motion_over_http_says_what_the_focal_range_determines(tmp_path, 
             pose = np.concatenate([np.eye(3), np.zeros((3, 1))], 1).tolist()
             body = {"scene_id": scene_id, "extrinsic": pose, "width": 64, "height": 48}
             render = httpx.post(service.url + "/v1/render", json=body, timeout=60)
+        agent_env = {"PYSPATIAL_RECON_URL": service.url, "PYSPATIAL_SANDBOX_WALL_S": "60"}
+        with running_service("services.agent.app:create_app", agent_env) as agent:
+            with AgentClient(agent.url, timeout=180) as client:
+                moved = client.solve(_MOVE, scene_id=scene_id)
+                turned = client.solve(_TURN, scene_id=scene_id)
     assert render.status_code == 200 and "central focal hypothesis" in render.headers["x-pyspatial-warning"]
     [motion] = response.motions
     over = motion.over_focal
@@ -119,6 +141,9 @@ def test_camera_motion_over_http_says_what_the_focal_range_determines(tmp_path, 
     assert len(over.translation_directions) == over.hypotheses
     assert motion.sentence == over.sentence and "moved left (determined; heading" in motion.sentence
     assert any("central hypothesis" in warning for warning in response.warnings)
+    assert moved.answer == "C", moved.answer_reason
+    assert turned.answer is None and "cannot be determined from these photos" in turned.answer_reason
+    assert "turned between" in turned.answer_reason and "degrees right" in turned.answer_reason
 
 
 def test_confidence_over_http(tmp_path, redis_url):

@@ -80,6 +80,7 @@ def test_hypotheses_are_stored_and_read_back_and_older_files_have_none():
 
 # ---- the agent answers only what every hypothesis agrees on ---------------------------------------
 
+_ASKS = "Based on these two images (image 1 and 2) showing the same scene: "
 _TURN_QUESTION = (
     "Based on these two images (image 1 and 2) showing the same scene: How did I turn from image 1 to "
     "image 2? A. turned left by about 45 degrees B. turned right by about 45 degrees C. did not turn"
@@ -118,3 +119,20 @@ def test_the_agent_answers_a_choice_that_holds_at_every_focal_and_refuses_one_th
         parse_question(_MOVE_QUESTION.replace("B. left", "B. right")), straddle.sentence, []
     )
     assert right.answer == "B", right.reasoning
+
+
+def test_a_question_without_options_gets_only_the_determined_words():
+    from services.agent.free_form import answer_offline
+    from shared.questions.intent import parse_question
+
+    ask = _ASKS + "How did I move from image 1 to image 2?"
+    swinging = motion_over_focal(
+        _hypotheses([12, 25, 42], [[0.0, 0.0, 1.0], [-0.3, 0.0, 1.0], [-1.0, 0.0, 1.0]])
+    )
+    result = answer_offline(parse_question(ask), swinging.sentence, [])
+    assert (
+        result.answer == "turned left by 12 to 42 degrees (the step cannot be determined from these photos)"
+    )
+    straddle = motion_over_focal(_hypotheses([-15, 3, 20], [[1.0, 0.0, 0.0]] * 3))
+    stepped = answer_offline(parse_question(ask), straddle.sentence, [])
+    assert stepped.answer == "moved right (the turn cannot be determined from these photos)"

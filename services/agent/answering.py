@@ -30,6 +30,7 @@ from services.agent.llm import (
     text_part,
 )
 from services.agent.motion_clue import (
+    UNDETERMINED,
     VISION_MODEL_HINT,
     MotionStatement,
     hypothetical_statements,
@@ -307,7 +308,6 @@ def _answer_from_motion(intent: QuestionIntent, statements: list[MotionStatement
     )
 
 
-UNDETERMINED = "cannot be determined from these photos"
 
 
 def _option_motion(text: str, asks_turn_only: bool) -> tuple[str | None, str | None, float | None]:

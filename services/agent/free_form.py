@@ -19,7 +19,9 @@ from typing import Literal
 
 from services.agent.answer_result import AnswerResult, json_object, no_answer
 from services.agent.motion_clue import (
+    UNDETERMINED,
     MotionStatement,
+    hypothetical_statements,
     motion_statements,
     not_a_motion_question,
     pick_statement,
@@ -88,12 +90,44 @@ def answer_offline(intent: QuestionIntent, clue_text: str | None, clue_images: l
     statement, why = pick_statement(intent, statements)
     if statement is None:
         return no_answer(why)
+    if statement.over_focal is not None:
+        return _over_focal_in_words(statement, intent.asks_turn_only)
     words = motion_in_words(statement, intent.asks_turn_only, intent.text)
     if words is None:
         return no_answer(f"the offline answerer finds no direction or turn in {statement.sentence!r}")
     return AnswerResult(
         answer=words,
         reasoning=f"The program's output says: {statement.sentence!r}.",
+        method="offline_text",
+    )
+
+
+def _over_focal_in_words(statement: MotionStatement, asks_turn_only: bool) -> AnswerResult:
+    """Only what holds at every focal hypothesis; the rest is said to be undetermined."""
+    variants = hypothetical_statements(statement)
+    turns = {variant.turn for variant in variants}
+    directions = {variant.direction for variant in variants}
+    turned = None
+    if len(turns) == 1:
+        (turn,) = turns
+        yaw = statement.over_focal.yaw_range_deg if statement.over_focal else None
+        turned = "did not turn significantly"
+        if turn != "no turn" and yaw is not None:
+            low, high = sorted(abs(end) for end in yaw)
+            turned = f"{turn.replace('turn ', 'turned ')} by {low:g} to {high:g} degrees"
+    moved = None
+    if len(directions) == 1:
+        (direction,) = directions
+        moved = "stayed in place" if direction is None else f"moved {direction}"
+    parts = [turned] if asks_turn_only else [moved, turned]
+    if not any(parts):
+        return no_answer(f"{UNDETERMINED}: {statement.sentence}")
+    said = ", ".join(part for part in parts if part)
+    if None in parts:
+        said += f" (the {'turn' if turned is None else 'step'} {UNDETERMINED})"
+    return AnswerResult(
+        answer=said,
+        reasoning=f"The program's output says: {statement.sentence!r}; this holds at every focal length.",
         method="offline_text",
     )
 

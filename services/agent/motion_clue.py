@@ -23,6 +23,8 @@ VISION_MODEL_HINT = (
     "set PYSPATIAL_ANSWER_MODEL (and PYSPATIAL_ANSWER_MODEL_BASE_URL, PYSPATIAL_ANSWER_MODEL_API_KEY) "
     "to a vision-capable chat model"
 )
+# What the offline answerers say when the motion differs between the focal lengths the photos allow.
+UNDETERMINED = "cannot be determined from these photos"
 _PAIR = re.compile(r"\b(?:view|image)\s+(\d+)\b.*?\b(?:view|image)\s+(\d+)\b", re.IGNORECASE)
 _SENTENCE_END = re.compile(r"(?<=[.!?])\s+(?=[A-Z])")
 _MOVED_OR_NOT = re.compile(
@@ -256,6 +258,7 @@ __all__ = [
     "VISION_MODEL_HINT",
     "MotionStatement",
     "OverFocal",
+    "UNDETERMINED",
     "hypothetical_statements",
     "over_focal_statement",
     "unreadable_clue",

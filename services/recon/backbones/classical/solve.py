@@ -214,7 +214,7 @@ def _over_focal_hypotheses(
         rebuilt,
         focal_hypotheses=hypotheses,
         view_confidence=confidence,
-        warnings=[*rebuilt.warnings, warning],
+        warnings=list(dict.fromkeys([*rebuilt.warnings, warning])),  # a rebuild repeats the model's
     )
 
 
