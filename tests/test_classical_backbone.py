@@ -99,7 +99,7 @@ def test_world_is_the_first_camera_and_scale_is_unit_median_distance(arc_result)
 
 def test_output_types_shapes_and_reported_intrinsics(arc_result):
     result = arc_result
-    assert (result.backbone, result.backbone_version) == ("classical", "5")
+    assert (result.backbone, result.backbone_version) == ("classical", "6")
     assert result.points.dtype == np.float32 and result.points.shape[1] == 3
     assert result.colors.dtype == np.uint8 and len(result.colors) == len(result.points)
     assert result.extrinsics.shape == (4, 3, 4) and np.isfinite(result.extrinsics).all()

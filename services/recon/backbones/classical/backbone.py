@@ -58,7 +58,7 @@ class _PreparedView:
 
 class ClassicalBackbone(Backbone):
     name = "classical"
-    version = "5"  # 5: rotation-only models verified; pair uncertainty and flags
+    version = "6"  # 6: rotation-only models verified; pair uncertainty and flags (5: branch i19b)
     accepts_intrinsics = True
 
     def __init__(
