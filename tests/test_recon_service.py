@@ -388,3 +388,27 @@ def test_replicas_sharing_redis_reconstruct_once(tmp_path, redis_url, views):
         f"pyspatial:{env['PYSPATIAL_CACHE_NAMESPACE']}:recon:lease:*"
     )
     assert leases == []  # released after use
+
+
+def test_a_cached_reconstruction_this_code_cannot_read_is_a_miss():
+    """Replicas of another version sharing the Redis may write a newer format under the same key:
+    that entry is recomputed, not a 500."""
+    from services.recon.service import _readable
+
+    recon = Reconstruction(
+        points=np.zeros((1, 3), np.float32),
+        colors=np.zeros((1, 3), np.uint8),
+        extrinsics=np.tile(np.hstack([np.eye(3), np.zeros((3, 1))]), (2, 1, 1)),
+        intrinsics=np.tile(np.eye(3), (2, 1, 1)),
+        image_sizes=np.full((2, 2), 8),
+        registered=[True, True],
+        backbone="classical",
+        backbone_version="6",
+    )
+    payload = recon.to_bytes()
+    assert _readable(payload, "key").num_views == 2
+    archive = dict(np.load(io.BytesIO(payload)))
+    archive["format_version"] = np.array(99, dtype=np.int32)
+    newer = io.BytesIO()
+    np.savez(newer, **archive)
+    assert _readable(newer.getvalue(), "key") is None

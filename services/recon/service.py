@@ -41,7 +41,7 @@ from services.recon.tenants import SceneIds, load_or_create_secret
 from shared.geometry.camera_motion import CameraMotion, UnknownMotion, default_pairs, describe_pairs
 from shared.geometry.motion_determinacy import with_motion_over_focal
 from shared.geometry.poses import estimate_up_axis, up_is_reliable, validate_extrinsic
-from shared.geometry.reconstruction import Reconstruction
+from shared.geometry.reconstruction import Reconstruction, ReconstructionFormatError
 from shared.geometry.rendering import synthesize_novel_view
 from shared.imaging.codecs import decode_image, encode_image
 from shared.wire.access import DEFAULT_TENANT
@@ -238,10 +238,10 @@ class ReconService:
         if hot is not None:
             return ReconstructOutcome(hot, True, False, {"cache_ms": _ms(started)})
         payload = await self.cache.get(key)
-        if payload is not None:
-            reconstruction = await run_cpu(Reconstruction.from_bytes, payload)
-            self._remember(key, reconstruction)
-            return ReconstructOutcome(reconstruction, True, False, {"cache_ms": _ms(started)})
+        cached = None if payload is None else await run_cpu(_readable, payload, key)
+        if cached is not None:
+            self._remember(key, cached)
+            return ReconstructOutcome(cached, True, False, {"cache_ms": _ms(started)})
 
         async def compute() -> tuple[Reconstruction, dict[str, float]]:
             reconstruction, timings = await self._run_backbone(scene_id, backbone, tenant)
@@ -249,7 +249,8 @@ class ReconService:
             return reconstruction, timings
 
         async def load(payload: bytes) -> tuple[Reconstruction, dict[str, float]]:
-            return await run_cpu(Reconstruction.from_bytes, payload), {}
+            readable = await run_cpu(_readable, payload, key)
+            return (readable, {}) if readable is not None else await compute()
 
         result, joined = await self.jobs.run(key, compute, load)
         reconstruction, timings = result.value
@@ -435,6 +436,16 @@ def _target_point(
         )
     name = target.name or f"the object at pixel ({pixel.u:g}, {pixel.v:g}) of view {pixel.view + 1}"
     return {"target": point, "target_name": name}
+
+
+def _readable(payload: bytes, key: str) -> Reconstruction | None:
+    """A cached reconstruction, or None (a miss) when this code cannot read it: a replica of
+    another version sharing the Redis wrote it under the same key; recomputing replaces it."""
+    try:
+        return Reconstruction.from_bytes(payload)
+    except ReconstructionFormatError as error:
+        log.warning("cached reconstruction %s is unreadable here (%s): reconstructing", key, error)
+        return None
 
 
 def _validated_pose(extrinsic: list[list[float]]) -> np.ndarray:
