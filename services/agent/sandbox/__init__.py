@@ -8,8 +8,8 @@ hold each of them to account):
    of only the interpreter, site-packages and this package, as uid 65534 without capabilities,
    with no-new-privs, dying with its parent, behind a seccomp allow-list (default EPERM; traced over
    the benign corpus: scripts/trace_sandbox_syscalls.py) that leaves out new processes, exec,
-   signals to others, sockets, sessions, mounts, writable opens, SysV IPC, memfds and pipes. No jail, no programs
-   (unless the operator opts out with PYSPATIAL_SANDBOX_JAIL=off).
+   signals to others, sockets, sessions, mounts, writable opens, SysV IPC, memfds and pipes.
+   No jail, no programs (unless the operator opts out with PYSPATIAL_SANDBOX_JAIL=off).
 1. validation.py checks the syntax tree before anything runs (own AST checker rather than
    RestrictedPython: the allowed language is tiny, so rejecting outright is simpler than
    RestrictedPython's rewrite-and-guard model, needs no guard functions to get right, and gives the
@@ -32,7 +32,8 @@ hold each of them to account):
 The program never sees files or the network: reconstruction, camera-motion sentences, rendering and
 input images are requests to the parent (runner.py), which serves them through a `ToolProvider`
 and keeps every pixel; the program holds opaque `Image` handles. Pose tools (shared.geometry.poses) run
-locally in the child. Time spent in the parent's tools does not count against `wall_seconds`.
+locally in the child. Time spent in the parent's tools counts against `wall_seconds`, and the
+number of calls against `max_tool_calls`: a loop of cheap calls ends at either.
 """
 
 from typing import TYPE_CHECKING
