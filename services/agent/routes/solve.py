@@ -8,6 +8,7 @@ read within `PYSPATIAL_MAX_REQUEST_BYTES` and parsed here once into a `SolveRequ
 from __future__ import annotations
 
 import base64
+import weakref
 
 import anyio
 import pydantic_core
@@ -76,17 +77,24 @@ async def solve(request: Request, pipeline: PipelineDep, settings: SettingsDep) 
     body = await _read_solve_request(request, settings)
     files = [decode_base64(text, f"image {i + 1}") for i, text in enumerate(body.images or [])]
     cancellation = Cancellation()  # fired when the client goes away: the solve's work stops
+    ticket = pipeline.sandbox_gate.admit()  # SandboxBusy (503 + Retry-After) before anything streams
 
     def run(progress=None) -> SolveResponse:
         given = (body.question, files or None, body.scene_id, body.backbone, body.max_repairs)
-        return pipeline.solve(*given, progress, cancellation)
+        try:
+            return pipeline.solve(*given, progress, cancellation)
+        finally:
+            ticket.release()
 
+    weakref.finalize(run, ticket.release)  # a stream dropped before it started frees its ticket too
     if wants_event_stream(request.headers.get("accept", "")):
         return event_stream(run, cancellation)
     try:
         return await cancel_when_client_leaves(request.receive, anyio.to_thread.run_sync(run), cancellation)
     except SolveCancelled:
         return Response(status_code=499)  # nginx's "client closed request": only the logs read it
+    finally:
+        ticket.release()  # also when the solve never started (the client left first)
 
 
 async def _read_solve_request(request: Request, settings: AgentSettings) -> SolveRequest:

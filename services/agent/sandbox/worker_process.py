@@ -53,13 +53,14 @@ class SandboxLimits:
 class ExecutionResult:
     ok: bool
     error: str | None = None
-    # rejected | timeout | cpu | memory | exception | output | tool_limit | crash | jail
+    # rejected | timeout | cpu | memory | exception | output | tool_limit | crash | jail | cpu_budget
     error_kind: str | None = None
     clue_text: str | None = None
     clue_images: list[bytes] = field(default_factory=list)
     stdout: str = ""
     tool_calls: list[str] = field(default_factory=list)
     duration_ms: float = 0.0
+    cpu_seconds: float = 0.0  # the worker's process tree, measured by the parent
 
 
 class ToolFailure(Exception):
@@ -144,9 +145,40 @@ def run_worker(
     stop_on_cancel = cancel.on_cancel(lambda: _kill_group(process)) if cancel else contextlib.nullcontext()
     try:
         with stop_on_cancel:
-            return _converse(process, job, server, limits)
+            result = _converse(process, job, server, limits)
+        if process.returncode is None:  # still there (not reaped by _death): read /proc before the kill
+            result.cpu_seconds = process_tree_cpu_seconds(process.pid)
+        return result
     finally:
         _kill(process)
+
+
+_CLOCK_TICKS = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
+
+
+def process_tree_cpu_seconds(pid: int) -> float:
+    """CPU (user + system) of `pid` and all its descendants, live or reaped, from /proc; read by the
+    parent before it kills the tree, so a worker cannot misreport its own use. 0 off Linux."""
+    total, pending, seen = 0, [pid], set()
+    while pending:
+        current = pending.pop()
+        if current in seen:
+            continue
+        seen.add(current)
+        try:
+            fields = Path(f"/proc/{current}/stat").read_text().rsplit(")", 1)[1].split()
+        except (OSError, IndexError):
+            continue
+        # after ')': state is field 3, so utime/stime/cutime/cstime (14-17) sit at 11-14 here; a
+        # zombie (the worker ended by itself) still shows them, its reaped children's included
+        total += sum(int(value) for value in fields[11:15])
+        try:
+            pending.extend(
+                int(child) for child in Path(f"/proc/{current}/task/{current}/children").read_text().split()
+            )
+        except OSError:
+            pass
+    return total / _CLOCK_TICKS
 
 
 def _converse(
@@ -227,10 +259,35 @@ def _collect(message: Result, server: ToolServer, limits: SandboxLimits) -> Exec
 
 def _death(process: subprocess.Popen, streams: ChildStreams, limits: SandboxLimits) -> ExecutionResult:
     """Explain why the sandbox process ended without a result, from its exit status and stderr."""
+    seen_alive = process_tree_cpu_seconds(process.pid)  # the tree as far as it still stands
     try:
-        code = process.wait(timeout=2)
+        code, reaped = _reap(process, timeout=2)
     except subprocess.TimeoutExpired:
         return failure("the sandbox stopped talking without exiting", "crash")
+    result = _death_reason(process, code, streams, limits)
+    result.cpu_seconds = max(seen_alive, reaped)
+    if result.error_kind == "cpu":  # RLIMIT_CPU fired: at least the limit was used, however it died
+        result.cpu_seconds = max(result.cpu_seconds, float(limits.cpu_seconds))
+    return result
+
+
+def _reap(process: subprocess.Popen, timeout: float) -> tuple[int, float]:
+    """Wait for the worker's exit; its status and the CPU of its whole tree (wait4's usage counts
+    the descendants it reaped), which /proc no longer shows once it is gone."""
+    deadline = time.monotonic() + timeout
+    while True:
+        pid, status, usage = os.wait4(process.pid, os.WNOHANG)
+        if pid:
+            process.returncode = os.waitstatus_to_exitcode(status)
+            return process.returncode, usage.ru_utime + usage.ru_stime
+        if time.monotonic() >= deadline:
+            raise subprocess.TimeoutExpired(process.args, timeout)
+        time.sleep(0.01)
+
+
+def _death_reason(
+    process: subprocess.Popen, code: int, streams: ChildStreams, limits: SandboxLimits
+) -> ExecutionResult:
     if code > 128 and process.args and os.path.basename(str(process.args[0])) == "bwrap":
         code = -(code - 128)  # bubblewrap reports a signalled child as 128 + signal
     stderr = streams.drain_stderr()
