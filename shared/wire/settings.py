@@ -159,7 +159,9 @@ class AgentSettings(AccessSettings):
         description="Longest code-model reply that is parsed; longer ones are refused unread.",
     )
     sandbox_cpu_s: int = Field(20, ge=1, description="CPU seconds a program may use.")
-    sandbox_wall_s: int = Field(120, ge=1, description="Wall-clock seconds a program may take, its tool calls included.")
+    sandbox_wall_s: int = Field(
+        120, ge=1, description="Wall-clock seconds a program may take, its tool calls included."
+    )
     sandbox_memory_mb: int = Field(2048, ge=256, description="Address-space limit of a program.")
     sandbox_max_tool_calls: int = Field(
         32, ge=1, description="pySpatial tool calls one program may make (error kind tool_limit)."
