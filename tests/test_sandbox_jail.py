@@ -7,6 +7,7 @@ Through the runner here; through /v1/solve of a real agent in tests/test_sandbox
 
 from __future__ import annotations
 
+import collections
 import json
 import os
 import shutil
@@ -510,3 +511,47 @@ def test_the_workers_stderr_reaches_the_model_only_scrubbed(caplog: pytest.LogCa
     )
     logged = "\n".join(record.getMessage() for record in caplog.records)
     assert "/srv/agent/secrets/key.pem" in logged and "3.12.7" in logged  # the full text, for operators
+
+
+QUICK = SandboxLimits(cpu_seconds=1, wall_seconds=1.5, memory_mb=512)  # endings do not matter here
+
+
+@pytest.mark.parametrize(
+    "share", [pytest.param(10, id="every_tenth"), pytest.param(1, id="all", marks=pytest.mark.slow)]
+)
+def test_the_attack_corpus_behind_the_os_layer_alone_reaches_nothing_of_the_host(
+    tmp_path, share: int
+) -> None:
+    """tests/test_sandbox_attacks.py's corpus with every Python-level check off (real builtins, real
+    numpy): whatever each program manages inside, nothing of the host may come out or change. The
+    host holds a secret in a file outside the jail's view and in the agent's environment. Every
+    tenth attack in the default run (about 25 programs); all of them with `pytest -m slow` (~1 min).
+    The OS layer's own classes (JAIL_ALONE, ROUTE_CLASSES, FORGERIES above) run in full by default."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from tests.test_sandbox_attacks import ATTACKS
+
+    attacks = ATTACKS[::share]
+
+    secret = f"pyspatial-canary-{os.getpid()}-{time.time_ns()}"
+    (tmp_path / "secret.txt").write_text(secret)
+    os.environ["PYSPATIAL_TEST_CANARY"] = secret
+    host_tmp_before = set(os.listdir("/tmp"))
+    try:
+        with ThreadPoolExecutor(max_workers=4) as pool:
+            results = list(pool.map(lambda attack: run_unchecked(attack.source, QUICK), attacks))
+    finally:
+        del os.environ["PYSPATIAL_TEST_CANARY"]
+    leaks = [
+        attack.name
+        for attack, result in zip(attacks, results, strict=True)
+        if any(secret in (text or "") for text in (result.clue_text, result.stdout, result.error))
+    ]
+    assert leaks == []
+    created = {
+        name for name in set(os.listdir("/tmp")) - host_tmp_before if name.startswith("pyspatial-sandbox")
+    }
+    assert created == set()  # the jail's /tmp is its own tmpfs
+    # every kind of ending, none of them the agent's: the corpus really ran unchecked
+    kinds = collections.Counter(result.error_kind for result in results)
+    assert kinds[None] and kinds["exception"], kinds  # the programs really ran, unchecked
