@@ -338,11 +338,35 @@ def scrubbed_stderr(stderr: str) -> str:
     return text.strip()[:MAX_SCRUBBED_CHARS]
 
 
+def _descendants(pid: int) -> list[int]:
+    """Every live descendant of `pid` (from /proc): the jailed worker sits in its own session."""
+    found, pending = [], [pid]
+    while pending:
+        current = pending.pop()
+        try:
+            children = [
+                int(child) for child in Path(f"/proc/{current}/task/{current}/children").read_text().split()
+            ]
+        except OSError:
+            continue
+        found += children
+        pending += children
+    return found
+
+
 def _kill_group(process: subprocess.Popen) -> None:
+    # bubblewrap's --new-session puts the worker outside this process group: kill it by pid too,
+    # rather than waiting for --die-with-parent to reach it
+    targets = _descendants(process.pid)
     try:
         os.killpg(process.pid, signal.SIGKILL)
     except (ProcessLookupError, PermissionError):
         pass
+    for pid in targets:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass
 
 
 def _kill(process: subprocess.Popen) -> None:
