@@ -555,3 +555,14 @@ def test_the_attack_corpus_behind_the_os_layer_alone_reaches_nothing_of_the_host
     # every kind of ending, none of them the agent's: the corpus really ran unchecked
     kinds = collections.Counter(result.error_kind for result in results)
     assert kinds[None] and kinds["exception"], kinds  # the programs really ran, unchecked
+
+
+def test_a_crash_the_worker_reports_reaches_the_model_without_its_paths() -> None:
+    error = "the sandbox failed: OSError: /usr/lib/python3/x.py"
+    body = '{"type":"result","ok":false,"kind":"crash","error":"' + error + '"}'
+    payload = frame(f"b{body!r}")
+    result = run_unchecked(
+        f"import os\ndef program(input_scene):\n    os.write(4, {payload})\n    os._exit(0)\n"
+    )
+    assert not result.ok and result.error_kind == "crash"
+    assert result.error == "the sandbox failed: OSError: <path>"

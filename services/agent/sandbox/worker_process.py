@@ -242,7 +242,10 @@ def _collect(message: Result, server: ToolServer, limits: SandboxLimits) -> Exec
     if not message.ok:
         if message.kind is None:
             raise ProtocolError("a failed result must name its kind")
-        return failure(str(message.error)[: 4 * MAX_TOOL_ERROR_CHARS], message.kind, stdout=stdout)
+        error = str(message.error)[: 4 * MAX_TOOL_ERROR_CHARS]
+        if message.kind == "crash":  # the sandbox's own failure: its paths are not the model's business
+            error = _PATH.sub("<path>", error)
+        return failure(error, message.kind, stdout=stdout)
     text, handles = message.text, message.images
     if text is not None and len(text) > limits.max_output_chars:
         raise ProtocolError("result text is not a bounded string")
