@@ -138,8 +138,9 @@ CASES = {
         "services.agent.sandbox.protocol",
         "from services.agent.sandbox import runner",
         IN_A_FUNCTION,
-        "import cycle in services.agent: services.agent.sandbox.jail, services.agent.sandbox.protocol, "
-        "services.agent.sandbox.runner, services.agent.sandbox.worker_process",
+        "import cycle in services.agent: services.agent.sandbox.jail, services.agent.sandbox.messages, "
+        "services.agent.sandbox.protocol, services.agent.sandbox.runner, "
+        "services.agent.sandbox.worker_process",
     ),
 }
 

@@ -134,3 +134,23 @@ def test_the_recorded_repeat_is_not_run_again(llm: ScriptedLLM, coder: ChatClien
     assert len(runs) == 1 and result.failure == "repeated"
     assert [attempt.error_kind for attempt in result.attempts] == ["execution", "repeated", "repeated"]
     assert "camera_center" in llm.requests()[1]["messages"][-1]["content"]  # the shape error got the hint
+
+
+def test_the_prompt_names_everything_the_recorded_programs_reach_for_that_is_not_there() -> None:
+    from bench.model_replies import UNAVAILABLE_KINDS, tally_unavailable, unavailable_uses
+    from services.agent.prompts import load_template
+
+    assert unavailable_uses(
+        "import os\nimport numpy as np\nclass Scene:\n    pass\n"
+        "def program(input_scene):\n    return open('path/to/image1.jpg').read() + x.__class__\n"
+    ) == {"imports", "os", "classes", "files", "underscores"}
+    assert unavailable_uses("import requests\nimport math\ndef program(s):\n    return 1\n") == {
+        "imports",
+        "network",
+    }
+    counts = tally_unavailable([{"reply": reply.reply} for reply in REPLIES])
+    assert counts["imports"] and counts["files"] and counts["classes"]  # the model did reach for them
+    prompt = load_template("codegen_v2").render(**{name: "" for name in load_template("codegen_v2").fields})
+    block = prompt.split("## Not available", 1)[1].split("\n## ", 1)[0]
+    for kind, words in UNAVAILABLE_KINDS.items():
+        assert words in block, f"the prompt's 'Not available' block does not name {kind} ({words!r})"

@@ -867,7 +867,7 @@ def test_endless_loop_is_stopped_within_its_wall_limit() -> None:
     )
     elapsed = time.perf_counter() - started
     assert not result.ok and result.error_kind == "timeout"
-    assert result.error == "timed out after 2 s"
+    assert result.error == "timed out after 2 s (tool calls included)"
     assert elapsed < 4.0, f"stopped after {elapsed:.1f} s"
 
 
@@ -963,3 +963,54 @@ def test_process_limits_and_audit_hook_alone_refuse_files_processes_and_imports(
     assert report["listdir"] == "operation 'os.listdir' is not allowed in the sandbox"
     assert report["import"] == "operation 'import' is not allowed in the sandbox"
     assert report["exec"] == "operation 'compile' is not allowed in the sandbox"
+
+
+# --- tool-call floods: every call counts against the call budget and the wall clock ---------------
+class SlowTools(TinyTools):
+    """Each rendering takes the parent 0.2 s: cheap for the program, not for the agent."""
+
+    def synthesize_novel_view(self, extrinsic: list[list[float]], width: int, height: int) -> bytes:
+        time.sleep(0.2)
+        return super().synthesize_novel_view(extrinsic, width, height)
+
+
+FLOOD = (
+    "def program(input_scene):\n"
+    "    recon = pySpatial.reconstruct(input_scene)\n"
+    "    n = 0\n"
+    "    while True:\n"
+    "        try:\n"
+    "            {call}\n"
+    "        except Exception:\n"
+    "            pass\n"
+    "        n += 1\n"
+)
+FLOOD_CALLS = {
+    "camera_motion": "pySpatial.describe_camera_motion(recon)",
+    "reconstruct": "pySpatial.reconstruct(input_scene)",
+    "novel_views": "pySpatial.synthesize_novel_view(recon, recon.extrinsics[0], 16, 16)",
+}
+
+
+@pytest.mark.parametrize("call", list(FLOOD_CALLS))
+def test_a_tool_call_flood_ends_at_the_call_budget_even_when_the_program_catches_the_refusal(
+    call: str,
+) -> None:
+    limits = SandboxLimits(cpu_seconds=5, wall_seconds=20, memory_mb=512, max_tool_calls=6)
+    started = time.perf_counter()
+    result = run_program(FLOOD.format(call=FLOOD_CALLS[call]), "q", 2, TinyTools(), limits)
+    assert not result.ok and result.error_kind == "tool_limit", result.error
+    assert result.error == "too many tool calls: the limit is 6 per program"
+    assert len(result.tool_calls) == 6
+    assert time.perf_counter() - started < 10  # ended at the budget, not at the wall clock
+
+
+def test_time_in_the_parents_tools_counts_against_the_wall_clock() -> None:
+    limits = SandboxLimits(cpu_seconds=5, wall_seconds=1.5, memory_mb=512, max_tool_calls=1000)
+    started = time.perf_counter()
+    result = run_program(FLOOD.format(call=FLOOD_CALLS["novel_views"]), "q", 2, SlowTools(), limits)
+    elapsed = time.perf_counter() - started
+    assert not result.ok and result.error_kind == "timeout", result.error
+    assert result.error == "timed out after 1.5 s (tool calls included)"
+    assert 4 <= len(result.tool_calls) <= 9  # 0.2 s each within 1.5 s
+    assert elapsed < 5

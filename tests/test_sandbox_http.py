@@ -218,3 +218,45 @@ def test_an_operator_opt_out_runs_programs_and_says_so(recon, llm, scene_id) -> 
             result = client.solve(QUESTION, scene_id=scene_id, backbone="posed-rgbd", max_repairs=0)
         assert result.attempts[0].error is None and "moved" in result.clue.text
         assert "OS JAIL SWITCHED OFF" in agent.log()
+
+
+BURNER = "def program(input_scene):\n    n = {attempt}\n    while True:\n        n += 1\n"
+
+
+def test_cpu_across_repairs_stops_at_the_solve_budget_and_a_full_agent_answers_503(
+    recon, llm, scene_id
+) -> None:
+    # One sandbox and no queue: while a solve burns CPU through its repairs, the next one is a 503.
+    env = agent_env(
+        recon.url,
+        llm.base_url,
+        PYSPATIAL_SANDBOX_CPU_S="1",
+        PYSPATIAL_SANDBOX_WALL_S="30",
+        PYSPATIAL_SANDBOX_SOLVE_CPU_S="2",
+        PYSPATIAL_SANDBOX_MAX_RUNNING="1",
+        PYSPATIAL_SANDBOX_MAX_WAITING="0",
+        PYSPATIAL_SANDBOX_RETRY_AFTER_S="9",
+    )
+    llm.reset()
+    llm.script([fenced(BURNER.format(attempt=attempt)) for attempt in range(4)], model="coder")
+    script_answers(llm, 4)
+    body = {"question": QUESTION, "scene_id": scene_id, "backbone": "posed-rgbd", "max_repairs": 3}
+    with running_service(AGENT_APP, env) as agent:
+        with ThreadPoolExecutor(max_workers=1) as pool:
+            burning = pool.submit(httpx.post, agent.url + "/v1/solve", json=body, timeout=120)
+            _wait_for_code_requests(llm, 1)
+            refused = solve(agent.url, scene_id)
+            burnt = burning.result()
+        llm.script([fenced(MOTION_PROGRAM)], model="coder")
+        after = solve(agent.url, scene_id)  # the ticket came back: admitted again
+    assert refused.status_code == 503 and refused.headers["retry-after"] == "9"
+    assert refused.json()["detail"].startswith("busy: all 1 program sandboxes are running")
+    assert burnt.status_code == 200, burnt.text
+    kinds = [attempt["error_kind"] for attempt in burnt.json()["attempts"]]
+    errors = [attempt["error"] for attempt in burnt.json()["attempts"]]
+    # two runs stopped by their 1 s CPU limit, then the budget (2 s) has less than a second left
+    assert kinds == ["cpu", "cpu", "cpu_budget", "cpu_budget"], errors
+    assert (
+        errors[2].startswith("cpu_budget: this solve's programs used ") and "its budget is 2 s" in errors[2]
+    )
+    assert after.status_code == 200 and after.json()["attempts"][0]["error"] is None

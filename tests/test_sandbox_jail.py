@@ -7,6 +7,7 @@ Through the runner here; through /v1/solve of a real agent in tests/test_sandbox
 
 from __future__ import annotations
 
+import collections
 import json
 import os
 import shutil
@@ -166,29 +167,51 @@ def test_a_crash_is_reported_as_what_it_was() -> None:
     )
 
 
+def frame(body: str) -> str:
+    """Python source of one length-prefixed frame holding `body` (bytes source)."""
+    return f"(lambda b: len(b).to_bytes(4, 'big') + b)({body})"
+
+
+RESULT = 'b\'{"type":"result","ok":true,"text":"forged","images":[],"stdout":""}\''
 FORGERIES = {
-    "deep_line": ("b'[' * 400000 + b'\\n'", "malformed message: nested more than 64 levels"),
-    "deep_object": ("b'{\"a\":' * 5000 + b'1' + b'}' * 5000 + b'\\n'", "nested more than 64 levels"),
-    "endless_stream": ("b'x' * (8 << 20)", "a message from the sandbox exceeded"),
-    "not_json": ("b'{not json}\\n'", "malformed message: Expecting property name"),
-    "not_an_object": ("b'[1, 2]\\n'", "a message must be a JSON object with a 'type'"),
-    "bad_utf8": ('b\'{"type": "result", "ok": true, "text": "\\xff"}\\n\'', "malformed message"),
-    "unknown_type": ('b\'{"type": "hello"}\\n\'', "unexpected message type 'hello'"),
-    "text_not_string": (
-        'b\'{"type": "result", "ok": true, "text": [1], "images": []}\\n\'',
-        "result text is not a bounded string",
+    # framing: lengths, cut-off frames, raw lines
+    "huge_length": ("(0xFFFFFFFF).to_bytes(4, 'big')", "a frame announced 4294967295 bytes; the limit is"),
+    "length_past_cap": ("(2_000_000).to_bytes(4, 'big') + b'{'", "a frame announced 2000000 bytes"),
+    "json_line": (RESULT + " + b'\\n'", "a frame announced 2065855609 bytes"),
+    "endless_stream": ("b'x' * (8 << 20)", "a frame announced 2021161080 bytes"),
+    # content: strict ASCII JSON objects
+    "deep_line": (frame("b'[' * 400000"), "malformed message: nested more than 64 levels"),
+    "deep_object": (frame("b'{\"a\":' * 5000 + b'1' + b'}' * 5000"), "nested more than 64 levels"),
+    "not_json": (frame("b'{not json}'"), "malformed message: Expecting property name"),
+    "not_an_object": (frame("b'[1, 2]'"), "a message must be a JSON object with a 'type'"),
+    "bad_utf8": (frame('b\'{"type": "result", "ok": true, "text": "\\xff"}\''), "must be ASCII JSON"),
+    "utf8_not_ascii": (
+        frame('\'{"type": "result", "ok": true, "text": "é"}\'.encode()'),
+        "must be ASCII JSON",
     ),
+    # schema
+    "unknown_type": (frame('b\'{"type": "hello"}\''), "unexpected message type 'hello'"),
+    "extra_field": (frame(RESULT[:-2] + ',"admin":true}\''), "invalid result message: admin: Extra inputs"),
+    "ok_as_number": (frame('b\'{"type":"result","ok":1}\''), "invalid result message: ok: Input should be"),
+    "text_not_string": (frame('b\'{"type":"result","ok":true,"text":[1]}\''), "result message: text"),
     "stdout_not_string": (
-        'b\'{"type": "result", "ok": false, "kind": "exception", "error": "x", "stdout": [[1]]}\\n\'',
-        "result stdout and error must be strings",
+        frame('b\'{"type":"result","ok":false,"kind":"exception","error":"x","stdout":[[1]]}\''),
+        "invalid result message: stdout",
     ),
     "unknown_kind": (
-        'b\'{"type": "result", "ok": false, "kind": "jail", "error": "x"}\\n\'',
-        "unknown failure kind 'jail'",
+        frame('b\'{"type":"result","ok":false,"kind":"jail","error":"x"}\''),
+        "result message: kind",
     ),
+    "failure_without_kind": (frame('b\'{"type":"result","ok":false,"error":"x"}\''), "must name its kind"),
+    "unknown_tool": (frame('b\'{"type":"call","tool":"os.system","arguments":{}}\''), "call message: tool"),
     "forged_image": (
-        'b\'{"type": "result", "ok": true, "text": "t", "images": ["view:99"]}\\n\'',
+        frame('b\'{"type":"result","ok":true,"text":"t","images":["view:99"]}\''),
         "unknown image handle 'view:99'",
+    ),
+    # order: the conversation has one ready, then calls, then one result
+    "second_ready": (
+        frame('b\'{"type":"ready"}\''),
+        "a 'ready' message out of order (expected call or result)",
     ),
 }
 
@@ -197,7 +220,7 @@ FORGERIES = {
 def test_forged_protocol_lines_are_a_clean_program_error(name: str) -> None:
     payload, reason = FORGERIES[name]
     # The worker's private protocol writer is the second descriptor it duplicated (fd 4).
-    source = f"import os\ndef program(input_scene):\n    os.write(4, {payload})\n    return 'unreachable'\n"
+    source = f"import os\ndef program(input_scene):\n    os.write(4, {payload})\n    os._exit(0)\n"
     started = time.perf_counter()
     result = run_unchecked(source)
     assert not result.ok and result.error_kind == "crash", result.error
@@ -464,3 +487,82 @@ def test_the_jail_alone_inherits_only_its_protocol_descriptors() -> None:
     # 0 and 1 are /dev/null, 2 the stderr pipe, 3 and 4 the protocol pipes: nothing else of the
     # host (no listening socket, no open file of the agent) reaches the worker.
     assert json.loads(result.clue_text) == {"0": "char", "1": "char", "2": "pipe", "3": "pipe", "4": "pipe"}
+
+
+STDERR_PROGRAM = """import os, sys
+def program(input_scene):
+    sys.stderr.write('Traceback (most recent call last):\\n'
+                     '  File "/root/.pyenv/versions/3.12.7/lib/python3.12/json/decoder.py", line 5, in f\\n'
+                     '  File "<program>", line 3, in program\\n'
+                     'Python 3.12.7 (main) [GCC 12.2.0] ' + 'x' * 10000 + '\\n'
+                     'json.decoder.JSONDecodeError: bad /srv/agent/secrets/key.pem at 0x7f00deadbeef\\n')
+    sys.stderr.flush()
+    os._exit(3)
+"""
+
+
+def test_the_workers_stderr_reaches_the_model_only_scrubbed(caplog: pytest.LogCaptureFixture) -> None:
+    with caplog.at_level("WARNING", logger="pyspatial.sandbox"):
+        result = run_unchecked(STDERR_PROGRAM)
+    assert not result.ok and result.error_kind == "crash"
+    assert result.error == (
+        "the sandbox process exited with status 3 without a result: (JSONDecodeError: bad <path> at 0x…) "
+        "while running program line 3"
+    )
+    logged = "\n".join(record.getMessage() for record in caplog.records)
+    assert "/srv/agent/secrets/key.pem" in logged and "3.12.7" in logged  # the full text, for operators
+
+
+QUICK = SandboxLimits(cpu_seconds=1, wall_seconds=1.5, memory_mb=512)  # endings do not matter here
+
+
+@pytest.mark.parametrize(
+    "share", [pytest.param(10, id="every_tenth"), pytest.param(1, id="all", marks=pytest.mark.slow)]
+)
+def test_the_attack_corpus_behind_the_os_layer_alone_reaches_nothing_of_the_host(
+    tmp_path, share: int
+) -> None:
+    """tests/test_sandbox_attacks.py's corpus with every Python-level check off (real builtins, real
+    numpy): whatever each program manages inside, nothing of the host may come out or change. The
+    host holds a secret in a file outside the jail's view and in the agent's environment. Every
+    tenth attack in the default run (about 25 programs); all of them with `pytest -m slow` (~1 min).
+    The OS layer's own classes (JAIL_ALONE, ROUTE_CLASSES, FORGERIES above) run in full by default."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from tests.test_sandbox_attacks import ATTACKS
+
+    attacks = ATTACKS[::share]
+
+    secret = f"pyspatial-canary-{os.getpid()}-{time.time_ns()}"
+    (tmp_path / "secret.txt").write_text(secret)
+    os.environ["PYSPATIAL_TEST_CANARY"] = secret
+    host_tmp_before = set(os.listdir("/tmp"))
+    try:
+        with ThreadPoolExecutor(max_workers=4) as pool:
+            results = list(pool.map(lambda attack: run_unchecked(attack.source, QUICK), attacks))
+    finally:
+        del os.environ["PYSPATIAL_TEST_CANARY"]
+    leaks = [
+        attack.name
+        for attack, result in zip(attacks, results, strict=True)
+        if any(secret in (text or "") for text in (result.clue_text, result.stdout, result.error))
+    ]
+    assert leaks == []
+    created = {
+        name for name in set(os.listdir("/tmp")) - host_tmp_before if name.startswith("pyspatial-sandbox")
+    }
+    assert created == set()  # the jail's /tmp is its own tmpfs
+    # every kind of ending, none of them the agent's: the corpus really ran unchecked
+    kinds = collections.Counter(result.error_kind for result in results)
+    assert kinds[None] and kinds["exception"], kinds  # the programs really ran, unchecked
+
+
+def test_a_crash_the_worker_reports_reaches_the_model_without_its_paths() -> None:
+    error = "the sandbox failed: OSError: /usr/lib/python3/x.py"
+    body = '{"type":"result","ok":false,"kind":"crash","error":"' + error + '"}'
+    payload = frame(f"b{body!r}")
+    result = run_unchecked(
+        f"import os\ndef program(input_scene):\n    os.write(4, {payload})\n    os._exit(0)\n"
+    )
+    assert not result.ok and result.error_kind == "crash"
+    assert result.error == "the sandbox failed: OSError: <path>"

@@ -22,6 +22,7 @@ from services.agent.llm import LLMError
 from services.agent.pipeline import SolvePipeline
 from services.agent.routes import ROUTERS
 from services.agent.sandbox.jail import announce, remove_stale_workdirs
+from services.agent.sandbox_budget import SandboxBusy
 from services.agent.web_page import WEB_DIR, SecurityHeaders, build_page
 from shared.wire.access import docs_urls, install_access_control
 from shared.wire.bodies import install_input_error_handlers
@@ -57,6 +58,7 @@ def create_app(settings: AgentSettings | None = None) -> FastAPI:
     app.add_exception_handler(ServiceUnreachable, _recon_error)
     app.add_exception_handler(InfrastructureFailure, _infrastructure_failure)
     app.add_exception_handler(LLMError, _model_error)
+    app.add_exception_handler(SandboxBusy, _sandbox_busy)
     for router in ROUTERS:
         app.include_router(router)
     app.mount("/web", StaticFiles(directory=WEB_DIR), name="web")
@@ -81,6 +83,11 @@ async def _infrastructure_failure(_: Request, error: InfrastructureFailure) -> J
     log.error("solve stopped: %s", error.message)
     attempts = [attempt.model_dump() for attempt in error.attempts]
     return JSONResponse({"detail": error.message, "attempts": attempts}, status_code=error.status_code)
+
+
+async def _sandbox_busy(_: Request, error: SandboxBusy) -> JSONResponse:
+    headers = {"Retry-After": str(error.retry_after_s)}
+    return JSONResponse({"detail": str(error)}, status_code=503, headers=headers)
 
 
 async def _model_error(_: Request, error: LLMError) -> JSONResponse:

@@ -19,6 +19,7 @@ from services.agent.recon_tools import ReconToolProvider
 from services.agent.response import respond
 from services.agent.sandbox import SandboxLimits
 from services.agent.sandbox.jail import JailMode, JailStatus, probe
+from services.agent.sandbox_budget import CpuBudget, SandboxGate
 from services.agent.stages.answer import OFFLINE_ANSWERER, Answerers, from_clue, from_photos
 from services.agent.stages.clue import read_clue
 from services.agent.stages.execution import SandboxRuns
@@ -67,6 +68,10 @@ class SolvePipeline:
             cpu_seconds=settings.sandbox_cpu_s,
             wall_seconds=settings.sandbox_wall_s,
             memory_mb=settings.sandbox_memory_mb,
+            max_tool_calls=settings.sandbox_max_tool_calls,
+        )
+        self.sandbox_gate = SandboxGate(
+            settings.sandbox_max_running, settings.sandbox_max_waiting, settings.sandbox_retry_after_s
         )
         self._jail: JailStatus | None = None
 
@@ -197,6 +202,8 @@ class SolvePipeline:
             self.limits,
             self.jail,
             python_checks=not self.settings.sandbox_test_only_unchecked,
+            gate=self.sandbox_gate,
+            cpu_budget=CpuBudget(self.settings.sandbox_solve_cpu_s),
         )
 
 

@@ -201,8 +201,26 @@ class AgentSettings(ServiceSettings):
         description="Longest code-model reply that is parsed; longer ones are refused unread.",
     )
     sandbox_cpu_s: int = Field(20, ge=1, description="CPU seconds a program may use.")
-    sandbox_wall_s: int = Field(120, ge=1, description="Wall-clock seconds a program may take.")
+    sandbox_wall_s: int = Field(
+        120, ge=1, description="Wall-clock seconds a program may take, its tool calls included."
+    )
     sandbox_memory_mb: int = Field(2048, ge=256, description="Address-space limit of a program.")
+    sandbox_max_tool_calls: int = Field(
+        32, ge=1, description="pySpatial tool calls one program may make (error kind tool_limit)."
+    )
+    sandbox_solve_cpu_s: int = Field(
+        60,
+        ge=1,
+        description="CPU seconds all programs of one solve may use together, repairs included "
+        "(error kind cpu_budget).",
+    )
+    sandbox_max_running: int = Field(4, ge=1, description="Program sandboxes running at once.")
+    sandbox_max_waiting: int = Field(
+        8, ge=0, description="Solves admitted beyond the running sandboxes; more get a 503 with Retry-After."
+    )
+    sandbox_retry_after_s: int = Field(
+        5, ge=1, description="Retry-After of the 503 when the sandboxes are full."
+    )
     sandbox_jail: Literal["required", "off"] = Field(
         "required",
         description="OS jail of generated programs (bubblewrap + seccomp); 'off' is an unsafe opt-out "

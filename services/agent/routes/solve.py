@@ -8,6 +8,7 @@ read within `PYSPATIAL_MAX_REQUEST_BYTES` and parsed here once into a `SolveRequ
 from __future__ import annotations
 
 import base64
+import weakref
 
 import anyio
 import pydantic_core
@@ -90,17 +91,24 @@ async def solve(
         )
     )
     cancellation = Cancellation()  # fired when the client goes away: the solve's work stops
+    ticket = pipeline.sandbox_gate.admit()  # SandboxBusy (503 + Retry-After) before anything streams
 
     def run(progress=None) -> SolveResponse:
         given = (body.question, files or None, body.scene_id, body.backbone, body.max_repairs)
-        return pipeline.solve(*given, progress, cancellation, tenant=tenant)
+        try:
+            return pipeline.solve(*given, progress, cancellation, tenant=tenant)
+        finally:
+            ticket.release()
 
+    weakref.finalize(run, ticket.release)  # a stream dropped before it started frees its ticket too
     if wants_event_stream(request.headers.get("accept", "")):
         return event_stream(run, cancellation)
     try:
         return await cancel_when_client_leaves(request.receive, anyio.to_thread.run_sync(run), cancellation)
     except SolveCancelled:
         return Response(status_code=499)  # nginx's "client closed request": only the logs read it
+    finally:
+        ticket.release()  # also when the solve never started (the client left first)
 
 
 async def _read_solve_request(request: Request, settings: AgentSettings) -> SolveRequest:

@@ -8,8 +8,8 @@ hold each of them to account):
    of only the interpreter, site-packages and this package, as uid 65534 without capabilities,
    with no-new-privs, dying with its parent, behind a seccomp allow-list (default EPERM; traced over
    the benign corpus: scripts/trace_sandbox_syscalls.py) that leaves out new processes, exec,
-   signals to others, sockets, sessions, mounts, writable opens, SysV IPC, memfds and pipes. No jail,
-   no programs (unless the operator opts out with PYSPATIAL_SANDBOX_JAIL=off).
+   signals to others, sockets, sessions, mounts, writable opens, SysV IPC, memfds and pipes.
+   No jail, no programs (unless the operator opts out with PYSPATIAL_SANDBOX_JAIL=off).
 1. validation.py checks the syntax tree before anything runs (own AST checker rather than
    RestrictedPython: the allowed language is tiny, so rejecting outright is simpler than
    RestrictedPython's rewrite-and-guard model, needs no guard functions to get right, and gives the
@@ -21,7 +21,9 @@ hold each of them to account):
    refuse `{0.attr}` / `{0[key]}` fields and hide heap addresses.
 2. builtins.py: the program's globals hold only whitelisted builtins, a captured `print`, a bounded
    `range`, a read-only numpy stand-in (`np`: functions that build new arrays, never object arrays;
-   `np.ndarray` only for isinstance) and `math`.
+   `np.ndarray` only for isinstance) and `math`. Every attribute a program reads passes
+   numpy_surface.attribute: numpy arrays, scalars and dtypes offer only an allow-list of read-only
+   and arithmetic members (no in-place or raw-memory method), astype only to numeric dtypes.
 3. worker.py runs the program in a fresh `python -I` process (one per run) with an empty
    environment, RLIMIT_CPU / AS / FSIZE=0 / NOFILE=0 / CORE=0 / NPROC=0, an audit hook refusing
    open / import / exec / os / socket / subprocess events, and stdin/stdout replaced by /dev/null
@@ -32,7 +34,8 @@ hold each of them to account):
 The program never sees files or the network: reconstruction, camera-motion sentences, rendering and
 input images are requests to the parent (runner.py), which serves them through a `ToolProvider`
 and keeps every pixel; the program holds opaque `Image` handles. Pose tools (shared.geometry.poses) run
-locally in the child. Time spent in the parent's tools does not count against `wall_seconds`.
+locally in the child. Time spent in the parent's tools counts against `wall_seconds`, and the
+number of calls against `max_tool_calls`: a loop of cheap calls ends at either.
 """
 
 from typing import TYPE_CHECKING

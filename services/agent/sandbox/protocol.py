@@ -1,13 +1,19 @@
-"""JSON-lines messages between the parent and the sandbox process.
+"""Framed messages between the parent and the sandbox process, written for a hostile peer.
+
+A frame is a 4-byte big-endian length, then that many bytes of strict ASCII JSON (non-ASCII text
+is escaped by the sender; a byte above 0x7F is an error). Each side reads frames under a hard cap
+on the length, announced before any byte of the body is buffered, and checks the nesting depth
+before parsing, so a hostile peer costs bounded work. The parent then checks each child message
+against its schema (messages.py, pydantic) and its place in the conversation.
 
 The child's protocol streams are private duplicates of its original stdin/stdout; its fds 0 and 1
 are pointed at /dev/null before any program runs, and programs only ever see a captured `print`,
 so nothing a program writes can be mistaken for a message.
 
-Child -> parent: {"type": "ready"}, {"type": "call", "tool": ..., "arguments": {...}},
-                 {"type": "result", ...}.
-Parent -> child: {"type": "job", ...}, {"type": "reply", "ok": true, "value": ...} or
-                 {"type": "reply", "ok": false, "error": "..."}.
+Child -> parent: {"type": "ready"} once, then {"type": "call", "tool": ..., "arguments": {...}}
+                 any number of times, then {"type": "result", ...} once.
+Parent -> child: {"type": "job", ...} once, then one {"type": "reply", "ok": true, "value": ...}
+                 or {"type": "reply", "ok": false, "error": "..."} per call.
 """
 
 from __future__ import annotations
@@ -26,16 +32,29 @@ class ProtocolError(RuntimeError):
     """The other side sent something that is not a valid message."""
 
 
+HEADER_BYTES = 4
+
+
 def encode_message(message: dict[str, Any]) -> bytes:
-    # NaN stays allowed: unregistered cameras are reported as NaN poses.
-    return json.dumps(message, separators=(",", ":")).encode("utf-8") + b"\n"
+    """One frame. NaN stays allowed: unregistered cameras are reported as NaN poses."""
+    payload = json.dumps(message, separators=(",", ":"), ensure_ascii=True).encode("ascii")
+    return len(payload).to_bytes(HEADER_BYTES, "big") + payload
+
+
+def frame_length(header: bytes, max_bytes: int) -> int:
+    length = int.from_bytes(header, "big")
+    if length > max_bytes:
+        raise ProtocolError(f"a frame announced {length} bytes; the limit is {max_bytes}")
+    return length
 
 
 MAX_NESTING = 64  # real messages nest a few levels (a 3x4 matrix in a dict in a list)
 
 
 def decode_message(line: bytes) -> dict[str, Any]:
-    """One message; ProtocolError for anything else (bounded work: depth is checked before parsing)."""
+    """One frame's body; ProtocolError for anything else (bounded work: depth is checked first)."""
+    if not line.isascii():
+        raise ProtocolError("malformed message: a frame must be ASCII JSON")
     if _nesting_depth(line) > MAX_NESTING:
         raise ProtocolError(f"malformed message: nested more than {MAX_NESTING} levels")
     try:
@@ -70,6 +89,19 @@ def write_message(stream: BinaryIO, message: dict[str, Any]) -> None:
     stream.flush()
 
 
+def read_message(stream: BinaryIO, max_bytes: int) -> dict[str, Any]:
+    """The next frame from a blocking stream (the child's side); ProtocolError when it is cut short."""
+    length = frame_length(_read_exactly(stream, HEADER_BYTES), max_bytes)
+    return decode_message(_read_exactly(stream, length))
+
+
+def _read_exactly(stream: BinaryIO, size: int) -> bytes:
+    data = stream.read(size)
+    if data is None or len(data) != size:
+        raise ProtocolError("the stream ended inside a frame")
+    return data
+
+
 def send_before(fd: int, message: dict[str, Any], deadline: float) -> None:
     """Write a message to a non-blocking pipe; TimeoutError if the reader stalls past `deadline`.
 
@@ -92,10 +124,10 @@ def send_before(fd: int, message: dict[str, Any], deadline: float) -> None:
 class ChildStreams:
     """Parent-side reader of the child's stdout (messages) and stderr (kept tail for diagnostics)."""
 
-    def __init__(self, stdout_fd: int, stderr_fd: int, max_line_bytes: int, stderr_tail_bytes: int = 4096):
+    def __init__(self, stdout_fd: int, stderr_fd: int, max_frame_bytes: int, stderr_tail_bytes: int = 16384):
         self.stdout_fd = stdout_fd
         self.stderr_fd = stderr_fd
-        self.max_line_bytes = max_line_bytes
+        self.max_frame_bytes = max_frame_bytes
         self.stderr_tail_bytes = stderr_tail_bytes
         self.buffer = b""
         self.stderr_tail = b""
@@ -108,14 +140,19 @@ class ChildStreams:
         self.selector.close()
 
     def next_message(self, deadline: float) -> dict[str, Any] | None:
-        """The next message, None at end of stream; TimeoutError once `deadline` (monotonic) passes."""
+        """The next message, None at end of stream; TimeoutError once `deadline` (monotonic) passes.
+
+        The length is checked as soon as the header is in, so an oversized frame is refused before
+        its body is buffered. A stream that ends inside a frame is the end of the stream (the child
+        died mid-write, e.g. killed by a limit): the caller reports the death.
+        """
         while True:
-            newline = self.buffer.find(b"\n")
-            if newline >= 0:
-                line, self.buffer = self.buffer[:newline], self.buffer[newline + 1 :]
-                return decode_message(line)
-            if len(self.buffer) > self.max_line_bytes:
-                raise ProtocolError(f"a message from the sandbox exceeded {self.max_line_bytes} bytes")
+            if len(self.buffer) >= HEADER_BYTES:
+                length = frame_length(self.buffer[:HEADER_BYTES], self.max_frame_bytes)
+                end = HEADER_BYTES + length
+                if len(self.buffer) >= end:
+                    body, self.buffer = self.buffer[HEADER_BYTES:end], self.buffer[end:]
+                    return decode_message(body)
             if not self.stdout_open:
                 return None
             remaining = deadline - time.monotonic()

@@ -32,7 +32,8 @@ from services.agent.sandbox.builtins import (
     program_globals,
 )
 from services.agent.sandbox.output import OutputRejected, OutputTooLarge, render_output
-from services.agent.sandbox.protocol import decode_message, write_message
+from services.agent.sandbox.protocol import read_message, write_message
+from services.agent.sandbox.text import clean_text
 from services.agent.sandbox.validation import ProgramRejected, prepare_for_execution, validate_program
 
 PROGRAM_FILENAME = "<program>"
@@ -65,7 +66,7 @@ class PipeChannel:
 
     def call(self, tool: str, arguments: dict[str, Any]) -> Any:
         write_message(self.writer, {"type": "call", "tool": tool, "arguments": arguments})
-        reply = decode_message(self.reader.readline(MAX_INBOUND_BYTES))
+        reply = read_message(self.reader, MAX_INBOUND_BYTES)
         if reply.get("type") != "reply":
             raise ToolError("the sandbox lost its connection to the tools")
         if reply.get("ok"):
@@ -191,6 +192,11 @@ def describe_exception(error: BaseException) -> str:
     return f"program raised {name}: {message}{where}" if message else f"program raised {name}{where}"
 
 
+def encodable(result: dict[str, Any]) -> dict[str, Any]:
+    """The result with its text fields free of lone surrogates (the parent accepts only real text)."""
+    return {key: clean_text(value) if isinstance(value, str) else value for key, value in result.items()}
+
+
 def failure(kind: str, error: str) -> dict[str, Any]:
     return {"type": "result", "ok": False, "kind": kind, "error": error}
 
@@ -285,7 +291,7 @@ def main(jailed: bool = False) -> None:
         from services.agent.sandbox.seccomp_filter import install as install_filter
     reader, writer = take_protocol_streams()
     write_message(writer, {"type": "ready"})
-    job = decode_message(reader.readline(MAX_INBOUND_BYTES))
+    job = read_message(reader, MAX_INBOUND_BYTES)
     try:
         result = run_job(job, PipeChannel(reader, writer), install_filter)
     except MemoryError:
@@ -294,7 +300,7 @@ def main(jailed: bool = False) -> None:
         result = failure(
             "crash", f"the sandbox failed: {type(error).__name__}: {str(error)[:MAX_ERROR_CHARS]}"
         )
-    write_message(writer, result)
+    write_message(writer, encodable(result))
     writer.close()
     os._exit(0)  # skip interpreter teardown: nothing of the program's may run after the result
 

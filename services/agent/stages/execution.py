@@ -7,6 +7,7 @@ attempts so far): the service failed, not the program, and no repair can help.
 
 from __future__ import annotations
 
+import contextlib
 import time
 from dataclasses import dataclass, field
 
@@ -19,6 +20,7 @@ from services.agent.infrastructure import FailureRecordingClient, Infrastructure
 from services.agent.recon_tools import ReconToolProvider
 from services.agent.sandbox import SandboxLimits, run_program
 from services.agent.sandbox.jail import JailStatus
+from services.agent.sandbox_budget import CpuBudget, SandboxGate
 from services.agent.steps import SolveLog
 from shared.questions.intent import QuestionIntent
 from shared.wire.schemas import AttemptRecord, ExecutionStep, ProgramStep
@@ -44,6 +46,8 @@ class SandboxRuns:
     limits: SandboxLimits
     jail: JailStatus
     python_checks: bool
+    gate: SandboxGate | None = None  # the agent's cap on running sandboxes
+    cpu_budget: CpuBudget | None = None  # this solve's CPU across its attempts
     attempts_so_far: list[AttemptRecord] = field(default_factory=list)
 
     def execute(self, source: str, written_by_model: bool = True) -> ExecutionOutcome:
@@ -57,16 +61,25 @@ class SandboxRuns:
 
     def _run(self, step: ExecutionStep, source: str, written_by_model: bool) -> None:
         started = time.perf_counter()
-        result = run_program(
-            source,
-            self.intent.text,
-            self.num_images,
-            self.tools,
-            self.limits,
-            jail_status=self.jail,
-            python_checks=self.python_checks,
-            cancel=self.log.cancellation,
-        )
+        spent = self.cpu_budget.spent_error() if self.cpu_budget else None
+        if spent is not None:  # no run at all: the repair loop shows the model why
+            self.attempts_so_far.append(AttemptRecord(program=source, error=spent, latency_ms=0.0))
+            step.ok, step.error, step.error_kind = False, spent, "cpu_budget"
+            return
+        limits = self.cpu_budget.limits_for_next_run(self.limits) if self.cpu_budget else self.limits
+        with self.gate.slot() if self.gate else contextlib.nullcontext():
+            result = run_program(
+                source,
+                self.intent.text,
+                self.num_images,
+                self.tools,
+                limits,
+                jail_status=self.jail,
+                python_checks=self.python_checks,
+                cancel=self.log.cancellation,
+            )
+        if self.cpu_budget is not None:
+            self.cpu_budget.charge(result.cpu_seconds)
         latency_ms = round((time.perf_counter() - started) * 1e3, 2)
         self.attempts_so_far.append(AttemptRecord(program=source, error=result.error, latency_ms=latency_ms))
         if self.recon.failure is not None:  # the service failed, not the program: no repair can help
