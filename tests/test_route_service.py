@@ -114,3 +114,51 @@ def test_an_unreachable_goal_is_a_200_with_the_reason(agent, scenes):
         with pytest.raises(ServiceError) as refused:
             client.route({"point_world": two.goal.tolist()}, scene_id=plan.scene_id, start_view=0)
     assert refused.value.status_code == 422
+
+
+def test_the_command_line_prints_the_sentences_and_writes_the_plan(agent, scenes, tmp_path):
+    import json
+
+    from shared.synthetic.photo import save_photo
+    from tests.test_cli import pyspatial
+
+    two, views = scenes["reachable"]
+    photos, depths = [], []
+    for index, view in enumerate(views):
+        photos.append(tmp_path / f"view_{index + 1}.png")
+        save_photo(photos[-1], view.rgb, two.intrinsic)
+        depths.append(tmp_path / f"depth_{index + 1}.npy")
+        np.save(depths[-1], view.depth)
+    cameras = tmp_path / "cameras.json"
+    cameras.write_text(
+        json.dumps(
+            {"extrinsics": two.extrinsics.tolist(), "intrinsics": [two.intrinsic.tolist()] * len(views)}
+        )
+    )
+    pixel = goal_pixel(two)
+    plan_file = tmp_path / "plan.json"
+    done = pyspatial(
+        "route",
+        *map(str, photos),
+        "--start-view",
+        "1",
+        "--goal-pixel",
+        f"{pixel['view']}:{pixel['u']},{pixel['v']}",
+        *[part for path in depths for part in ("--depths", str(path))],
+        "--cameras",
+        str(cameras),
+        "--out",
+        str(plan_file),
+        "--agent-url",
+        agent.url,
+        cwd=tmp_path,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    plan = json.loads(plan_file.read_text())
+    assert plan["reachable"] and plan["sentences"]
+    assert all(sentence in done.stdout for sentence in plan["sentences"])
+    assert "left-positive" in done.stdout
+    bad = pyspatial(
+        "route", *map(str, photos), "--goal-pixel", "2:oops", "--agent-url", agent.url, cwd=tmp_path
+    )
+    assert bad.returncode != 0 and "VIEW:U,V" in bad.stdout + bad.stderr
