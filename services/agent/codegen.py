@@ -40,7 +40,7 @@ from services.agent.steps import SolveLog
 from shared.questions.intent import QuestionIntent
 from shared.wire.schemas import ProgramStep
 
-DEFAULT_TEMPLATE = "codegen_v2"
+DEFAULT_TEMPLATE = "codegen_v3"
 REPAIR_TEMPLATE = "repair_v2"
 MAX_EXAMPLES = 6  # the examples in the latest codegen_examples_v<N>.md
 DEFAULT_MAX_REPLY_CHARS = 60_000
