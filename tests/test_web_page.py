@@ -633,3 +633,53 @@ def test_the_viewer_draws_200k_points_and_its_frame_time_is_measured(recon, stac
     print(f"200k points, 640x480, software WebGL: median {median:.0f} ms per frame, {moving:.0f} ms moving")
     assert median < 5000 and moving < median  # it draws, and moving is cheaper; figures: the bench
     assert csp_violations(browser) == []
+
+
+def test_route_mode_plans_to_a_clicked_goal_and_downloads_the_plan(offline_agent, browser, shots, downloads):
+    import httpx
+
+    spec = json.loads((EXAMPLE / "example.json").read_text())
+    _viewport(browser, 1280, 900)
+    browser.get(offline_agent.url + "/")
+    _choose_example_photos(browser)
+    buttons = WebDriverWait(browser, 30).until(
+        lambda d: d.find_elements(By.CSS_SELECTOR, "#route-photos button")
+    )
+    assert len(buttons) == len(spec["images"])
+    browser.execute_script("arguments[0].scrollIntoView({block: 'center'})", buttons[1])
+    ActionChains(browser).move_to_element_with_offset(
+        buttons[1], 10, 8
+    ).click().perform()  # right of and below the centre
+    goal = _text(browser, "route-goal")
+    assert goal.startswith("Goal: image 2 at pixel (")
+    u, v = (int(n) for n in goal.split("(")[1].split(")")[0].split(", "))
+    width, height = Image.open(EXAMPLE / spec["images"][1]).size
+    assert abs(u - width / 2) < 0.2 * width and abs(v - height / 2) < 0.2 * height and u > width / 2
+    browser.find_element(By.ID, "plan-route").click()
+    try:
+        WebDriverWait(browser, 240).until(lambda d: _text(d, "route-summary") or _text(d, "error"))
+    except TimeoutException:
+        browser.save_screenshot(str(shots / "timeout-route.png"))
+        raise
+    assert not _text(browser, "error"), _text(browser, "error")
+    # The page shows what the endpoint answers for the same photos and goal.
+    files = [("images", (name, (EXAMPLE / name).read_bytes())) for name in spec["images"]]
+    data = {"start_view": "1", "goal": json.dumps({"pixel": {"view": 2, "u": u, "v": v}})}
+    plan = httpx.post(offline_agent.url + "/v1/route", files=files, data=data, timeout=240).json()
+    steps = [e.text for e in browser.find_elements(By.CSS_SELECTOR, "#route-steps li")]
+    assert steps == plan["sentences"]
+    summary = _text(browser, "route-summary")
+    assert summary.startswith("No route:") != plan["reachable"]
+    path_points = browser.find_element(By.ID, "route-viewer").get_attribute("data-path-points")
+    WebDriverWait(browser, 60).until(
+        lambda d: d.find_element(By.ID, "route-viewer").get_attribute("data-path-points")
+    )
+    path_points = browser.find_element(By.ID, "route-viewer").get_attribute("data-path-points")
+    assert int(path_points) == (len(plan["path_world"]) if len(plan["path_world"]) > 1 else 0)
+    browser.save_screenshot(str(shots / "route.png"))
+    browser.find_element(By.ID, "download-plan").click()
+    target = downloads / f"route-{plan['scene_id']}.json"
+    WebDriverWait(browser, 30).until(lambda d: target.is_file() and target.stat().st_size > 0)
+    assert json.loads(target.read_text())["sentences"] == plan["sentences"]
+    _no_serious_axe_problems(browser, "with a route shown")
+    assert csp_violations(browser) == []
