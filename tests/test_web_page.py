@@ -647,14 +647,15 @@ def test_route_mode_plans_to_a_clicked_goal_and_downloads_the_plan(offline_agent
     )
     assert len(buttons) == len(spec["images"])
     browser.execute_script("arguments[0].scrollIntoView({block: 'center'})", buttons[1])
-    ActionChains(browser).move_to_element_with_offset(
-        buttons[1], 10, 8
-    ).click().perform()  # right of and below the centre
+    # Low in the photo, on the floor in front of the sofa. The classical backbone's points there are
+    # too sparse to call it seen, so the plan is a refusal that says why: the page shows it as such.
+    ActionChains(browser).move_to_element_with_offset(buttons[1], 0, 45).click().perform()
     goal = _text(browser, "route-goal")
     assert goal.startswith("Goal: image 2 at pixel (")
     u, v = (int(n) for n in goal.split("(")[1].split(")")[0].split(", "))
     width, height = Image.open(EXAMPLE / spec["images"][1]).size
-    assert abs(u - width / 2) < 0.2 * width and abs(v - height / 2) < 0.2 * height and u > width / 2
+    drawn = browser.find_elements(By.CSS_SELECTOR, "#route-photos img")[1].size
+    assert abs(u - width / 2) <= 3 and abs(v - (height / 2 + 45 * height / drawn["height"])) <= 3
     browser.find_element(By.ID, "plan-route").click()
     try:
         WebDriverWait(browser, 240).until(lambda d: _text(d, "route-summary") or _text(d, "error"))
@@ -670,7 +671,7 @@ def test_route_mode_plans_to_a_clicked_goal_and_downloads_the_plan(offline_agent
     assert steps == plan["sentences"]
     summary = _text(browser, "route-summary")
     assert summary.startswith("No route:") != plan["reachable"]
-    path_points = browser.find_element(By.ID, "route-viewer").get_attribute("data-path-points")
+    assert plan["reachable"] or plan["reason"] in summary
     WebDriverWait(browser, 60).until(
         lambda d: d.find_element(By.ID, "route-viewer").get_attribute("data-path-points")
     )
