@@ -132,3 +132,9 @@ def test_a_reconstruction_without_scale_plans_in_scene_units(reachable):
     assert scaled.reachable and scaled.units == "scene units" and "scale" in scaled.warnings[0]
     assert scaled.length == pytest.approx(0.5 * metric.length, rel=0.1)
     assert "scene units" in scaled.sentences[-1]
+
+
+def test_a_goal_inside_a_closed_pen_is_refused_as_enclosed():
+    two, _, recon = _posed("ring", 23005)  # bench.route's scene 5
+    plan = plan_route(recon, 0, two.goal, robot_radius=RADIUS)
+    assert not plan.reachable and plan.refusal == "enclosed" and "enclosed" in plan.reason
