@@ -377,7 +377,7 @@ def _walk_with_the_keyboard(browser) -> None:
     browser.execute_script("document.activeElement.blur(); window.scrollTo(0, 0)")
     reached = set()
     unfocused_look = []
-    for _ in range(90):
+    for _ in range(110):  # the route mode's controls come before the gallery's
         ActionChains(browser).send_keys(Keys.TAB).perform()
         focused = browser.switch_to.active_element
         if focused.tag_name == "body":  # past the last control, before the first: the browser's own UI
@@ -390,7 +390,7 @@ def _walk_with_the_keyboard(browser) -> None:
     expected = {
         "api-key", "images", "question", "backbone", "solve", "viewer", "reset-view", "fullscreen",
         "download-ply", "download-glb", "confidence", "point-size", "show-cameras", "show-clue-views",
-        "view v1",
+        "view v1", "route-start", "route-radius", "plan-route",
     }  # fmt: skip
     assert expected <= reached, expected - reached
     assert any(name.startswith("These three photos") for name in reached)  # the gallery's questions
