@@ -45,11 +45,24 @@ def scenes():
 
 
 @pytest.fixture(scope="module")
-def agent(tmp_path_factory, redis_url):
+def recon_and_agent(tmp_path_factory, redis_url, llm):
+    """The plain agent and one whose code model is the scripted stand-in, on one recon service."""
     env = recon_env(tmp_path_factory.mktemp("recon"), redis_url)
     with running_service(RECON_APP, env) as recon:
-        with running_service(AGENT_APP, {"PYSPATIAL_RECON_URL": recon.url}) as service:
-            yield service
+        with running_service(AGENT_APP, {"PYSPATIAL_RECON_URL": recon.url}) as plain:
+            coder = {
+                "PYSPATIAL_RECON_URL": recon.url,
+                "PYSPATIAL_CODE_MODEL": "coder",
+                "PYSPATIAL_CODE_MODEL_BASE_URL": llm.base_url,
+                "PYSPATIAL_ANSWER_MODEL": "",
+            }
+            with running_service(AGENT_APP, coder) as with_model:
+                yield plain, with_model
+
+
+@pytest.fixture(scope="module")
+def agent(recon_and_agent):
+    return recon_and_agent[0]
 
 
 @pytest.fixture(scope="module")
@@ -162,3 +175,22 @@ def test_the_command_line_prints_the_sentences_and_writes_the_plan(agent, scenes
         "route", *map(str, photos), "--goal-pixel", "2:oops", "--agent-url", agent.url, cwd=tmp_path
     )
     assert bad.returncode != 0 and "VIEW:U,V" in bad.stdout + bad.stderr
+
+
+def test_how_do_i_get_there_through_solve_uses_the_same_tools(recon_and_agent, planned, scenes, llm):
+    two, _ = scenes["reachable"]
+    pixel = goal_pixel(two)
+    program = (
+        "```python\ndef program(input_scene):\n"
+        "    recon = pySpatial.reconstruct(input_scene)\n"
+        f"    goal = pySpatial.locate(recon, {pixel['view'] - 1}, {pixel['u']:.1f}, {pixel['v']:.1f})\n"
+        "    return pySpatial.plan_route(recon, 0, goal['point'])['summary']\n```"
+    )
+    llm.reset()
+    llm.script([program], model="coder")
+    where = f"({pixel['u']:.0f}, {pixel['v']:.0f})"
+    question = f"How do I get from where image 1 was taken to the spot at pixel {where} of image 4?"
+    with AgentClient(recon_and_agent[1].url) as client:
+        result = client.solve(question, scene_id=planned.scene_id, backbone="posed-rgbd")
+    assert result.attempts[-1].error is None, result.attempts[-1].error
+    assert all(sentence in result.clue.text for sentence in planned.sentences), result.clue.text
