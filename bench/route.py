@@ -116,11 +116,18 @@ def _score(tally: Tally, two: TwoRoomScene, shortest: float | None, steps, refus
     moves = [{"turn_degrees": s["turn_degrees"], "move": s["move"] * scale} for s in steps]
     run = execute_steps(two, moves, RADIUS, BAND)
     tally.collisions += int(run.collided)
-    near = np.linalg.norm(run.end - two.goal[:2]) <= TOLERANCE_M
-    tally.short += int(not near)
-    if near and not run.collided:
+    miss = float(np.linalg.norm(run.end - two.goal[:2]))
+    tally.short += int(miss > TOLERANCE_M)
+    if miss <= TOLERANCE_M and not run.collided:
         tally.successes += 1
         tally.ratios.append(run.length / shortest)
+        return ""
+    where = (
+        ""
+        if run.first_collision is None
+        else f" collided at ({run.first_collision[0]:.2f}, {run.first_collision[1]:.2f})"
+    )
+    return f"{where} ended {miss:.2f} m from the goal"
 
 
 def _posed(two: TwoRoomScene, views) -> Reconstruction:
@@ -165,8 +172,8 @@ def _evaluate(tallies: dict, setting: str, two: TwoRoomScene, shortest, recon, g
         if method == "plan_route":
             plan = plan_route(recon, 0, goal, robot_radius=RADIUS)
             refused = None if plan.reachable else (plan.refusal if plan.reason else "")
-            _score(tally, two, shortest, plan.steps, refused, plan.metres_per_unit)
-            verdict = f"{plan.length:.2f} m" if plan.reachable else f"refused ({plan.refusal})"
+            note = _score(tally, two, shortest, plan.steps, refused, plan.metres_per_unit)
+            verdict = f"{plan.length:.2f} m{note or ''}" if plan.reachable else f"refused ({plan.refusal})"
         else:
             scale = 1.0 if recon.units == "metres" else _assumed_metres_per_unit(recon)
             _score(tally, two, shortest, baseline_steps(method, recon, goal), None, scale)

@@ -1,4 +1,4 @@
-"""The `pyspatial` command: serve, solve, reconstruct, render, demo, synth, eval, bench and weights."""
+"""The `pyspatial` command: serve, solve, route, reconstruct, render, demo, synth, eval, bench and weights."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ from cli.demo import demo
 from cli.eval_commands import eval_app
 from cli.reconstruct import reconstruct
 from cli.render import render
+from cli.route import route
 from cli.serve import serve
 from cli.solve import solve
 from cli.synth import synth
@@ -25,6 +26,7 @@ app.command()(serve)
 app.command()(solve)
 app.command()(reconstruct)
 app.command()(render)
+app.command()(route)
 app.command()(demo)
 app.command()(synth)
 app.add_typer(eval_app, name="eval")

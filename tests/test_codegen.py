@@ -124,6 +124,7 @@ def test_images_follow_the_text_in_order_or_not_at_all() -> None:
 def test_template_is_versioned_and_strict() -> None:
     template = load_template("codegen")
     assert (template.name, template.version, template.id) == ("codegen", 3, "codegen_v3")
+    assert "pySpatial.plan_route(recon, start_view, goal" in template.text  # issue 23's tools
     assert template.fields == {"examples", "photos", "question"}
     assert load_template("codegen_v1").fields == {"examples", "num_images", "question"}  # still there
     with pytest.raises(PromptError, match="missing fields"):

@@ -150,7 +150,7 @@ def test_the_prompt_names_everything_the_recorded_programs_reach_for_that_is_not
     }
     counts = tally_unavailable([{"reply": reply.reply} for reply in REPLIES])
     assert counts["imports"] and counts["files"] and counts["classes"]  # the model did reach for them
-    prompt = load_template("codegen_v2").render(**{name: "" for name in load_template("codegen_v2").fields})
+    prompt = load_template("codegen").render(**{name: "" for name in load_template("codegen").fields})
     block = prompt.split("## Not available", 1)[1].split("\n## ", 1)[0]
     for kind, words in UNAVAILABLE_KINDS.items():
         assert words in block, f"the prompt's 'Not available' block does not name {kind} ({words!r})"

@@ -115,6 +115,22 @@ def test_locate_reads_depth_or_points_and_says_when_nothing_is_there(reachable):
     holes[2][:] = 0
     empty = dataclasses.replace(recon, depths=holes, intrinsics_source=None, view_confidence=None)
     assert locate(empty, 2, u, v).point is None and "no depth" in locate(empty, 2, u, v).reason
+    # An estimated depth map's hole falls back to the points; with the points gone too, nothing is there.
+    estimated = dataclasses.replace(empty, backbone="classical", intrinsics_source=None, view_confidence=None)
+    assert locate(estimated, 2, u, v).source == "points"
+    bare = dataclasses.replace(
+        estimated,
+        points=np.zeros((0, 3)),
+        colors=np.zeros((0, 3)),
+        intrinsics_source=None,
+        view_confidence=None,
+    )
+    missing = locate(bare, 2, u, v)
+    assert (
+        missing.point is None
+        and "no depth" in missing.reason
+        and "nothing is reconstructed" in missing.reason
+    )
 
 
 def test_a_reconstruction_without_scale_plans_in_scene_units(reachable):
@@ -132,3 +148,9 @@ def test_a_reconstruction_without_scale_plans_in_scene_units(reachable):
     assert scaled.reachable and scaled.units == "scene units" and "scale" in scaled.warnings[0]
     assert scaled.length == pytest.approx(0.5 * metric.length, rel=0.1)
     assert "scene units" in scaled.sentences[-1]
+
+
+def test_a_goal_inside_a_closed_pen_is_refused_as_enclosed():
+    two, _, recon = _posed("ring", 23005)  # bench.route's scene 5
+    plan = plan_route(recon, 0, two.goal, robot_radius=RADIUS)
+    assert not plan.reachable and plan.refusal == "enclosed" and "enclosed" in plan.reason

@@ -316,6 +316,18 @@ def exercise_agent(observe: Observer, stack, views, scene_id: str) -> None:
     pngs = [base64.b64encode(png).decode() for png in views.pngs()]
     solve(503, name="agent_of_unready", headers={}, json={"question": question, "images": pngs})
 
+    route_body = {"scene_id": scene_id, "backbone": "posed-rgbd", "goal": {"point_start_camera": [0, 0, 0]}}
+
+    def plan(expected, **kwargs):
+        return agent("POST", "/v1/route", "/v1/route", expected, **kwargs)
+
+    plan(200, json=route_body)
+    plan(400, json={"images": ["bm90IGFuIGltYWdl"], "goal": route_body["goal"]})
+    plan(404, json={**route_body, "scene_id": UNKNOWN_SCENE})
+    plan(413, headers={**key, "content-type": "application/json"}, content=b" " * 3_100_000)
+    plan(422, json={**route_body, "goal": {}})
+    plan(409, json={**route_body, "backbone": "pi3x"})
+
     points = "/v1/scenes/{scene_id}/points"
     agent("GET", points, f"/v1/scenes/{scene_id}/points?max_points=50", 200)
     agent("GET", points, f"/v1/scenes/{UNKNOWN_SCENE}/points", 404)
@@ -344,6 +356,7 @@ def exercise_agent(observe: Observer, stack, views, scene_id: str) -> None:
     # the route depends on recon (502 recon refuses us, 503 recon down, 504 recon hung).
     guarded = [
         ("POST", "/v1/solve", "/v1/solve", {"json": solve_body}),
+        ("POST", "/v1/route", "/v1/route", {"json": route_body}),
         ("GET", points, f"/v1/scenes/{scene_id}/points", {}),
         ("GET", "/v1/backbones", "/v1/backbones", {}),
         ("GET", download, f"/v1/scenes/{scene_id}/reconstruction?backbone=posed-rgbd", {}),
@@ -357,13 +370,13 @@ def exercise_agent(observe: Observer, stack, views, scene_id: str) -> None:
     for method, route, path, kwargs in guarded:
         agent(method, route, path, 401, headers={}, **kwargs)
         agent(method, route, path, 429, name="agent_limited", headers={}, **kwargs)
-        if route in ("/v1/solve", points, "/v1/backbones", download):
+        if route in ("/v1/solve", "/v1/route", points, "/v1/backbones", download):
             agent(method, route, path, 502, name="agent_without_recon_key", headers={}, **kwargs)
             agent(method, route, path, 503, name="agent_of_nothing", headers={}, **kwargs)
     process = stack["recon_unready"].process
     os.kill(process.pid, signal.SIGSTOP)  # a hung recon: connections are accepted, nothing answers
     try:
-        for method, route, path, kwargs in guarded[:4]:
+        for method, route, path, kwargs in guarded[:5]:
             agent(method, route, path, 504, name="agent_of_unready", headers={}, **kwargs)
     finally:
         os.kill(process.pid, signal.SIGCONT)

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from shared.geometry.reconstruction import Reconstruction
+from shared.navigation import locate, plan_route
 from shared.wire.client import ReconClient
 
 
@@ -24,6 +26,7 @@ class ReconToolProvider:
         # What each rendered PNG was rendered from, so the clue can say so (keyed by its bytes).
         self.rendered_poses: dict[bytes, tuple[list[list[float]], int, int]] = {}
         self.view_extrinsics: list[list[list[float]]] = []  # the input views' poses (NaN: not placed)
+        self._downloaded: Reconstruction | None = None
 
     def reconstruct(self) -> dict:
         summary = self.client.reconstruct(self.scene_id, self.backbone)
@@ -57,3 +60,28 @@ class ReconToolProvider:
         if not 0 <= index < len(self.input_pngs):
             raise IndexError(f"the scene has images 0..{len(self.input_pngs) - 1}")
         return self.input_pngs[index]
+
+    def _reconstruction(self) -> Reconstruction:
+        if self._downloaded is None:
+            self._downloaded = self.client.reconstruction(self.scene_id, self.backbone)
+        return self._downloaded
+
+    def locate(self, view: int, u: float, v: float) -> dict:
+        found = locate(self._reconstruction(), view, u, v)
+        return {"point": None if found.point is None else found.point.tolist(), "reason": found.reason}
+
+    def plan_route(self, start_view: int, goal: list[float], robot_radius: float) -> dict:
+        plan = plan_route(
+            self._reconstruction(), start_view, np.asarray(goal, float), robot_radius=robot_radius
+        )
+        return {**plan.to_dict(), "summary": route_summary(plan)}
+
+
+def route_summary(plan) -> str:
+    """The plan in words for a reader: its sentences, or that there is none and why."""
+    if not plan.reachable:
+        return f"No collision-free route: {plan.reason}."
+    if not plan.sentences:
+        return "The robot is already at the goal."
+    unit = "m" if plan.units == "metres" else "scene units"
+    return ". ".join(plan.sentences) + f". The route is {plan.length:.2f} {unit} long."

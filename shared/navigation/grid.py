@@ -105,7 +105,9 @@ def build_grid(
         cell *= 1.25
     shape = tuple(int(n) for n in (np.ceil((high - low) / cell) + 1)[::-1])
     grid = Grid(origin=low, cell=cell, occupied=np.zeros(shape, bool), free=np.zeros(shape, bool))
-    grid.occupied = _counts(grid.to_cell(plane[in_band]), shape) >= _OCCUPIED_MIN_POINTS
+    occupied = _counts(grid.to_cell(plane[in_band]), shape) >= _OCCUPIED_MIN_POINTS
+    # Only surfaces are seen: the inside of a thin obstacle (a wall between its two faces) is closed.
+    grid.occupied = occupied | erode(dilate(occupied, 1.5), 1.5)
     seen = _counts(grid.to_cell(plane[on_floor]), shape) > 0
     seen = erode(dilate(seen, close_cells), close_cells)
     grid.free = seen & ~grid.occupied

@@ -149,7 +149,14 @@ def locate(recon: Reconstruction, view: int, u: float, v: float) -> LocateResult
     _view_pixel_check(recon, view, u, v)
     if not recon.registered[view]:
         return LocateResult(None, f"view {view} has no pose in this reconstruction")
-    return _locate_by_depth(recon, view, u, v) or _locate_by_points(recon, view, u, v)
+    by_depth = _locate_by_depth(recon, view, u, v)
+    if by_depth is not None and (by_depth.point is not None or recon.backbone == "posed-rgbd"):
+        return by_depth  # measured depth says what the view saw; a hole in it is nothing seen
+    # A hole in an estimated depth map (a backbone's has many) is not yet nothing: the points may cover it.
+    by_points = _locate_by_points(recon, view, u, v)
+    if by_points.point is None and by_depth is not None:
+        by_points.reason = f"{by_depth.reason}, and {by_points.reason}"
+    return by_points
 
 
 @dataclass

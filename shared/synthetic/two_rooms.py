@@ -1,8 +1,9 @@
 """Two rooms joined by a doorway, with furniture and posed RGB-D views: the route benchmark's scenes.
 
 Like ``scene.py``: z is up, the floor is z = 0, cameras are OpenCV camera-from-world. The lab is
-about 50 m² (two rooms side by side along x, a wall with one doorway between them). The robot
-starts below the start view's camera in room A; the goal is a floor point in room B.
+about 50 m² (two rooms side by side along x, a wall with one doorway between them), seen by 5-7
+views at head height. The robot starts below the start view's camera in room A; the goal is a
+floor point in room B.
 
 Kinds:
 - ``reachable``: a doorway wide enough and a goal in the open (checked on the true geometry);
@@ -68,8 +69,27 @@ def footprints(solids: list[np.ndarray], band: tuple[float, float]) -> list[np.n
     for vertices in solids:
         if vertices[:, 2].max() < band[0] or vertices[:, 2].min() > band[1]:
             continue
-        polygons.append(_convex_hull(vertices[:, :2]))
+        polygons.append(_convex_hull(_band_slice(vertices, band)))
     return polygons
+
+
+def _band_slice(vertices: np.ndarray, band: tuple[float, float]) -> np.ndarray:
+    """Floor points whose hull is the convex solid's slice by the band (a sphere's is smaller than it).
+
+    The slice's corners are vertices inside the band or points where a segment between two vertices
+    crosses one of the band's planes; every such point lies in the solid, so the hull is exact.
+    """
+    z = vertices[:, 2]
+    points = [vertices[(z >= band[0]) & (z <= band[1]), :2]]
+    for height in band:
+        below, above = vertices[z < height], vertices[z > height]
+        if len(below) == 0 or len(above) == 0:
+            continue
+        t = (height - below[:, None, 2]) / (above[None, :, 2] - below[:, None, 2])
+        points.append(
+            (below[:, None, :2] + t[..., None] * (above[None, :, :2] - below[:, None, :2])).reshape(-1, 2)
+        )
+    return np.concatenate(points)
 
 
 def _convex_hull(points: np.ndarray) -> np.ndarray:
@@ -220,15 +240,16 @@ def _layout(rng: np.random.Generator, kind: str) -> _Layout:
         np.array([divider - 2.2, door_centre + rng.uniform(-0.5, 0.5)]),
         np.array([divider + 2.2, door_centre + rng.uniform(-0.5, 0.5)]),
         _farthest_corner(goal, divider + WALL / 2, length, width),
+        _farthest_corner(start, 0.0, divider - WALL / 2, width),
     ]
     looks = [
         start + [np.cos(heading), np.sin(heading)],
         np.array([divider + 1.5, door_centre]),
         np.array([divider - 1.5, door_centre]),
         goal,
+        start,  # the floor around the robot: the start view itself sees it only from a metre ahead
     ]
     extras = [
-        (np.array([0.7, width / 2 - side * (width / 2 - 0.7)]), a_centre),
         (np.array([length - 0.7, width / 2 + side * (width / 2 - 0.7)]), b_centre),
         (np.array([divider - 0.8, width / 2 + side * (width / 2 - 0.7)]), a_centre),
     ]

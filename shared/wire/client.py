@@ -34,6 +34,7 @@ from shared.wire.schemas import (
     PointCloudPreview,
     Readiness,
     ReconstructionSummary,
+    RouteResponse,
     SceneCreated,
     SceneInfo,
     SolveEvent,
@@ -376,6 +377,41 @@ class AgentClient(_ServiceClient):
     ) -> SolveResponse:
         body = _solve_body(question, images, scene_id, backbone, max_repairs)
         return SolveResponse.model_validate(self._request("POST", "/v1/solve", json=body).json())
+
+    def route(
+        self,
+        goal: dict,
+        images: Sequence[ImageLike] | None = None,
+        scene_id: str | None = None,
+        start_view: int = 1,
+        depths: Sequence[np.ndarray] | None = None,
+        extrinsics: np.ndarray | None = None,
+        intrinsics: np.ndarray | Sequence[np.ndarray | None] | None = None,
+        robot: dict | None = None,
+        backbone: str | None = None,
+    ) -> RouteResponse:
+        """A route plan (POST /v1/route, multipart). `goal`: {"pixel": {"view", "u", "v"}} (1-based
+        view), {"point_world": [x, y, z]} or {"point_start_camera": [x, y, z]}."""
+        files = [("images", (f"image_{i:03d}", image_bytes(img))) for i, img in enumerate(images or [])]
+        files += [("depths", (f"depth_{i:03d}.npy", _npy(d))) for i, d in enumerate(depths or [])]
+        data = {"goal": json.dumps(goal), "start_view": str(int(start_view))}
+        for name, value in (("scene_id", scene_id), ("backbone", backbone)):
+            if value:
+                data[name] = value
+        if robot is not None:
+            data["robot"] = json.dumps(robot)
+        if extrinsics is not None:
+            data["extrinsics"] = json.dumps(np.asarray(extrinsics, dtype=float).tolist())
+        if intrinsics is not None:
+            data["intrinsics"] = json.dumps(
+                [None if k is None else np.asarray(k, dtype=float).tolist() for k in intrinsics]
+            )
+        if not files:  # httpx sends multipart only with files: a scene_id alone goes as JSON
+            body = {"scene_id": scene_id, "start_view": int(start_view), "goal": goal, "backbone": backbone}
+            body.update({"robot": robot} if robot is not None else {})
+            return RouteResponse.model_validate(self._request("POST", "/v1/route", json=body).json())
+        response = self._request("POST", "/v1/route", files=files, data=data)
+        return RouteResponse.model_validate(response.json())
 
     def solve_with_progress(
         self,

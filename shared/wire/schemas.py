@@ -690,3 +690,73 @@ class ErrorEvent(_Model):
 
 
 SolveEvent = Annotated[StageEvent | ResultEvent | ErrorEvent, Field(discriminator="type")]
+
+
+# ---- route plans (agent: POST /v1/route) ---------------------------------------------------
+
+Point3 = Annotated[list[float], Field(min_length=3, max_length=3)]
+
+
+class GoalPixel(_Model):
+    view: int = Field(..., ge=1, description="1-based view, as on the page.")
+    u: float = Field(..., description="Column, pixel centres at integers (OpenCV).")
+    v: float = Field(..., description="Row.")
+
+
+class RouteGoal(_Model):
+    """Exactly one of: a pixel of a view, a world point, or a point in the start camera's frame."""
+
+    pixel: GoalPixel | None = None
+    point_world: Point3 | None = None
+    point_start_camera: Point3 | None = Field(None, description="OpenCV axes: x right, y down, z forward.")
+
+
+class RobotSpec(_Model):
+    radius: float = Field(0.25, gt=0, le=5, description="Metres.")
+    height: float = Field(0.5, gt=0, le=5, description="Top of the body above the floor, metres.")
+    floor_clearance: float = Field(
+        0.05, ge=0, le=2, description="Bottom of the body: anything lower is driven over, metres."
+    )
+
+
+class RouteRequest(_Model):
+    """JSON form of /v1/route (multipart: files `images` and `depths`, JSON text fields otherwise)."""
+
+    images: list[str] | None = Field(None, description="Images in order, base64 or data URLs.")
+    scene_id: str | None = Field(None, pattern=SCENE_ID_PATTERN)
+    extrinsics: list[Matrix] | None = Field(None, description="Per view 3x4 camera-from-world (with depths).")
+    intrinsics: list[Matrix | None] | None = Field(None, description="Per view 3x3 pixel intrinsics.")
+    backbone: str | None = None
+    start_view: int = Field(1, ge=1, description="1-based view whose camera stands above the robot's start.")
+    goal: RouteGoal
+    robot: RobotSpec = Field(default_factory=RobotSpec)
+
+
+class RouteStep(_Model):
+    turn_degrees: float = Field(..., description="Turn in place about up first; left-positive.")
+    move: float = Field(..., description="Then drive forward this far (metres when units is metres).")
+
+
+class RouteResponse(_Model):
+    scene_id: str
+    backbone: str
+    reachable: bool
+    reason: str | None = Field(None, description="Why no route was planned (which gap, enclosed, unseen).")
+    refusal: str | None = Field(None, description="narrow_gap, enclosed, unseen_space, goal_unseen, ...")
+    turn_convention: Literal["left-positive"] = "left-positive"
+    steps: list[RouteStep]
+    sentences: list[str]
+    path_world: list[list[float]]
+    path_start_camera: list[list[float]]
+    clearance_m: float | None = Field(None, description="Smallest gap between the robot and an obstacle.")
+    length_m: float | None
+    straight_line_m: float | None
+    units: Literal["metres", "scene units"]
+    metres_per_unit: float | None = Field(
+        None, description="1 when metric; otherwise the estimate from an assumed 1.5 m camera height."
+    )
+    start_world: list[float] | None
+    goal_world: list[float] | None = Field(None, description="The goal projected on the floor.")
+    goal_located: list[float] | None = Field(None, description="The goal's world point (for a pixel goal).")
+    up: list[float] | None
+    warnings: list[str]

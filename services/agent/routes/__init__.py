@@ -5,6 +5,7 @@
 | `health.py` | `GET /healthz`, `GET /readyz` |
 | `solve.py` | `POST /v1/solve` (JSON or multipart; plain or `Accept: text/event-stream`) |
 | `web.py` | `GET /`, `GET /v1/scenes/{id}/points`, `GET /v1/scenes/{id}/reconstruction`, `/v1/backbones` |
+| `route.py` | `POST /v1/route` (JSON or multipart; the plan of services/agent/route_plan.py) |
 | `examples.py` | `GET /v1/examples`, `/v1/examples/{name}/images/{file}`, `.../thumbnail`, `/v1/example` |
 
 Routes reach the pipeline and the settings through `dependencies.py`; `services/agent/app.py`
@@ -13,6 +14,6 @@ into the router of its resource (or a new module listed here), and `tests/test_o
 must provoke each status code it documents.
 """
 
-from services.agent.routes import examples, health, solve, web
+from services.agent.routes import examples, health, route, solve, web
 
-ROUTERS = (health.router, solve.router, web.router, examples.router)
+ROUTERS = (health.router, solve.router, route.router, web.router, examples.router)

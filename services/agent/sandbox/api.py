@@ -307,6 +307,34 @@ class PySpatial(_Frozen):
     def turn_around(self, extrinsic: Any) -> np.ndarray:
         return poses.turn_around(_extrinsic(extrinsic, "turn_around"), up=self._up)
 
+    def locate(self, recon: Reconstruction, view: int, u: float, v: float) -> dict:
+        """The world point seen at pixel (u, v) (column, row) of view `view` (0-based):
+        {"point": 3-vector or None, "reason": why there is none}."""
+        _require_reconstruction(recon, "locate")
+        index = _view_index(view, recon, "locate")
+        reply = self._channel.call("locate", {"view": index, "u": _number(u, "u"), "v": _number(v, "v")})
+        point = reply.get("point")
+        return {
+            "point": None if point is None else np.asarray(point, dtype=float),
+            "reason": reply.get("reason"),
+        }
+
+    def plan_route(
+        self, recon: Reconstruction, start_view: int, goal: Any, robot_radius: float = 0.25
+    ) -> dict:
+        """A robot's route from the floor below view `start_view`'s camera to the world point `goal`:
+        {"reachable", "summary", "steps": [{"turn_degrees" (left-positive), "move"}], "sentences",
+        "length", "units", "reason", ...}."""
+        _require_reconstruction(recon, "plan_route")
+        index = _view_index(start_view, recon, "plan_route")
+        radius = _number(robot_radius, "robot_radius")
+        if not 0 < radius <= 5:
+            raise ValueError("robot_radius must be in (0, 5] metres")
+        target = _point(goal, "plan_route").tolist()
+        return dict(
+            self._channel.call("plan_route", {"start_view": index, "goal": target, "robot_radius": radius})
+        )
+
     # ---- helpers code models reach for --------------------------------------------------------
 
     def camera_center(self, extrinsic: Any) -> np.ndarray:
@@ -361,6 +389,14 @@ def _view_pair(from_view: Any, to_view: Any, views: int) -> tuple[int, int]:
 def _require_reconstruction(value: Any, tool: str) -> None:
     if not isinstance(value, Reconstruction):
         raise TypeError(f"{tool} takes the Reconstruction returned by pySpatial.reconstruct(input_scene)")
+
+
+def _view_index(value: Any, recon: Reconstruction, tool: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise TypeError(f"{tool}: the view is an integer index (0-based), got {type(value).__name__}")
+    if not 0 <= int(value) < recon.num_views:
+        raise ValueError(f"{tool}: view {int(value)} does not exist; views are 0..{recon.num_views - 1}")
+    return int(value)
 
 
 def _number(value: Any, label: str) -> float:

@@ -25,7 +25,14 @@ import selectors
 import time
 from typing import Any, BinaryIO
 
-TOOL_NAMES = ("reconstruct", "describe_camera_motion", "synthesize_novel_view", "get_input_image")
+TOOL_NAMES = (
+    "reconstruct",
+    "describe_camera_motion",
+    "synthesize_novel_view",
+    "get_input_image",
+    "locate",
+    "plan_route",
+)
 
 
 class ProtocolError(RuntimeError):

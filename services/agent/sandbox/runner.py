@@ -4,6 +4,7 @@ tool calls from a `ToolProvider`."""
 from __future__ import annotations
 
 import io
+import math
 import sys
 import tempfile
 import time
@@ -49,6 +50,12 @@ class ToolProvider(Protocol):
 
     def input_image(self, index: int) -> bytes:
         """PNG of input view `index` (0-based)."""
+
+    def locate(self, view: int, u: float, v: float) -> dict:
+        """{"point": [x, y, z] or None, "reason": str or None} at pixel (u, v) of view `view`."""
+
+    def plan_route(self, start_view: int, goal: list[float], robot_radius: float) -> dict:
+        """A route plan as `shared.navigation.RoutePlan.to_dict()` plus "summary"."""
 
 
 class _ToolBroker:
@@ -122,6 +129,22 @@ class _ToolBroker:
         width, height = _png_size(self.input_png(index))
         return {"width": width, "height": height}
 
+    def _locate(self, arguments: dict) -> dict:
+        view = _checked_view(arguments.get("view"), self.num_images)
+        u, v = (_checked_number(arguments.get(name), name) for name in ("u", "v"))
+        return _plain(self.tools.locate(view, u, v))
+
+    def _plan_route(self, arguments: dict) -> dict:
+        start = _checked_view(arguments.get("start_view"), self.num_images)
+        goal = arguments.get("goal")
+        if not isinstance(goal, list) or len(goal) != 3:
+            raise ToolFailure("goal must be 3 numbers (a world point)")
+        point = [_checked_number(value, "goal") for value in goal]
+        radius = _checked_number(arguments.get("robot_radius"), "robot_radius")
+        if not 0 < radius <= 5:
+            raise ToolFailure("robot_radius must be in (0, 5]")
+        return _plain(self.tools.plan_route(start, point, radius))
+
     def input_png(self, index: int) -> bytes:
         handle = f"input:{index}"
         if handle not in self.images:
@@ -139,6 +162,18 @@ class _ToolBroker:
         if handle not in self.images:
             raise ProtocolError(f"unknown image handle {handle!r}")
         return self.images[handle]
+
+
+def _checked_view(value: Any, num_images: int) -> int:
+    if type(value) is not int or not 0 <= value < num_images:
+        raise ToolFailure(f"view index must be 0..{num_images - 1}")
+    return value
+
+
+def _checked_number(value: Any, label: str) -> float:
+    if type(value) not in (int, float) or not math.isfinite(value):
+        raise ToolFailure(f"{label} must be a finite number")
+    return float(value)
 
 
 def _checked_extrinsic(value: Any) -> list[list[float]]:

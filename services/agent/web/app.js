@@ -2,12 +2,14 @@
 // dom.js, api.js (key, requests, the solve's event stream), messages.js (the one error message),
 // photos.js (choose, drop anywhere, paste), gallery.js (examples), progress.js (stages, clock,
 // upload), result.js, scene.js and viewer.js (the 3D view and its controls), and solve.js, the
-// page's mode. A new mode is a module like solve.js, mounted here.
+// page's first mode, and route.js (a goal clicked on a photo, POST /v1/route, the path in 3D). A
+// new mode is a module like these, mounted here.
 import { $, element } from "/web/dom.js";
 import { apiFetch, restoreApiKey } from "/web/api.js";
 import { mountGallery } from "/web/gallery.js";
 import { mountPhotos } from "/web/photos.js";
 import { mountSceneControls } from "/web/scene.js";
+import { mountRouteMode } from "/web/route.js";
 import { mountSolveMode } from "/web/solve.js";
 
 async function loadBackbones() {
@@ -30,5 +32,6 @@ restoreApiKey(() => {
 mountPhotos();
 mountSceneControls();
 mountSolveMode();
+mountRouteMode();
 loadBackbones();
 mountGallery();

@@ -13,6 +13,7 @@ export function setFiles(files) {
     element("img", { src: photos.urls[i], alt: `image ${i + 1}: ${file.name}` }),
     element("div", { textContent: `image ${i + 1}` }))));
   $("photo-count").textContent = files.length ? `${files.length} photo${files.length === 1 ? "" : "s"} chosen` : "";
+  document.dispatchEvent(new CustomEvent("photos-changed")); // the route mode's goal photos follow
 }
 
 function sortedByName(files) {

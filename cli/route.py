@@ -1,0 +1,103 @@
+"""`pyspatial route`: a route plan from a start view to a goal through the agent's POST /v1/route."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import typer
+
+from cli.api_keys import agent_key_option
+from cli.console import console, fail, service_errors
+from cli.images import collect_images
+from cli.progress import spinner
+from shared.wire.client import AgentClient
+from shared.wire.settings import DEFAULT_AGENT_PORT
+
+DEFAULT_AGENT_URL = f"http://127.0.0.1:{DEFAULT_AGENT_PORT}"
+
+
+def parse_goal(pixel: str | None, world: str | None, camera: str | None) -> dict:
+    """The goal of the request from exactly one of the three options."""
+    given = [value for value in (pixel, world, camera) if value]
+    if len(given) != 1:
+        raise fail("give exactly one of --goal-pixel VIEW:U,V, --goal-world X,Y,Z or --goal-camera X,Y,Z")
+    try:
+        if pixel:
+            view, _, coordinates = pixel.partition(":")
+            u, v = (float(part) for part in coordinates.split(","))
+            return {"pixel": {"view": int(view), "u": u, "v": v}}
+        point = [float(part) for part in (world or camera).split(",")]
+    except ValueError:
+        raise fail(
+            "could not read the goal: --goal-pixel is VIEW:U,V (2:320,200); points are X,Y,Z"
+        ) from None
+    if len(point) != 3:
+        raise fail("a goal point is three numbers X,Y,Z")
+    return {"point_world": point} if world else {"point_start_camera": point}
+
+
+def _posed_inputs(depths: list[Path] | None, cameras: Path | None) -> dict:
+    if not depths and cameras is None:
+        return {}
+    if not depths or cameras is None:
+        raise fail("--depths and --cameras go together (posed RGB-D)")
+    try:
+        given = json.loads(cameras.read_text())
+        arrays = [np.load(path, allow_pickle=False) for path in depths]
+    except (OSError, ValueError) as error:
+        raise fail(f"could not read the posed inputs: {error}") from None
+    if not isinstance(given, dict) or "extrinsics" not in given or "intrinsics" not in given:
+        raise fail('--cameras is a JSON file {"extrinsics": [3x4 ...], "intrinsics": [3x3 ...]}')
+    return {"depths": arrays, "extrinsics": given["extrinsics"], "intrinsics": given["intrinsics"]}
+
+
+def route(
+    photos: list[Path] = typer.Argument(..., help="Image files, or one folder (sorted by name)."),
+    start_view: int = typer.Option(1, help="The view (1-based) whose camera stands above the robot."),
+    goal_pixel: str | None = typer.Option(None, help="VIEW:U,V, a pixel (column, row) of a view (1-based)."),
+    goal_world: str | None = typer.Option(None, help="X,Y,Z in the reconstruction's world frame."),
+    goal_camera: str | None = typer.Option(None, help="X,Y,Z in the start camera's frame (OpenCV axes)."),
+    depths: list[Path] = typer.Option(None, help="Per view a .npy z-depth in metres (with --cameras)."),
+    cameras: Path | None = typer.Option(None, help='JSON {"extrinsics": [...], "intrinsics": [...]}.'),
+    radius: float = typer.Option(0.25, help="The robot's radius, metres."),
+    height: float = typer.Option(0.5, help="The top of the robot's body above the floor, metres."),
+    floor_clearance: float = typer.Option(0.05, help="The bottom of its body: lower things are driven over."),
+    backbone: str | None = typer.Option(None, help="Reconstruction backbone (posed-rgbd with depths)."),
+    out: Path | None = typer.Option(
+        None, help="Where to write the plan [default: pyspatial-out/route/SCENE.json]."
+    ),
+    agent_url: str = typer.Option(DEFAULT_AGENT_URL, envvar="PYSPATIAL_AGENT_URL", help="Agent service."),
+    timeout: float = typer.Option(900.0, help="Seconds to wait for the plan."),
+    api_key: str | None = agent_key_option(),
+) -> None:
+    """Plan turns and forward moves from the floor below a view's camera to a goal, avoiding obstacles."""
+    goal = parse_goal(goal_pixel, goal_world, goal_camera)
+    try:
+        paths = collect_images(photos)
+    except ValueError as error:
+        raise fail(str(error)) from None
+    posed = _posed_inputs(depths, cameras)
+    robot = {"radius": radius, "height": height, "floor_clearance": floor_clearance}
+    with service_errors(), AgentClient(agent_url, timeout=timeout, api_key=api_key) as client:
+        with spinner(f"planning a route over {len(paths)} photos"):
+            plan = client.route(
+                goal, images=paths, start_view=start_view, robot=robot, backbone=backbone, **posed
+            )
+    target = out or Path("pyspatial-out") / "route" / f"{plan.scene_id}.json"
+    target.parent.mkdir(parents=True, exist_ok=True)
+    target.write_text(plan.model_dump_json(indent=2))
+    if plan.reachable:
+        unit = "m" if plan.units == "metres" else "scene units"
+        for number, sentence in enumerate(plan.sentences, 1):
+            console.print(f"{number}. {sentence}")
+        console.print(
+            f"length {plan.length_m:.2f} {unit} (straight line {plan.straight_line_m:.2f}), "
+            f"smallest clearance {plan.clearance_m:.2f} {unit}; turns are {plan.turn_convention}"
+        )
+    else:
+        console.print(f"[red]no route:[/] {plan.reason}")
+    for warning in plan.warnings:
+        console.print(f"[yellow]warning:[/] {warning}")
+    console.print(f"plan written to {target}")

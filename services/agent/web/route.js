@@ -1,0 +1,117 @@
+// The route mode: click a point on one of the chosen photos to set the goal, then POST /v1/route
+// plans turns and forward moves from the floor below the start view's camera to it. The steps are
+// listed, the path is drawn in a 3D view of its own, and the plan downloads as JSON.
+import * as THREE from "three";
+import { $, element } from "/web/dom.js";
+import { apiFetch, problemOf } from "/web/api.js";
+import { clearProblem, showHint, showProblem } from "/web/messages.js";
+import { photos, withFileNames } from "/web/photos.js";
+import { SceneViewer, webglAvailable } from "/web/viewer.js";
+
+const PATH_COLOR = 0x1a7f37;
+const state = { goal: null, plan: null, viewer: null };
+
+function goalPhotos() {
+  state.goal = null;
+  $("route-goal").textContent = photos.files.length ? "Click a point on a photo to set the goal." : "Choose photos first.";
+  $("route-start").max = String(Math.max(photos.files.length, 1));
+  $("route-photos").replaceChildren(...photos.urls.map((url, i) => element("li", {},
+    element("button", { type: "button", className: "goal-photo", onclick: (event) => setGoal(event, i + 1) },
+      element("img", { src: url, alt: `image ${i + 1}: click to set the goal here` })),
+    element("div", { textContent: `image ${i + 1}` }))));
+}
+
+// The clicked pixel in the photo's own pixels (column, row), whatever size it is drawn at.
+function setGoal(event, view) {
+  const img = event.currentTarget.querySelector("img");
+  const box = img.getBoundingClientRect();
+  const u = Math.round(((event.clientX - box.left) * img.naturalWidth) / box.width);
+  const v = Math.round(((event.clientY - box.top) * img.naturalHeight) / box.height);
+  state.goal = { view, u, v };
+  document.querySelectorAll("#route-photos button").forEach((button, i) => button.setAttribute("aria-pressed", String(i + 1 === view)));
+  $("route-goal").textContent = `Goal: image ${view} at pixel (${u}, ${v}).`;
+}
+
+function formOf() {
+  const form = new FormData();
+  photos.files.forEach((file) => form.append("images", file, file.name));
+  form.append("start_view", $("route-start").value || "1");
+  form.append("goal", JSON.stringify({ pixel: state.goal }));
+  form.append("robot", JSON.stringify({ radius: Number($("route-radius").value) || 0.25 }));
+  if ($("backbone").value) form.append("backbone", $("backbone").value);
+  return form;
+}
+
+function showPlan(plan) {
+  const unit = plan.units === "metres" ? "m" : "scene units";
+  $("route-summary").textContent = plan.reachable
+    ? `${plan.steps.length} step(s), ${plan.length_m.toFixed(2)} ${unit} (straight line ${plan.straight_line_m.toFixed(2)}); turns are ${plan.turn_convention}.`
+    : `No route: ${plan.reason}`;
+  $("route-steps").replaceChildren(...plan.sentences.map((sentence) => element("li", { textContent: sentence })));
+  $("route-warnings").replaceChildren(...plan.warnings.map((text) => element("li", { textContent: text })));
+  $("route-result").hidden = false;
+}
+
+async function drawPath(plan) {
+  const canvas = $("route-viewer");
+  if (!webglAvailable()) {
+    $("route-viewer-status").textContent = "This browser has no WebGL, so the 3D view is off.";
+    return;
+  }
+  const query = new URLSearchParams({ max_points: "30000", backbone: plan.backbone });
+  const response = await apiFetch(`/v1/scenes/${encodeURIComponent(plan.scene_id)}/points?${query}`);
+  if (!response.ok) {
+    $("route-viewer-status").textContent = `The 3D view could not be loaded: ${(await problemOf(response)).detail}`;
+    return;
+  }
+  if (!state.viewer) state.viewer = new SceneViewer(canvas, () => {});
+  state.viewer.show(await response.json(), []);
+  const points = plan.path_world.map(([x, y, z]) => new THREE.Vector3(x, y, z));
+  if (points.length > 1) {
+    const line = new THREE.Line(new THREE.BufferGeometry().setFromPoints(points), new THREE.LineBasicMaterial({ color: PATH_COLOR }));
+    line.renderOrder = 5;
+    state.viewer.content.add(line);
+  }
+  state.viewer.draw();
+  canvas.dataset.pathPoints = String(points.length > 1 ? points.length : 0);
+  $("route-viewer-status").textContent = points.length > 1 ? "The route is drawn in green from the start to the goal." : "No path to draw.";
+}
+
+function downloadPlan() {
+  const blob = new Blob([JSON.stringify(state.plan, null, 2)], { type: "application/json" });
+  const url = URL.createObjectURL(blob);
+  const link = element("a", { href: url, download: `route-${state.plan.scene_id}.json`, hidden: true });
+  document.body.append(link);
+  link.click();
+  link.remove();
+  setTimeout(() => URL.revokeObjectURL(url), 60000);
+}
+
+async function planRoute(event) {
+  event.preventDefault();
+  clearProblem();
+  if (!photos.files.length) return showHint("Choose the photos first (drop or paste them, or load an example).");
+  if (!state.goal) return showHint("Click a point on one of the photos to set the goal.");
+  $("plan-route").disabled = true;
+  $("route-status").textContent = "planning …";
+  try {
+    const response = await apiFetch("/v1/route", { method: "POST", body: formOf() });
+    if (!response.ok) {
+      $("route-status").textContent = "";
+      return showProblem(await problemOf(response), withFileNames);
+    }
+    state.plan = await response.json();
+    $("route-status").textContent = "";
+    showPlan(state.plan);
+    await drawPath(state.plan);
+  } finally {
+    $("plan-route").disabled = false;
+  }
+}
+
+export function mountRouteMode() {
+  document.addEventListener("photos-changed", goalPhotos);
+  $("route-form").addEventListener("submit", planRoute);
+  $("download-plan").addEventListener("click", downloadPlan);
+  goalPhotos();
+}
