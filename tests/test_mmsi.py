@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
@@ -23,7 +24,7 @@ from evaluation.mmsi import (
     rotated_question,
 )
 from evaluation.solvers import Prediction
-from shared.synthetic.mmsi import MOTION_CAM, mmsi_rows, write_parquet
+from shared.synthetic.mmsi import MOTION_CAM, MOTIONS, mmsi_rows, motion_word, moved_camera, write_parquet
 
 
 @pytest.fixture(scope="module")
@@ -180,3 +181,9 @@ def test_the_command_writes_predictions_and_a_summary(parquet, rows, tmp_path):
     assert len(out.read_text().splitlines()) == len(rows)
     failed = CliRunner().invoke(app, ["eval", "mmsi", "--out", str(out)])
     assert failed.exit_code == 2 and "exactly one of --parquet" in failed.output
+
+
+@pytest.mark.parametrize("motion", list(MOTIONS))
+def test_every_motion_word_the_generator_asks_is_what_camera_motion_says(motion):
+    first = np.hstack([np.eye(3), np.array([[0.0], [1.5], [2.0]])])  # any valid camera
+    assert motion_word(first, moved_camera(first, motion)) == motion
