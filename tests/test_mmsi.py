@@ -4,6 +4,9 @@ synthetic generator: reading in row groups, both extractors, circular scoring, r
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
 
 import numpy as np
 import pyarrow as pa
@@ -15,6 +18,8 @@ from cli.main import app
 from evaluation.dataset import DatasetError
 from evaluation.mmsi import (
     CIRCULAR_MARK,
+    HUB_FILE,
+    HUB_REPO,
     PUBLISHED_POST_PROMPT,
     RecordedReplies,
     circular_items,
@@ -25,6 +30,7 @@ from evaluation.mmsi import (
 )
 from evaluation.solvers import Prediction
 from shared.synthetic.mmsi import MOTION_CAM, MOTIONS, mmsi_rows, motion_word, moved_camera, write_parquet
+from tests.support.hub_standin import HubStandIn
 
 
 @pytest.fixture(scope="module")
@@ -187,3 +193,25 @@ def test_the_command_writes_predictions_and_a_summary(parquet, rows, tmp_path):
 def test_every_motion_word_the_generator_asks_is_what_camera_motion_says(motion):
     first = np.hstack([np.eye(3), np.array([[0.0], [1.5], [2.0]])])  # any valid camera
     assert motion_word(first, moved_camera(first, motion)) == motion
+
+
+@pytest.mark.slow  # a CLI child process against the hub stand-in: about a minute on a busy machine
+def test_fetch_pulls_the_parquet_through_huggingface_hub(parquet, tmp_path):
+    hub = HubStandIn()
+    hub.host(HUB_REPO, HUB_FILE, parquet)
+    url = hub.start()
+    try:
+        items = read_mmsi(parquet, tmp_path / "images", limit=2)
+        replies = tmp_path / "replies.jsonl"
+        replies.write_text("".join(json.dumps({"id": i.id, "reply": i.gt_answer}) + "\n" for i in items))
+        environment = {k: v for k, v in os.environ.items() if not k.startswith(("HF_", "PYSPATIAL_"))}
+        environment.update(HF_HOME=str(tmp_path / "hf"), HF_ENDPOINT=url, HF_HUB_DISABLE_TELEMETRY="1")
+        out = tmp_path / "fetched.jsonl"
+        command = [sys.executable, "-m", "cli.main", "eval", "mmsi", "--fetch", "--limit", "2"]
+        command += ["--replies", str(replies), "--out", str(out), "--no-progress"]
+        done = subprocess.run(command, env=environment, capture_output=True, text=True, timeout=120)
+    finally:
+        hub.stop()
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert any("datasets/RunsenXu/MMSI-Bench/resolve" in path for _, path, _ in hub.requests)
+    assert json.loads(out.with_suffix(".summary.json").read_text())["types"]["overall"]["accuracy"] == 1.0
