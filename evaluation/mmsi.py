@@ -24,8 +24,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import pyarrow.parquet as pq
-
 from evaluation.answers import answer_letter
 from evaluation.dataset import BenchmarkItem, DatasetError
 from evaluation.metrics import Score
@@ -81,7 +79,9 @@ def _write_images(row_id: str, images: Any, image_dir: Path) -> list[Path]:
     return paths
 
 
-def _checked_columns(parquet: Path) -> tuple[pq.ParquetFile, list[str]]:
+def _checked_columns(parquet: Path) -> tuple[Any, list[str]]:
+    import pyarrow.parquet as pq  # here, not at import: every pyspatial command imports this module
+
     try:
         table_file = pq.ParquetFile(parquet)
     except Exception as error:

@@ -261,6 +261,8 @@ class PySpatial(_Frozen):
         return reconstruction
 
     def describe_camera_motion(self, recon: Reconstruction) -> str:
+        """One sentence per consecutive pair, in the earlier view's image axes (plus the gravity
+        frame when it says otherwise): step with its size, turn, tilt, roll, or stayed still."""
         _require_reconstruction(recon, "describe_camera_motion")
         sentences = self._channel.call("describe_camera_motion", {})
         return "\n".join(str(sentence) for sentence in sentences)
