@@ -30,7 +30,7 @@ from evaluation.metrics import Score
 from evaluation.runner import run_items
 from evaluation.solvers import Prediction, solve_safely
 from shared.imaging.codecs import decode_image
-from shared.questions.choices import parse_options
+from shared.questions.intent import parse_question
 
 HUB_REPO = "RunsenXu/MMSI-Bench"
 HUB_FILE = "MMSI_Bench.parquet"
@@ -147,8 +147,8 @@ def rotated_question(question: str, shift: int) -> tuple[str, dict[str, str]]:
     marker = list(_OPTIONS_AT.finditer(question))
     if not marker:
         raise DatasetError(f"no 'Options:' in the question {question[:80]!r}")
-    stem, tail = question[: marker[-1].end()], question[marker[-1].end() :]
-    options = parse_options(tail)
+    stem = question[: marker[-1].end()]
+    options = parse_question(question).options  # the one question parser reads "Options: A: ..."
     if len(options) < 2:
         raise DatasetError(f"fewer than two options after 'Options:' in {question[:80]!r}")
     texts = list(options.values())

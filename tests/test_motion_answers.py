@@ -56,7 +56,7 @@ def test_the_option_that_means_the_motion_is_chosen(step, rotation, option, word
 def test_the_question_gives_bare_words_their_sense():
     tilted = clue(pair(rotation_in_camera=_axis_rotation("x", 15.0)))
     question = "Which way did the camera tilt from image 1 to image 2? A. Up B. Down C. Left D. Right"
-    assert asked_motion(parse_question(question, 2).ask) == "tilt"
+    assert asked_motion(parse_question(question, 2).ask) == "tilt" == parse_question(question, 2).motion_asked
     assert answer_offline(parse_question(question, 2), tilted, []).answer == "A"
 
 
@@ -70,7 +70,7 @@ def test_the_room_frame_is_read_when_the_question_names_it():
     in_room = parse_question(
         "Which way did the camera move in the room from image 1 to image 2?" + options, 2
     )
-    assert asked_frame(in_room.text) == "gravity" and asked_frame(in_photo.text) == "image"
+    assert asked_frame(in_room.text) == "gravity" == in_room.motion_frame and in_photo.motion_frame == "image"
     assert answer_offline(in_photo, text, []).answer == "A"
     assert answer_offline(in_room, text, []).answer == "C"
 

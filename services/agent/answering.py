@@ -40,7 +40,7 @@ from services.agent.motion_clue import (
 from services.agent.prompts import load_template
 from shared.questions.choices import extract_letter
 from shared.questions.intent import QuestionIntent
-from shared.questions.motion_words import agrees, asked_motion, read_motion
+from shared.questions.motion_words import agrees, read_motion
 
 DEFAULT_TEMPLATE = "answer_v1"
 IMAGES_ONLY_TEMPLATE = "answer_images_only_v1"
@@ -246,8 +246,8 @@ def _match_motion(
 
     Of several that agree, the one closest in degrees, then the one stating the most, wins.
     """
-    asked = "turn" if intent.asks_turn_only else asked_motion(intent.ask)
-    said = statement.reading_for(intent.text)
+    asked = intent.motion_asked  # the typed intent says what bare words mean and which frame
+    said = statement.reading_for(intent.motion_frame)
     matches: list[tuple[str, float, int]] = []
     for letter, text in options.items():
         option = read_motion(text, asked)

@@ -27,7 +27,7 @@ from services.agent.motion_clue import (
     unreadable_clue,
 )
 from shared.questions.intent import QuestionIntent
-from shared.questions.motion_words import MotionReading
+from shared.questions.motion_words import Frame, MotionReading
 
 AnswerFormat = Literal["choice", "free_form"]
 CHOICE: AnswerFormat = "choice"
@@ -88,7 +88,7 @@ def answer_offline(intent: QuestionIntent, clue_text: str | None, clue_images: l
     statement, why = pick_statement(intent, statements)
     if statement is None:
         return no_answer(why)
-    words = motion_in_words(statement, intent.asks_turn_only, intent.text)
+    words = motion_in_words(statement, intent.asks_turn_only, intent.motion_frame)
     if words is None:
         return no_answer(f"the offline answerer finds no direction or turn in {statement.sentence!r}")
     return AnswerResult(
@@ -98,7 +98,7 @@ def answer_offline(intent: QuestionIntent, clue_text: str | None, clue_images: l
     )
 
 
-def motion_in_words(statement: MotionStatement, asks_turn_only: bool, question: str = "") -> str | None:
+def motion_in_words(statement: MotionStatement, asks_turn_only: bool, frame: Frame = "image") -> str | None:
     """'moved down (about 0.09 scene units), tilted up by about 8 degrees', 'stayed still', ... or None.
 
     Read through the one vocabulary (shared.questions.motion_words), in the frame the question
@@ -106,7 +106,7 @@ def motion_in_words(statement: MotionStatement, asks_turn_only: bool, question: 
     """
     if asks_turn_only:
         return _turn_words(statement, alone=True)
-    reading = statement.reading_for(question)
+    reading = statement.reading_for(frame)
     clause = statement.gravity_clause if reading is statement.gravity else statement.main_clause
     clause = clause or statement.sentence
     if reading.still:
