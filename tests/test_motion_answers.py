@@ -93,3 +93,8 @@ def test_two_options_that_both_fit_give_no_answer():
     question = "Which way did the camera move from image 1 to image 2? A. Down B. downward C. Up"
     result = answer_offline(parse_question(question, 2), text, [])
     assert result.answer is None and "all fit" in result.reason
+
+
+def test_a_turn_in_place_is_not_still():
+    assert read_motion("It stayed in the same position but turned left").stated() == {"turn": "turn left"}
+    assert read_motion("The camera remained stationary").still
