@@ -6,6 +6,7 @@ the ids already there, so an interrupted run continues where it stopped.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Annotated
 
@@ -16,8 +17,9 @@ from cli.console import explain_service_error
 from evaluation.dataset import DatasetError, default_image_root, read_mindcube
 from evaluation.metrics import summarize_mindcube
 from evaluation.mindcube import MINDCUBE_INSTRUCTION, evaluate_mindcube
+from evaluation.mmsi import RecordedReplies, evaluate_mmsi, fetch_parquet, read_mmsi
 from evaluation.omni3d import OMNI3D_INSTRUCTION, evaluate_omni3d
-from evaluation.report import mindcube_report, omni3d_report, report_console
+from evaluation.report import mindcube_report, mmsi_table, omni3d_report, report_console
 from evaluation.runner import read_results
 from evaluation.solvers import BaselineSolver, NoAnswerModel, answer_model_config, pyspatial_solver
 from services.agent.llm import ChatClient
@@ -210,3 +212,69 @@ def baseline(
         mindcube_report(rows, title="MindCube accuracy (%): the answer model alone and with pySpatial")
     )
     console.print(f"results: {out}")
+
+
+@eval_app.command("mmsi")
+def mmsi(
+    parquet: Annotated[
+        Path | None,
+        typer.Option("--parquet", exists=True, dir_okay=False, help="A local MMSI_Bench.parquet."),
+    ] = None,
+    fetch: Annotated[
+        bool, typer.Option("--fetch", help="Get MMSI_Bench.parquet from the hub (RunsenXu/MMSI-Bench).")
+    ] = False,
+    types: Annotated[
+        list[str] | None,
+        typer.Option("--types", help="Only these question types (repeat, or comma-separated)."),
+    ] = None,
+    circular: Annotated[
+        bool,
+        typer.Option(
+            "--circular", help="Ask each question once per rotation of its options; all must be right."
+        ),
+    ] = False,
+    replies: Annotated[
+        Path | None,
+        typer.Option(
+            "--replies", exists=True, dir_okay=False, help="Score recorded replies (JSONL id, reply)."
+        ),
+    ] = None,
+    limit: LimitOption = None,
+    concurrency: ConcurrencyOption = 4,
+    out: Annotated[Path, typer.Option("--out", help="Predictions, one JSON line per question.")] = Path(
+        "mmsi_results.jsonl"
+    ),
+    resume: ResumeOption = False,
+    agent_url: AgentUrlOption = DEFAULT_AGENT_URL,
+    backbone: BackboneOption = None,
+    progress: ProgressOption = True,
+    api_key: AgentKeyOption = None,
+) -> None:
+    """Answer MMSI-Bench with pySpatial (POST /v1/solve), or score recorded replies, per question type.
+
+    Both the project's extractor and MMSI-Bench's published one score every reply; the summary is
+    printed and written next to --out (.summary.json).
+    """
+    if (parquet is None) == (not fetch):
+        raise _fail("give exactly one of --parquet PATH or --fetch")
+    wanted = [name.strip() for value in types or [] for name in value.split(",") if name.strip()] or None
+    try:
+        source = parquet if parquet is not None else fetch_parquet()
+        items = read_mmsi(source, out.parent / f"{out.stem}_images", limit, wanted)
+        if replies is not None:
+            records, summary = evaluate_mmsi(
+                items, RecordedReplies(replies).solve, out, circular, concurrency, resume, console, progress
+            )
+        else:
+            with pyspatial_solver(agent_url, out.parent, backbone, api_key=api_key) as solver:
+                records, summary = evaluate_mmsi(
+                    items, solver.solve, out, circular, concurrency, resume, console, progress
+                )
+    except DatasetError as error:
+        raise _fail(str(error)) from error
+    except ServiceError as error:
+        raise _fail(explain_service_error(error)) from error
+    console.print(mmsi_table(summary))
+    summary_path = out.with_suffix(".summary.json")
+    summary_path.write_text(json.dumps(summary.as_dict(), indent=2) + "\n", encoding="utf-8")
+    console.print(f"results: {out} ({len(records)} predictions); summary: {summary_path}")

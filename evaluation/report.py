@@ -154,3 +154,32 @@ def omni3d_table(summaries: Sequence[Omni3DSummary], title: str = "Omni3D-Bench 
 
 def omni3d_report(summaries: Sequence[Omni3DSummary], title: str = "Omni3D-Bench (%)") -> Group:
     return Group(omni3d_table(summaries, title), pipeline_table(summaries))
+
+
+def mmsi_table(summary, title: str | None = None) -> Table:
+    """MMSI-Bench per question type: both extractors' accuracy, answered / refused / errors, wall time."""
+    mode = "circular" if summary.circular else "plain"
+    table = Table(title=title or f"MMSI-Bench accuracy (%), {mode} scoring: {summary.system}")
+    for heading in (
+        "Type",
+        "N",
+        "Accuracy",
+        "Published extraction",
+        "Answered",
+        "Refused",
+        "Errors",
+        "Wall s",
+    ):
+        table.add_column(heading, justify="left" if heading == "Type" else "right")
+    for name, row in summary.rows.items():
+        table.add_row(
+            name,
+            str(row.accuracy.count),
+            percent(row.accuracy),
+            percent(row.published),
+            str(row.answered),
+            str(row.refused),
+            str(row.errors),
+            f"{row.wall_s:.1f}",
+        )
+    return table

@@ -56,7 +56,7 @@ def test_the_option_that_means_the_motion_is_chosen(step, rotation, option, word
 def test_the_question_gives_bare_words_their_sense():
     tilted = clue(pair(rotation_in_camera=_axis_rotation("x", 15.0)))
     question = "Which way did the camera tilt from image 1 to image 2? A. Up B. Down C. Left D. Right"
-    assert asked_motion(parse_question(question, 2).ask) == "tilt"
+    assert asked_motion(parse_question(question, 2).ask) == "tilt" == parse_question(question, 2).motion_asked
     assert answer_offline(parse_question(question, 2), tilted, []).answer == "A"
 
 
@@ -70,7 +70,7 @@ def test_the_room_frame_is_read_when_the_question_names_it():
     in_room = parse_question(
         "Which way did the camera move in the room from image 1 to image 2?" + options, 2
     )
-    assert asked_frame(in_room.text) == "gravity" and asked_frame(in_photo.text) == "image"
+    assert asked_frame(in_room.text) == "gravity" == in_room.motion_frame and in_photo.motion_frame == "image"
     assert answer_offline(in_photo, text, []).answer == "A"
     assert answer_offline(in_room, text, []).answer == "C"
 
@@ -93,3 +93,8 @@ def test_two_options_that_both_fit_give_no_answer():
     question = "Which way did the camera move from image 1 to image 2? A. Down B. downward C. Up"
     result = answer_offline(parse_question(question, 2), text, [])
     assert result.answer is None and "all fit" in result.reason
+
+
+def test_a_turn_in_place_is_not_still():
+    assert read_motion("It stayed in the same position but turned left").stated() == {"turn": "turn left"}
+    assert read_motion("The camera remained stationary").still

@@ -22,7 +22,7 @@ from shared.imaging.exif import FILM_DIAGONAL_MM
 from shared.local.services import running_service
 from shared.synthetic import default_intrinsic, generate_scene, look_at, render_view
 from shared.synthetic.photo import photo_bytes
-from shared.wire.client import AgentClient, ReconClient
+from shared.wire.client import AgentClient, ReconClient, ServiceError
 from tests.support.realdata import pose_errors, temple_ring
 
 RECON_APP = "services.recon.app:create_app"
@@ -372,3 +372,28 @@ def test_camera_motion_on_exact_cameras(client, room, second_from_first, sentenc
     scene = client.upload_scene(pngs, depths=depths, extrinsics=extrinsics, intrinsics=intrinsics)
     response = client.camera_motion(scene.scene_id, backbone="posed-rgbd")
     assert response.text == sentence
+
+
+def test_camera_motion_toward_a_target_point_pixel_or_the_scene_centre(client, room):
+    from shared.geometry.poses import camera_center
+    from shared.wire.schemas import MotionTarget, PixelTarget
+
+    pngs, depths, extrinsics, intrinsics = exact_pair(room, lambda first: moved(first, first[2, :3] * 0.5))
+    scene = client.upload_scene(pngs, depths=depths, extrinsics=extrinsics, intrinsics=intrinsics)
+    ahead = MotionTarget(pixel=PixelTarget(view=0, u=80, v=60), name="the wall ahead")
+    [motion] = client.camera_motion(scene.scene_id, backbone="posed-rgbd", target=ahead).motions
+    before, after = motion.target_distances
+    assert motion.target_change == "closer" and before - after == pytest.approx(0.5, abs=0.05)
+    assert "; it came closer to the wall ahead (" in motion.sentence
+    assert motion.image.direction == "forward" and motion.thresholds.turn_deg == 10.0
+    behind = camera_center(extrinsics[0]) - 2.0 * extrinsics[0][2, :3]
+    [away] = client.camera_motion(
+        scene.scene_id, backbone="posed-rgbd", target=MotionTarget(point=tuple(behind))
+    ).motions
+    assert away.target_change == "farther" and "moved farther from the target point" in away.sentence
+    [centre] = client.camera_motion(
+        scene.scene_id, backbone="posed-rgbd", target=MotionTarget(scene_centre=True)
+    ).motions
+    assert centre.target_change is not None and "the scene's centre" in centre.sentence
+    with pytest.raises(ServiceError, match="exactly one of point, pixel or scene_centre"):
+        client.camera_motion(scene.scene_id, backbone="posed-rgbd", target=MotionTarget())

@@ -48,7 +48,7 @@ from shared.questions.choices import (
     turn_degrees,
 )
 from shared.questions.intent import QuestionIntent
-from shared.questions.motion_words import agrees, asked_motion, read_motion
+from shared.questions.motion_words import agrees, read_motion
 
 DEFAULT_TEMPLATE = "answer_v1"
 IMAGES_ONLY_TEMPLATE = "answer_images_only_v1"
@@ -242,8 +242,8 @@ def _match_motion(
 
     Of several that agree, the one closest in degrees, then the one stating the most, wins.
     """
-    asked = "turn" if intent.asks_turn_only else asked_motion(intent.ask)
-    said = statement.reading_for(intent.text)
+    asked = intent.motion_asked  # the typed intent says what bare words mean and which frame
+    said = statement.reading_for(intent.motion_frame)
     matches: list[tuple[str, float, int]] = []
     for letter, text in options.items():
         option = read_motion(text, asked)

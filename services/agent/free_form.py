@@ -29,7 +29,7 @@ from services.agent.motion_clue import (
     unreadable_clue,
 )
 from shared.questions.intent import QuestionIntent
-from shared.questions.motion_words import MotionReading
+from shared.questions.motion_words import Frame, MotionReading
 
 AnswerFormat = Literal["choice", "free_form"]
 CHOICE: AnswerFormat = "choice"
@@ -92,7 +92,7 @@ def answer_offline(intent: QuestionIntent, clue_text: str | None, clue_images: l
         return no_answer(why)
     if statement.over_focal is not None:
         return _over_focal_in_words(statement, intent.asks_turn_only)
-    words = motion_in_words(statement, intent.asks_turn_only, intent.text)
+    words = motion_in_words(statement, intent.asks_turn_only, intent.motion_frame)
     if words is None:
         return no_answer(f"the offline answerer finds no direction or turn in {statement.sentence!r}")
     return AnswerResult(
@@ -132,7 +132,7 @@ def _over_focal_in_words(statement: MotionStatement, asks_turn_only: bool) -> An
     )
 
 
-def motion_in_words(statement: MotionStatement, asks_turn_only: bool, question: str = "") -> str | None:
+def motion_in_words(statement: MotionStatement, asks_turn_only: bool, frame: Frame = "image") -> str | None:
     """'moved down (about 0.09 scene units), tilted up by about 8 degrees', 'stayed still', ... or None.
 
     Read through the one vocabulary (shared.questions.motion_words), in the frame the question
@@ -140,7 +140,7 @@ def motion_in_words(statement: MotionStatement, asks_turn_only: bool, question: 
     """
     if asks_turn_only:
         return _turn_words(statement, alone=True)
-    reading = statement.reading_for(question)
+    reading = statement.reading_for(frame)
     clause = statement.gravity_clause if reading is statement.gravity else statement.main_clause
     clause = clause or statement.sentence
     if reading.still:

@@ -17,7 +17,7 @@ from pydantic import BaseModel
 from shared.geometry.camera_motion import describe_turn, direction_name
 from shared.questions.choices import normalize_direction, normalize_turn, turn_degrees
 from shared.questions.intent import QuestionIntent
-from shared.questions.motion_words import MotionReading, asked_frame, read_motion
+from shared.questions.motion_words import Frame, MotionReading, read_motion
 
 VISION_MODEL_HINT = (
     "set PYSPATIAL_ANSWER_MODEL (and PYSPATIAL_ANSWER_MODEL_BASE_URL, PYSPATIAL_ANSWER_MODEL_API_KEY) "
@@ -58,9 +58,9 @@ class MotionStatement(BaseModel):
     heading_deg: float | None = None  # of the step, 0 forward, + right: set on hypothetical statements
 
 
-    def reading_for(self, question: str) -> MotionReading:
-        """The reading in the frame the question means (the image frame unless it names the room)."""
-        if asked_frame(question) == "gravity" and self.gravity is not None:
+    def reading_for(self, frame: Frame) -> MotionReading:
+        """The reading in the frame the question means (its intent's `motion_frame`)."""
+        if frame == "gravity" and self.gravity is not None:
             return self.gravity
         return self.reading or read_motion(self.sentence)
 

@@ -30,6 +30,7 @@ from typing import Literal
 from pydantic import BaseModel, Field
 
 from shared.questions.choices import split_options
+from shared.questions.motion_words import AskedMotion, Frame, asked_frame, asked_motion
 
 Setting = Literal["among", "around", "rotation", "translation", "unknown"]
 Family = Literal[
@@ -77,6 +78,14 @@ class QuestionIntent(BaseModel):
     asked_view: int | None = Field(None, description="1-based view the question is asked from.")
     motion_pair: tuple[int, int] | None = Field(None, description="Views of a self-movement question.")
     asks_turn_only: bool = False  # "how did I turn?": the answer is a turn, not a walk
+    motion_asked: AskedMotion = Field(
+        "any",
+        description="Self-movement: what bare option words name (tilt: 'Up' is a tilt), see motion_words.",
+    )
+    motion_frame: Frame = Field(
+        "image",
+        description="Self-movement: the photos' own axes, or the room's gravity frame when it says so.",
+    )
     steps: list[PoseStep] = Field(default_factory=list)
     direction: Direction | None = Field(None, description="The final direction asked about.")
     target_object: str | None = Field(None, description="The object named: 'the orange ball'.")
@@ -509,6 +518,8 @@ def _as_self_movement(intent: QuestionIntent, pair: tuple[int, int], ask: str) -
     intent.motion_pair = pair
     intent.asked_view = pair[0]
     intent.asks_turn_only = bool(_TURN_VERB.search(ask)) and not _MOVE_VERB.search(ask)
+    intent.motion_asked = "turn" if intent.asks_turn_only else asked_motion(ask)
+    intent.motion_frame = asked_frame(intent.text)
     return intent
 
 

@@ -111,7 +111,11 @@ def read_motion(text: str, asked: AskedMotion = "any") -> MotionReading:
     roll, tilt = _roll_of(words), _tilt_of(words)
     rest = _NO_TILT.sub(" ", _ROLL.sub(" ", _TILT.sub(" ", _STRAIGHT.sub(r"\1", words))))
     turn = normalize_turn(rest)
-    still = bool(_STILL.search(rest)) and not re.search(r"\bstill (?:moved|turned|went)\b", rest)
+    rotated = turn not in (None, "no turn") or tilt not in (None, "no tilt") or roll is not None
+    # "stayed in the same spot and turned left" is a turn, not still
+    still = (
+        bool(_STILL.search(rest)) and not rotated and not re.search(r"\bstill (?:moved|turned|went)\b", rest)
+    )
     direction = None if still else normalize_direction(rest)
     vertical = None if still else _vertical_of(_without_turn_words(rest))
     target = "closer" if _CLOSER.search(rest) else "farther" if _FARTHER.search(rest) else None

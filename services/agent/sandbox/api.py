@@ -264,7 +264,9 @@ class PySpatial(_Frozen):
         self, recon: Reconstruction, from_view: Any = None, to_view: Any = None
     ) -> str:
         """Consecutive pairs' sentences; with from_view and to_view (1-based, as the question counts
-        images) the one sentence of that pair, consecutive or not."""
+        images) the one sentence of that pair, consecutive or not. In the
+        earlier view's image axes (plus the gravity frame when it says otherwise): step with its size,
+        turn, tilt, roll, or stayed still."""
         _require_reconstruction(recon, "describe_camera_motion")
         if from_view is None and to_view is None:
             sentences = self._channel.call("describe_camera_motion", {})
