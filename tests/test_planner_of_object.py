@@ -76,8 +76,8 @@ def _bearing_and_depth(extrinsic: np.ndarray, point: np.ndarray) -> tuple[float,
 def _cases() -> dict[str, tuple]:
     """The first exact case of each kind: (scene, extrinsics, view index, anchor id, answer id, other ids)."""
     found: dict[str, tuple] = {}
-    for index in range(12):
-        scene, rig, _ = _scene_and_rig(7, index, ("among", "around")[index % 2])
+    for index in range(9):  # dataset seed 1: each kind has a case among these scenes
+        scene, rig, _ = _scene_and_rig(1, index, ("among", "around")[index % 2])
         centres = scene.object_centres
         for k, extrinsic in enumerate(rig.extrinsics):
             seen = _visible(scene, extrinsic)
@@ -85,14 +85,16 @@ def _cases() -> dict[str, tuple]:
             behind_camera = {i for i, (b, _) in where.items() if abs(b) > 150}
             for anchor in seen:
                 bearing, depth = where[anchor]
-                if abs(bearing) > 15:
+                if abs(bearing) > 20:
                     continue  # the view looks at the anchor
                 for other in seen - {anchor}:
                     b, d = where[other]
-                    if "behind" not in found and abs(b - bearing) < 8 and d > depth + 0.5 and behind_camera:
+                    if "behind" not in found and abs(b - bearing) < 12 and d > depth + 0.3:
                         found["behind"] = (scene, rig.extrinsics, k, anchor, other, behind_camera)
                     side = "left" if b < bearing else "right"
-                    if side not in found and 10 < abs(b - bearing) < 30:
+                    # The anchor stays in sight after the planner's 20-degree turn toward that side.
+                    in_sight = bearing < 5 if side == "left" else bearing > -5
+                    if side not in found and 10 < abs(b - bearing) < 30 and in_sight:
                         found[side] = (scene, rig.extrinsics, k, anchor, other, behind_camera)
             if len(found) == 3:
                 return found

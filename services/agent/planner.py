@@ -8,7 +8,7 @@ person would write; the program then runs under the same sandbox as model-writte
 - "behind", "left", "right", "front" and the diagonals (relative direction, rotation setting
   included): what lies in that direction from view k: turn that camera in place and render. Of a
   named object seen from view k ("what is behind the sofa"): render view k, which looks at it, and
-  for a side that view turned 30 degrees toward it (the object stays in sight).
+  for a side that view turned 20 degrees toward it (the object stays in sight).
 - "turn_and_move" (what-if): compose the turns and moves in the order asked; closer/farther questions
   get a render before the first move and one after the last; "then what is to your left?" turns once
   more for the final look.
@@ -166,7 +166,7 @@ def _motion_plan(first: int, second: int, intent: QuestionIntent) -> PlannedProg
 # already looks at it (what is behind it lies farther along the same line of sight; what is left of it,
 # a little to the left of it), so the program renders the view itself and, for a side, the view
 # turned a little toward that side, keeping the object in sight. Never the camera turned around.
-_OBJECT_SIDE_DEGREES = 30
+_OBJECT_SIDE_DEGREES = 20
 _OF_OBJECT = """\
 def program(input_scene):
     recon = pySpatial.reconstruct(input_scene)
