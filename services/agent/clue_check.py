@@ -98,8 +98,8 @@ def _letter_problem(intent: QuestionIntent, clue_text: str, has_images: bool) ->
     text = clue_text.strip()
     if has_images or not text or not intent.options or len(text) > 80:
         return None
-    if motion_statements(text):
-        return None  # a motion sentence that happens to contain an option's words is tool output
+    if any(statement.pair for statement in motion_statements(text)):
+        return None  # a tool's motion sentence (it names its views) may contain an option's words
     if read_choice(text, intent.options) is None:
         return None
     fix = (
