@@ -42,7 +42,7 @@ def _replay(llm: ScriptedLLM, monkeypatch, tmp_path: Path, questions: int) -> li
     arguments += ["--width", str(facts["width"]), "--height", str(facts["height"])]
     assert real_model.main(arguments) == 0
     replayed = json.loads(record.read_text(encoding="utf-8"))
-    assert replayed["prompt"] == facts["prompt"], "the code prompt changed since the live run: record it again"
+    assert replayed["prompt"] == facts["prompt"], "the code prompt changed since the live run"
     return replayed["results"]
 
 

@@ -50,9 +50,9 @@ def _motion_problem(intent: QuestionIntent, clue_text: str) -> ClueProblem | Non
     first, second = intent.motion_pair
     statements = motion_statements(clue_text)
     pairs = list(dict.fromkeys(s.pair for s in statements if s.pair is not None))
-    if intent.motion_pair in pairs:
-        return None
-    said = f"describes {_pairs(pairs)}" if pairs else "names no pair of views"
+    if not pairs or intent.motion_pair in pairs:
+        return None  # no sentence about any pair: not a wrong pair (the answerer says it cannot tell)
+    said = f"describes {_pairs(pairs)}"
     return ClueProblem(
         "wrong_view",
         f"the clue {said}, but the question asks how the camera moved from image {first} to image {second}",
