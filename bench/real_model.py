@@ -12,14 +12,21 @@ neither (offline planner and answerer), and asks both every question.
 
 Per system: attempts; how many replies held a program (parsed), passed the validator (validated),
 ran without an exception (ran); repairs; fallbacks to the planner; questions answered and answered
-correctly; mean seconds per stage; tokens per stage. Then the error kinds of failed attempts, and
-per question family the answered / correct counts of both systems.
+correctly, and of those correct how many came from a model-written program (before any fallback);
+mean seconds per stage; tokens per stage. Then the error kinds of failed attempts, per question
+family the answered / correct counts of both systems, and one row per question (program source,
+repairs, answer, truth). By default only text-clue questions (self-movement: the clue is a camera-
+motion sentence, which a text-only model can read) are asked; `--all-families` asks all of them.
+
+`--record FILE` keeps every code-model reply in the order the model was asked (JSON), so a test
+replays the run through the scripted server without the model (tests/test_live_replay.py).
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import hashlib
 import json
 import math
 import tempfile
@@ -85,6 +92,15 @@ class SystemRun:
             "fallbacks": sum(r.code_model_fallback is not None for r in done),
             "answered": sum(self.answered),
             "correct": sum(self.correct),
+            # correct answers whose program the code model wrote (first or repaired), before any fallback
+            "correct by model's program": sum(
+                ok and r is not None and r.program_source in ("model", "repaired-model")
+                for ok, r in zip(self.correct, self.responses, strict=True)
+            ),
+            "planner fallbacks": sum(
+                r is not None and r.program_source == "planner" and r.code_model_fallback is not None
+                for r in self.responses
+            ),
             **{f"{stage.removesuffix('_ms')} s": value for stage, value in stage_s.items()},
             "code tokens in/out": (
                 f"{sum(r.tokens.code_prompt for r in done)}/{sum(r.tokens.code_completion for r in done)}"
@@ -113,7 +129,38 @@ def _arguments(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--height", type=int, default=240)
     parser.add_argument("--max-repairs", type=int, default=None, help="Default: PYSPATIAL_MAX_REPAIRS.")
     parser.add_argument("--json-out", type=Path, default=None, help="Write every response here (JSONL).")
+    parser.add_argument("--all-families", action="store_true", help="Not only text-clue questions.")
+    parser.add_argument("--record", type=Path, default=None, help="Write the code model's replies here.")
     return parser.parse_args(argv)
+
+
+TEXT_CLUE_FAMILIES = ("self_movement",)
+
+
+def prompt_hash() -> str:
+    """A short hash of the code prompt and its examples, as the agent renders them now."""
+    from services.agent.codegen import DEFAULT_TEMPLATE
+    from services.agent.prompts import PROMPT_DIR
+
+    version = DEFAULT_TEMPLATE.rsplit("_v", 1)[1]
+    text = "".join(
+        (PROMPT_DIR / name).read_text(encoding="utf-8")
+        for name in (f"{DEFAULT_TEMPLATE}.md", f"codegen_examples_v{version}.md", "repair_v2.md")
+    )
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def _questions(args: argparse.Namespace, data_dir: Path) -> list[BenchmarkItem]:
+    """The first `--questions` items (text-clue ones unless --all-families) of enough scenes."""
+    per_scene = QUESTIONS_PER_SCENE if args.all_families else 2  # two motion questions per scene
+    scenes = math.ceil(args.questions / per_scene) + (0 if args.all_families else 1)
+    jsonl = make_dataset(data_dir, num_scenes=scenes, seed=args.seed, width=args.width, height=args.height)
+    items = read_mindcube(jsonl, data_dir)
+    if not args.all_families:
+        items = [
+            item for item in items if item.intent is not None and item.intent.family in TEXT_CLUE_FAMILIES
+        ]
+    return items[: args.questions]
 
 
 @contextlib.contextmanager
@@ -163,12 +210,8 @@ def main(argv: list[str] | None = None) -> int:
         )
     with contextlib.ExitStack() as stack:
         work_dir = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="bench-real-model-")))
+        items = _questions(args, work_dir / "dataset")
         data_dir = work_dir / "dataset"
-        scenes = math.ceil(args.questions / QUESTIONS_PER_SCENE)
-        jsonl = make_dataset(
-            data_dir, num_scenes=scenes, seed=args.seed, width=args.width, height=args.height
-        )
-        items = read_mindcube(jsonl, data_dir, limit=args.questions)
         recon_url, model_url, offline_url = stack.enter_context(_services(work_dir))
         uploader = ExactSceneUploader(stack.enter_context(ReconClient(recon_url)), data_dir)
         model_agent = stack.enter_context(AgentClient(model_url, timeout=3600))
@@ -197,12 +240,14 @@ def main(argv: list[str] | None = None) -> int:
                 )
     if args.json_out:
         args.json_out.write_text("".join(json.dumps(record) + "\n" for record in records), encoding="utf-8")
+    if args.record:
+        _record(args, settings, items, model_run)
 
     endpoint = settings.code_model_base_url or "https://api.openai.com/v1"
     text_only = " (text only)" if settings.code_model_text_only else ""
     print(
         f"### Real code model: {settings.code_model}{text_only} at {endpoint}, {len(items)} synthetic "
-        f"questions (seed {args.seed}, {args.width}x{args.height}, posed-rgbd)\n"
+        f"questions (seed {args.seed}, {args.width}x{args.height}, posed-rgbd, prompt {prompt_hash()})\n"
     )
     print(_markdown([model_run.row(), offline_run.row()]))
     print("\nFailed attempts by kind:")
@@ -215,6 +260,20 @@ def main(argv: list[str] | None = None) -> int:
         + " |"
     )
     print("| --- | ---: |" + " ---: |" * 2)
+    _family_rows(families, model_run, offline_run)
+    print(f"\nPer question ({model_run.label}; prompt {prompt_hash()}):\n")
+    print(
+        _markdown(
+            [
+                _question_row(item, r, ok)
+                for item, r, ok in zip(items, model_run.responses, model_run.correct, strict=True)
+            ]
+        )
+    )
+    return 0
+
+
+def _family_rows(families: list[str], model_run: SystemRun, offline_run: SystemRun) -> None:
     for family in sorted(set(families)):
         index = [i for i, name in enumerate(families) if name == family]
         cells = [
@@ -222,7 +281,46 @@ def main(argv: list[str] | None = None) -> int:
             for run in (model_run, offline_run)
         ]
         print(f"| {family} | {len(index)} | " + " | ".join(cells) + " |")
-    return 0
+
+
+def _question_row(item: BenchmarkItem, response: SolveResponse | None, correct: bool) -> dict[str, object]:
+    model_attempts = [a for a in response.attempts if a.reply is not None] if response else []
+    kinds = [a.error_kind or "error" for a in (response.attempts if response else []) if a.error]
+    return {
+        "question": item.id,
+        "asks": " -> ".join(map(str, item.intent.motion_pair or ())) if item.intent else "",
+        "program source": (response.program_source if response else None) or "none",
+        "model attempts": len(model_attempts),
+        "failed kinds": ", ".join(kinds) or "-",
+        "answer": (response.answer if response else None) or "-",
+        "truth": read_choice(item.gt_answer) or item.gt_answer,
+        "right": "yes" if correct else "no",
+    }
+
+
+def _record(
+    args: argparse.Namespace, settings: AgentSettings, items: list[BenchmarkItem], run: SystemRun
+) -> None:
+    """The run's facts for a replay: seed, sizes, model, prompt hash, and per question its outcome."""
+    facts = {
+        "seed": args.seed,
+        "questions": len(items),
+        "width": args.width,
+        "height": args.height,
+        "max_repairs": args.max_repairs,
+        "model": settings.code_model,
+        "prompt": prompt_hash(),
+        "results": [
+            {
+                "id": item.id,
+                "program_source": r.program_source if r else None,
+                "answer": r.answer if r else None,
+                "model_replies": [a.reply for a in r.attempts if a.reply is not None] if r else [],
+            }
+            for item, r in zip(items, run.responses, strict=True)
+        ],
+    }
+    args.record.write_text(json.dumps(facts, indent=1) + "\n", encoding="utf-8")
 
 
 if __name__ == "__main__":

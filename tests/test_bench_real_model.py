@@ -23,13 +23,22 @@ Example usage:
 ```python
 print(program(input_scene))
 ```"""
+# The repair of question 2 (a turn from image 1 to image 4): the pair's own sentence.
+PAIR_REPLY = """```python
+def program(input_scene):
+    recon = pySpatial.reconstruct(input_scene)
+    return pySpatial.describe_camera_motion(recon, 1, 4)
+```"""
 
 
 def test_bench_reports_both_systems_on_the_same_questions(llm: ScriptedLLM, monkeypatch, capsys) -> None:
     llm.reset()
     llm.text_only()  # a llama.cpp-like server: list content is refused, so text-only must be on
     recorded_no_program = recorded_replies()[18].script_entry()
-    llm.script([recorded_no_program, MOTION_REPLY, MOTION_REPLY, MOTION_REPLY, MOTION_REPLY], model="qwen")
+    # Question 2 asks about image 1 -> image 4: the consecutive sentences do not cover it, so the
+    # asked-view check sends the first program back and the repair names the pair.
+    replies = [recorded_no_program, MOTION_REPLY, MOTION_REPLY, PAIR_REPLY, MOTION_REPLY, MOTION_REPLY]
+    llm.script(replies, model="qwen")
     monkeypatch.setenv("PYSPATIAL_CODE_MODEL", "qwen")
     monkeypatch.setenv("PYSPATIAL_CODE_MODEL_BASE_URL", llm.base_url)
     monkeypatch.setenv("PYSPATIAL_CODE_MODEL_TEXT_ONLY", "true")
@@ -39,7 +48,10 @@ def test_bench_reports_both_systems_on_the_same_questions(llm: ScriptedLLM, monk
     monkeypatch.setenv("PYSPATIAL_ANSWER_MODEL_BASE_URL", llm.base_url)
     monkeypatch.setenv("PYSPATIAL_ANSWER_MODEL_TEXT_ONLY", "true")
     assert (
-        real_model.main(["--questions", "4", "--max-repairs", "1", "--width", "160", "--height", "120"]) == 0
+        real_model.main(
+            ["--questions", "4", "--max-repairs", "1", "--width", "160", "--height", "120", "--all-families"]
+        )
+        == 0
     )
     out = capsys.readouterr().out
     assert (
@@ -51,15 +63,18 @@ def test_bench_reports_both_systems_on_the_same_questions(llm: ScriptedLLM, monk
     model = dict(zip(header, model_row, strict=True))
     offline = dict(zip(header, offline_row, strict=True))
     assert model["questions"] == offline["questions"] == "4"
-    # Question 1: the recorded prose reply (no program), then a repair; the others: one attempt each.
-    assert (model["attempts"], model["parsed"], model["validated"], model["ran"]) == ("5", "4", "4", "4")
-    assert model["repairs"] == "1" and model["fallbacks"] == "0" and model["failed requests"] == "0"
+    # Question 1: the recorded prose reply (no program), then a repair; question 2: a clue about other
+    # pairs, then the repair; the others: one attempt each.
+    assert (model["attempts"], model["parsed"], model["validated"], model["ran"]) == ("6", "5", "5", "4")
+    assert model["repairs"] == "2" and model["fallbacks"] == "0" and model["failed requests"] == "0"
+    assert model["planner fallbacks"] == "0"
     assert int(model["code tokens in/out"].split("/")[0]) > 0
     assert model["answered"] == "4" and int(model["answer tokens in/out"].split("/")[1]) > 0
     assert offline["parsed"] == "0" and offline["attempts"] == "4"  # the planner's attempts have no reply
     assert int(model["correct"]) <= int(model["answered"]) <= 4
-    assert "no_program 1" in out
-    assert len(llm.requests()) == 9  # 5 code + 4 answer requests, all plain strings: no refusal, no retry
+    assert "no_program 1" in out and "wrong_view 1" in out
+    assert "| rotation_0000_turn_01 | 1 -> 4 | repaired-model | 2 | wrong_view |" in out
+    assert len(llm.requests()) == 10  # 6 code + 4 answer requests, all plain strings: no refusal, no retry
     assert all(isinstance(r["messages"][0]["content"], str) for r in llm.requests())
 
 

@@ -150,6 +150,17 @@ def test_solve_saves_rendered_clue_images(services, tmp_path):
     assert "timings (ms)" in result.stdout
 
 
+def test_solve_without_an_agent_url_starts_and_stops_the_local_stack(tmp_path):
+    result = pyspatial("solve", str(EXAMPLE), "-q", SPEC["question"], "--json", cwd=tmp_path, timeout=300.0)
+    assert result.returncode == 0, result.stderr
+    assert SolveResponse.model_validate_json(result.stdout).answer == SPEC["expected_answer"]
+    assert "no --agent-url: starting the local stack" in result.stderr
+    assert "local stack stopped" in result.stderr
+    url = re.search(r"local stack up at (http://\S+),", result.stderr).group(1)
+    with pytest.raises(httpx.TransportError):  # stopped after the answer
+        httpx.get(url + "/healthz", timeout=2.0)
+
+
 def test_unreachable_service_is_one_clear_line(tmp_path):
     url = f"http://127.0.0.1:{free_port()}"
     result = pyspatial("solve", str(EXAMPLE), "-q", "Where?", "--agent-url", url, cwd=tmp_path)

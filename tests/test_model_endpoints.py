@@ -250,12 +250,15 @@ def test_a_repair_never_resends_an_identical_program(vision_agent, llm, scene_id
     )
     body = response.json()
     attempts = body["attempts"]
-    assert [a["error_kind"] for a in attempts] == ["exception", "repeated", "repeated"]
+    # The model's three attempts, then the planner's program (labelled, the model's attempts kept).
+    assert [a["error_kind"] for a in attempts] == ["exception", "repeated", "repeated", None]
+    assert body["program_source"] == "planner" and attempts[3]["reply"] is None
+    attempts = attempts[:3]
     assert "not aligned" in attempts[0]["error"] and "not run again" in attempts[1]["error"]
     assert [a["temperature"] for a in attempts] == sorted(a["temperature"] for a in attempts)
     assert attempts[2]["temperature"] > attempts[0]["temperature"]
     repairs = [request["messages"][-1]["content"] for request in llm.requests()[1:]]
-    assert "pySpatial.camera_center" in repairs[0] and "same program as before" in repairs[1]
+    assert "pySpatial.camera_center" in repairs[0] and "identical to attempt 1" in repairs[1]
     assert body["answer"] is None and body["code_model"] == "coder" and body["answer_model"] == "answerer"
 
 
@@ -279,8 +282,14 @@ def test_recorded_programs_with_sound_logic_run_and_render(text_agent, llm, scen
             llm.reset()
             llm.script([REPLIES[index].script_entry()], model="coder")
             result = agent.solve(question, scene_id=scene_id, backbone="posed-rgbd", max_repairs=0)
-            assert result.attempts[0].error is None, (index, result.attempts[0].error)
-            assert len(result.clue.images) >= 1 and result.program == cleaned(REPLIES[index].reply)[0]
+            first = result.attempts[0]
+            if first.error_kind == "wrong_view":  # rendered from another view than image 1: sent back
+                assert "asks from image 1" in first.error and result.program_source == "planner"
+                assert "recon.extrinsics[0]" in result.program
+            else:
+                assert first.error is None, (index, first.error)
+                assert result.program == cleaned(REPLIES[index].reply)[0] and result.program_source == "model"
+            assert len(result.clue.images) >= 1
             assert result.answer is None and "vision model" in result.answer_reason  # no one can see it
 
 
@@ -294,9 +303,9 @@ def test_recorded_programs_that_type_the_answer_are_not_evidence(text_agent, llm
             llm.reset()
             llm.script([REPLIES[index].script_entry()], model="coder")
             result = agent.solve(question, scene_id=scene_id, backbone="posed-rgbd", max_repairs=0)
-            (attempt,) = result.attempts
+            attempt, planned = result.attempts  # the model's, then the planner's (labelled)
             assert attempt.error_kind == "not_evidence", (index, attempt.error)
-            assert "typed" in attempt.error and result.answer is None
+            assert "typed" in attempt.error and planned.reply is None and result.program_source == "planner"
 
 
 def test_recorded_programs_that_fail_say_why_and_what_to_call(text_agent, llm, scene_id):

@@ -50,9 +50,9 @@ def _motion_problem(intent: QuestionIntent, clue_text: str) -> ClueProblem | Non
     first, second = intent.motion_pair
     statements = motion_statements(clue_text)
     pairs = list(dict.fromkeys(s.pair for s in statements if s.pair is not None))
-    if intent.motion_pair in pairs:
-        return None
-    said = f"describes {_pairs(pairs)}" if pairs else "names no pair of views"
+    if not pairs or intent.motion_pair in pairs:
+        return None  # no sentence about any pair: not a wrong pair (the answerer says it cannot tell)
+    said = f"describes {_pairs(pairs)}"
     return ClueProblem(
         "wrong_view",
         f"the clue {said}, but the question asks how the camera moved from image {first} to image {second}",
@@ -98,8 +98,8 @@ def _letter_problem(intent: QuestionIntent, clue_text: str, has_images: bool) ->
     text = clue_text.strip()
     if has_images or not text or not intent.options or len(text) > 80:
         return None
-    if motion_statements(text):
-        return None  # a motion sentence that happens to contain an option's words is tool output
+    if any(statement.pair for statement in motion_statements(text)):
+        return None  # a tool's motion sentence (it names its views) may contain an option's words
     if read_choice(text, intent.options) is None:
         return None
     fix = (

@@ -5,8 +5,10 @@ person would write; the program then runs under the same sandbox as model-writte
 
 - "motion" (self-movement): how the camera moved from view i to view j: describe_camera_motion of
   exactly that pair (the recon service describes any pair, consecutive or not).
-- "behind", "left", "right", "front" (relative direction, rotation setting included): what lies in
-  that direction from view k, or of the object seen from view k: turn that camera in place and render.
+- "behind", "left", "right", "front" and the diagonals (relative direction, rotation setting
+  included): what lies in that direction from view k: turn that camera in place and render. Of a
+  named object seen from view k ("what is behind the sofa"): render view k, which looks at it, and
+  for a side also that view turned 90 degrees toward the side.
 - "turn_and_move" (what-if): compose the turns and moves in the order asked; closer/farther questions
   get a render before the first move and one after the last; "then what is to your left?" turns once
   more for the final look.
@@ -160,7 +162,45 @@ def _motion_plan(first: int, second: int, intent: QuestionIntent) -> PlannedProg
     )
 
 
+# "behind / left of <object>" seen from a view is about that object, not about the camera: the view
+# already looks at it. What is behind (or in front of) it lies along that line of sight, so the view
+# itself is the clue, never the camera turned around. For a side, the view (the object in sight) and
+# that view turned 90 degrees toward the side: what lies beside the object, as MindCube's answers read
+# it (the wall to the right of the ball seen from image 2 is the one to that camera's right).
+_OBJECT_SIDE_DEGREES = 90
+_OF_OBJECT = """\
+def program(input_scene):
+    recon = pySpatial.reconstruct(input_scene)
+    pose = recon.extrinsics[{index}]  # view {view}: it looks at {target}
+    views = [pySpatial.synthesize_novel_view(recon, pose)]
+{turn}    return views
+"""
+_OBJECT_TURN = {
+    "left": "rotate_left", "right": "rotate_right", "front-left": "rotate_left",
+    "front-right": "rotate_right", "back-left": "rotate_left", "back-right": "rotate_right",
+}  # fmt: skip
+
+
+def _of_object_plan(side: str, view: int, intent: QuestionIntent) -> PlannedProgram:
+    target = intent.target_object or "the object"
+    turn = ""
+    if side in _OBJECT_TURN:
+        call = f"pySpatial.{_OBJECT_TURN[side]}(pose, angle={_OBJECT_SIDE_DEGREES})"
+        turn = f"    views.append(pySpatial.synthesize_novel_view(recon, {call}))  # beside {target}\n"
+    source = _OF_OBJECT.format(index=view - 1, view=view, target=target, turn=turn)
+    return PlannedProgram(
+        source=source,
+        family=side,  # type: ignore[arg-type]
+        explanation=f"what is {_direction_words(side)} of {target} seen from view {view}: that view looks "
+        f"at {target}; render it" + (", and turned toward that side" if turn else ""),
+        views=[view],
+        intent=intent,
+    )
+
+
 def _surrounding_plan(side: str, view: int, intent: QuestionIntent) -> PlannedProgram:
+    if intent.target_object is not None:
+        return _of_object_plan(side, view, intent)
     name = "ahead" if side == "front" else side.replace("-", "_")
     source = _SURROUNDING.format(index=view - 1, view=view, name=name, turn=_LOOK[side])
     of = f" {intent.target_object}" if intent.target_object else ""

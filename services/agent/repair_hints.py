@@ -21,10 +21,10 @@ from shared.questions.intent import QuestionIntent
 
 # What to use instead of a name the sandbox does not offer (the validator says "'X' is not available").
 ALTERNATIVES = {
-    "inv": "np.linalg.solve(A, b), or pySpatial.relative_pose(E1, E2) for the pose of one view from another",
-    "pinv": "np.linalg.solve(A, b), or pySpatial.relative_pose(E1, E2)",
+    "inv": "use np.linalg.solve(A, b), or pySpatial.relative_pose(E1, E2) for one view's pose from another",
+    "pinv": "use np.linalg.solve(A, b), or pySpatial.relative_pose(E1, E2)",
     "print": "return the clue from program(); printed text is not read",
-    "open": "the photos are in input_scene.images; the tools read the scene for you",
+    "open": "the photos are in input_scene.images, and the tools read the scene for you",
     "eval": "write the expression itself",
     "exec": "write the code itself",
     "input": "the question is input_scene.question",
@@ -54,8 +54,8 @@ def _forbidden(error: str) -> list[str]:
     hints = []
     for name in dict.fromkeys(_UNAVAILABLE.findall(error)):
         short = name.rsplit(".", 1)[-1]
-        instead = ALTERNATIVES.get(short, "only the numpy functions, math and pySpatial tools listed")
-        hints.append(f"`{name}` is not available in the sandbox; use {instead}.")
+        instead = ALTERNATIVES.get(short, "use only the numpy functions, math and pySpatial tools listed")
+        hints.append(f"`{name}` is not available in the sandbox: {instead}.")
     return hints
 
 

@@ -1,0 +1,62 @@
+"""The live real-model run of BENCHMARKS.md, replayed without the model.
+
+`tests/data/model_replies/live_seed22.json` is what `python -m bench.real_model --seed 22 --record`
+measured on the local Qwen2.5-Coder-1.5B (../shared/local_model/, text only, offline answerer): per
+question the program source, the answer and the model's replies; and `replies`, every reply of the
+model server in the order it was asked (its own call log, with finish reasons and token counts). The
+scripted server replays those replies to the same bench on the same questions, so the loop (asked-
+view check, pointed repairs, identical repairs, the labelled planner fallback) must come to the
+same program sources and answers as it did live. The first questions run by default; all of them
+with `-m slow`.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from bench import real_model
+from tests.support.scripted_llm import ScriptedLLM
+
+LIVE = Path(__file__).parent / "data" / "model_replies" / "live_seed22.json"
+
+
+def _live() -> dict:
+    return json.loads(LIVE.read_text(encoding="utf-8"))
+
+
+def _replay(llm: ScriptedLLM, monkeypatch, tmp_path: Path, questions: int) -> list[dict]:
+    live = _live()
+    facts = live["record"]
+    llm.reset()
+    llm.text_only()
+    llm.script(live["replies"], model=facts["model"])
+    monkeypatch.setenv("PYSPATIAL_CODE_MODEL", facts["model"])
+    monkeypatch.setenv("PYSPATIAL_CODE_MODEL_BASE_URL", llm.base_url)
+    monkeypatch.setenv("PYSPATIAL_CODE_MODEL_TEXT_ONLY", "true")
+    monkeypatch.setenv("PYSPATIAL_ANSWER_MODEL", "")
+    record = tmp_path / "replayed.json"
+    arguments = ["--questions", str(questions), "--seed", str(facts["seed"]), "--record", str(record)]
+    arguments += ["--width", str(facts["width"]), "--height", str(facts["height"])]
+    assert real_model.main(arguments) == 0
+    replayed = json.loads(record.read_text(encoding="utf-8"))
+    assert replayed["prompt"] == facts["prompt"], "the code prompt changed since the live run"
+    return replayed["results"]
+
+
+def _outcomes(results: list[dict]) -> list[tuple]:
+    return [(r["id"], r["program_source"], r["answer"], r["model_replies"]) for r in results]
+
+
+def test_the_first_live_questions_replay_to_the_same_outcomes(llm, monkeypatch, tmp_path) -> None:
+    results = _replay(llm, monkeypatch, tmp_path, 4)
+    assert _outcomes(results) == _outcomes(_live()["record"]["results"][:4])
+    assert all(r["program_source"] is not None for r in results)  # every source is named
+
+
+@pytest.mark.slow
+def test_the_whole_live_run_replays_to_the_same_outcomes(llm, monkeypatch, tmp_path) -> None:
+    live = _live()["record"]["results"]
+    assert _outcomes(_replay(llm, monkeypatch, tmp_path, len(live))) == _outcomes(live)
