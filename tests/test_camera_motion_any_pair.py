@@ -41,8 +41,8 @@ def test_the_endpoint_describes_a_non_consecutive_pair(recon, scene_id) -> None:
         back = client.camera_motion(scene_id, from_view=3, to_view=1)
         consecutive = client.camera_motion(scene_id)
     assert [(m.from_view, m.to_view) for m in one.motions] == [(0, 2)]
-    assert one.text.startswith("From view 1 to view 3 ") and one.text == same.text
-    assert back.text.startswith("From view 3 to view 1 ")
+    assert one.text.startswith("From view 1 to view 3, in view 1's image axes, ") and one.text == same.text
+    assert back.text.startswith("From view 3 to view 1, in view 3's image axes, ")
     # The exact cameras' own description of that pair (shared/geometry), not a chain of two.
     exact = describe_pairs(np.asarray(VIEWS.extrinsics), [None] * 3, pairs=[(0, 2)])[0]
     assert (one.motions[0].direction, one.motions[0].turn) == (exact.direction, exact.turn)
