@@ -52,6 +52,7 @@ def program(input_scene):
     return str(total)
 ```"""
 SANDBOX_WORKER = "services.agent.sandbox.worker"
+ROUTE_GOAL_VIEW = 3  # two_rooms: the view (0-based) that looks at the goal in the other room
 
 
 @pytest.fixture(scope="module")
@@ -377,7 +378,7 @@ def _walk_with_the_keyboard(browser) -> None:
     browser.execute_script("document.activeElement.blur(); window.scrollTo(0, 0)")
     reached = set()
     unfocused_look = []
-    for _ in range(110):  # the route mode's controls come before the gallery's
+    for _ in range(120):  # the route mode's controls come before the gallery's
         ActionChains(browser).send_keys(Keys.TAB).perform()
         focused = browser.switch_to.active_element
         if focused.tag_name == "body":  # past the last control, before the first: the browser's own UI
@@ -390,7 +391,7 @@ def _walk_with_the_keyboard(browser) -> None:
     expected = {
         "api-key", "images", "question", "backbone", "solve", "viewer", "reset-view", "fullscreen",
         "download-ply", "download-glb", "confidence", "point-size", "show-cameras", "show-clue-views",
-        "view v1", "route-start", "route-radius", "plan-route",
+        "view v1", "route-depths", "route-cameras", "route-start", "route-radius", "plan-route",
     }  # fmt: skip
     assert expected <= reached, expected - reached
     assert any(name.startswith("These three photos") for name in reached)  # the gallery's questions
@@ -637,52 +638,159 @@ def test_the_viewer_draws_200k_points_and_its_frame_time_is_measured(recon, stac
     assert csp_violations(browser) == []
 
 
-def test_route_mode_plans_to_a_clicked_goal_and_downloads_the_plan(offline_agent, browser, shots, downloads):
-    import httpx
+def _posed_route_files(kind: str, seed: int, folder: Path) -> tuple:
+    """A two-room scene (bench.route's generator) as a user has it: photos, .npy depths, cameras JSON."""
+    from shared.synthetic.photo import save_photo
+    from shared.synthetic.two_rooms import generate_two_rooms
 
-    spec = json.loads((EXAMPLE / "example.json").read_text())
-    _viewport(browser, 1280, 900)
-    browser.get(offline_agent.url + "/")
-    _choose_example_photos(browser)
-    buttons = WebDriverWait(browser, 30).until(
-        lambda d: d.find_elements(By.CSS_SELECTOR, "#route-photos button")
-    )
-    assert len(buttons) == len(spec["images"])
-    browser.execute_script("arguments[0].scrollIntoView({block: 'center'})", buttons[1])
-    # Low in the photo, on the floor in front of the sofa. The classical backbone's points there are
-    # too sparse to call it seen, so the plan is a refusal that says why: the page shows it as such.
-    ActionChains(browser).move_to_element_with_offset(buttons[1], 0, 45).click().perform()
+    two = generate_two_rooms(seed, kind)
+    folder.mkdir()
+    photos, depths = [], []
+    for index, view in enumerate(two.render()):
+        photos.append(folder / f"view_{index + 1}.png")
+        save_photo(photos[-1], view.rgb, two.intrinsic)
+        depths.append(folder / f"depth_{index + 1}.npy")
+        np.save(depths[-1], view.depth)
+    cameras = folder / "cameras.json"
+    intrinsics = [two.intrinsic.tolist()] * len(photos)
+    cameras.write_text(json.dumps({"extrinsics": two.extrinsics.tolist(), "intrinsics": intrinsics}))
+    return two, photos, depths, cameras
+
+
+def _click_the_goal(browser, two, photos: list[Path]) -> dict:
+    """Click, in the route mode's photo of the view that sees the goal, where the goal is seen."""
+    view = ROUTE_GOAL_VIEW
+    pose = two.extrinsics[view]
+    seen = two.intrinsic @ (pose[:, :3] @ two.goal + pose[:, 3])
+    u, v = seen[0] / seen[2], seen[1] / seen[2]
+    img = browser.find_elements(By.CSS_SELECTOR, "#route-photos img")[view]
+    browser.execute_script("arguments[0].scrollIntoView({block: 'center'})", img)
+    width, height = Image.open(photos[view]).size
+    box = img.size  # Selenium's offsets are from the element's centre, in CSS pixels
+    dx, dy = u * box["width"] / width - box["width"] / 2, v * box["height"] / height - box["height"] / 2
+    ActionChains(browser).move_to_element_with_offset(img, round(dx), round(dy)).click().perform()
     goal = _text(browser, "route-goal")
-    assert goal.startswith("Goal: image 2 at pixel (")
-    u, v = (int(n) for n in goal.split("(")[1].split(")")[0].split(", "))
-    width, height = Image.open(EXAMPLE / spec["images"][1]).size
-    drawn = browser.find_elements(By.CSS_SELECTOR, "#route-photos img")[1].size
-    assert abs(u - width / 2) <= 3 and abs(v - (height / 2 + 45 * height / drawn["height"])) <= 3
+    assert goal.startswith(f"Goal: image {view + 1} at pixel ("), goal
+    clicked = [int(n) for n in goal.split("(")[1].split(")")[0].split(", ")]
+    # one CSS pixel of the drawn photo is this many photo pixels
+    assert (
+        abs(clicked[0] - u) <= width / box["width"] + 1 and abs(clicked[1] - v) <= height / box["height"] + 1
+    )
+    return {"view": view + 1, "u": clicked[0], "v": clicked[1]}
+
+
+def _plan_in_the_page(browser, shots: Path, name: str) -> None:
     browser.find_element(By.ID, "plan-route").click()
     try:
         WebDriverWait(browser, 240).until(lambda d: _text(d, "route-summary") or _text(d, "error"))
+        WebDriverWait(browser, 60).until(
+            lambda d: (
+                d.find_element(By.ID, "route-viewer").get_attribute("data-path-points") or _text(d, "error")
+            )
+        )
     except TimeoutException:
-        browser.save_screenshot(str(shots / "timeout-route.png"))
+        browser.save_screenshot(str(shots / f"timeout-{name}.png"))
         raise
     assert not _text(browser, "error"), _text(browser, "error")
-    # The page shows what the endpoint answers for the same photos and goal.
-    files = [("images", (name, (EXAMPLE / name).read_bytes())) for name in spec["images"]]
-    data = {"start_view": "1", "goal": json.dumps({"pixel": {"view": 2, "u": u, "v": v}})}
-    plan = httpx.post(offline_agent.url + "/v1/route", files=files, data=data, timeout=240).json()
-    steps = [e.text for e in browser.find_elements(By.CSS_SELECTOR, "#route-steps li")]
-    assert steps == plan["sentences"]
-    summary = _text(browser, "route-summary")
-    assert summary.startswith("No route:") != plan["reachable"]
-    assert plan["reachable"] or plan["reason"] in summary
-    WebDriverWait(browser, 60).until(
-        lambda d: d.find_element(By.ID, "route-viewer").get_attribute("data-path-points")
+
+
+def _same_plan_over_http(agent, photos, depths, cameras, pixel: dict) -> dict:
+    """What POST /v1/route answers for the files and the goal the page sent."""
+    import httpx
+
+    given = json.loads(cameras.read_text())
+    files = [("images", (p.name, p.read_bytes())) for p in photos]
+    files += [("depths", (d.name, d.read_bytes())) for d in depths]
+    data = {
+        "start_view": "1",
+        "goal": json.dumps({"pixel": pixel}),
+        "robot": json.dumps({"radius": 0.25}),
+        "extrinsics": json.dumps(given["extrinsics"]),
+        "intrinsics": json.dumps(given["intrinsics"]),
+    }
+    response = httpx.post(agent.url + "/v1/route", files=files, data=data, timeout=240)
+    assert response.status_code == 200, response.text
+    return response.json()
+
+
+def _route_green_pixels(browser) -> int:
+    """Pixels of the route viewer in the path's green (PATH_COLOR in route.js: #1a7f37)."""
+    png = browser.find_element(By.ID, "route-viewer").screenshot_as_png
+    pixels = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(np.int16)
+    return int(np.sum(np.all(np.abs(pixels - np.array([26, 127, 55])) <= 40, axis=2)))
+
+
+def _choose_route_inputs(browser, photos, depths, cameras) -> None:
+    browser.find_element(By.ID, "images").send_keys("\n".join(map(str, photos)))
+    browser.find_element(By.ID, "route-depths").send_keys("\n".join(map(str, depths)))
+    browser.find_element(By.ID, "route-cameras").send_keys(str(cameras))
+    WebDriverWait(browser, 30).until(
+        lambda d: len(d.find_elements(By.CSS_SELECTOR, "#route-photos img")) == len(photos)
     )
-    path_points = browser.find_element(By.ID, "route-viewer").get_attribute("data-path-points")
-    assert int(path_points) == (len(plan["path_world"]) if len(plan["path_world"]) > 1 else 0)
+
+
+def test_route_mode_plans_to_a_clicked_goal_and_downloads_the_plan(
+    offline_agent, browser, shots, downloads, tmp_path
+):
+    """Posed RGB-D photos, depths and cameras chosen on the page, a goal clicked in the other room:
+    the steps listed are the endpoint's, the path is drawn in the 3D view, the plan downloads."""
+    from shared.synthetic.two_rooms import execute_steps
+
+    two, photos, depths, cameras = _posed_route_files("reachable", 2, tmp_path / "reachable")
+    _viewport(browser, 1280, 900)
+    browser.get(offline_agent.url + "/")
+    _choose_route_inputs(browser, photos, depths, cameras)
+    pixel = _click_the_goal(browser, two, photos)
+    _plan_in_the_page(browser, shots, "route")
+    plan = _same_plan_over_http(offline_agent, photos, depths, cameras, pixel)
+    assert plan["reachable"] and plan["units"] == "metres" and plan["backbone"] == "posed-rgbd", plan
+    # The plan reaches the goal on the scene's true geometry, without touching anything.
+    run = execute_steps(two, plan["steps"], 0.25)
+    assert not run.collided and np.linalg.norm(run.end - two.goal[:2]) <= 0.3
+
+    summary = _text(browser, "route-summary")
+    assert summary.startswith(f"{len(plan['steps'])} step(s), {plan['length_m']:.2f} m"), summary
+    assert "left-positive" in summary
+    steps = [e.text for e in browser.find_elements(By.CSS_SELECTOR, "#route-steps li")]
+    assert steps == plan["sentences"] and len(steps) >= 2
+    viewer = browser.find_element(By.ID, "route-viewer")
+    assert int(viewer.get_attribute("data-path-points")) == len(plan["path_world"]) >= 3
+    assert "drawn in green" in _text(browser, "route-viewer-status")
+    browser.execute_script("arguments[0].scrollIntoView({block: 'center'})", viewer)
+    assert _route_green_pixels(browser) > 40, "the path is not drawn in the 3D view"
     browser.save_screenshot(str(shots / "route.png"))
+
     browser.find_element(By.ID, "download-plan").click()
     target = downloads / f"route-{plan['scene_id']}.json"
     WebDriverWait(browser, 30).until(lambda d: target.is_file() and target.stat().st_size > 0)
-    assert json.loads(target.read_text())["sentences"] == plan["sentences"]
+    downloaded = json.loads(target.read_text())
+    assert downloaded["sentences"] == plan["sentences"] and downloaded["path_world"] == plan["path_world"]
     _no_serious_axe_problems(browser, "with a route shown")
+    assert csp_violations(browser) == []
+
+
+def test_route_mode_shows_why_a_goal_cannot_be_reached(offline_agent, browser, shots, tmp_path):
+    """A doorway narrower than the robot: no path, no steps, and the reason on the page."""
+    two, photos, depths, cameras = _posed_route_files("narrow_door", 3, tmp_path / "narrow")
+    browser.get(offline_agent.url + "/")
+    _choose_route_inputs(browser, photos, depths, cameras)
+    pixel = _click_the_goal(browser, two, photos)
+    _plan_in_the_page(browser, shots, "route-unreachable")
+    plan = _same_plan_over_http(offline_agent, photos, depths, cameras, pixel)
+    assert not plan["reachable"] and plan["refusal"] == "narrow_gap", plan
+    summary = _text(browser, "route-summary")
+    assert summary == f"No route: {plan['reason']}" and "wide" in summary, summary
+    assert browser.find_elements(By.CSS_SELECTOR, "#route-steps li") == []
+    assert browser.find_element(By.ID, "route-viewer").get_attribute("data-path-points") == "0"
+    assert "No path to draw" in _text(browser, "route-viewer-status")
+    browser.execute_script(
+        "arguments[0].scrollIntoView({block: 'center'})", browser.find_element(By.ID, "route-viewer")
+    )
+    assert _route_green_pixels(browser) <= 40  # what the reachable case's check counts is the path
+    browser.save_screenshot(str(shots / "route-unreachable.png"))
+
+    # Depths without their cameras: a hint on the page, no request.
+    browser.execute_script("document.getElementById('route-cameras').value = ''")
+    browser.find_element(By.ID, "plan-route").click()
+    WebDriverWait(browser, 10).until(lambda d: "go together" in _text(d, "error"))
     assert csp_violations(browser) == []

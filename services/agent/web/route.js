@@ -32,9 +32,33 @@ function setGoal(event, view) {
   $("route-goal").textContent = `Goal: image ${view} at pixel (${u}, ${v}).`;
 }
 
-function formOf() {
+// Posed RGB-D (optional): depth maps sorted by name, as the photos are, and the cameras' JSON, the
+// CLI's --cameras file. With them the route is in metres; without, photos alone (scale unknown).
+async function posedInputs() {
+  const depths = [...$("route-depths").files].sort((a, b) => a.name.localeCompare(b.name));
+  const cameras = $("route-cameras").files[0];
+  if (!depths.length && !cameras) return { depths: [] };
+  if (!depths.length || !cameras) return { hint: "Depth maps and cameras go together: choose both, or neither." };
+  let parsed;
+  try {
+    parsed = JSON.parse(await cameras.text());
+  } catch {
+    parsed = null;
+  }
+  if (!parsed || !Array.isArray(parsed.extrinsics) || !Array.isArray(parsed.intrinsics)) {
+    return { hint: `${cameras.name} is not a cameras file: it needs {"extrinsics": [...], "intrinsics": [...]}.` };
+  }
+  return { depths, extrinsics: parsed.extrinsics, intrinsics: parsed.intrinsics };
+}
+
+function formOf(posed) {
   const form = new FormData();
   photos.files.forEach((file) => form.append("images", file, file.name));
+  posed.depths.forEach((file) => form.append("depths", file, file.name));
+  if (posed.extrinsics) {
+    form.append("extrinsics", JSON.stringify(posed.extrinsics));
+    form.append("intrinsics", JSON.stringify(posed.intrinsics));
+  }
   form.append("start_view", $("route-start").value || "1");
   form.append("goal", JSON.stringify({ pixel: state.goal }));
   form.append("robot", JSON.stringify({ radius: Number($("route-radius").value) || 0.25 }));
@@ -67,13 +91,18 @@ async function drawPath(plan) {
   if (!state.viewer) state.viewer = new SceneViewer(canvas, () => {});
   state.viewer.show(await response.json(), []);
   const points = plan.path_world.map(([x, y, z]) => new THREE.Vector3(x, y, z));
+  let drawn = 0;
   if (points.length > 1) {
-    const line = new THREE.Line(new THREE.BufferGeometry().setFromPoints(points), new THREE.LineBasicMaterial({ color: PATH_COLOR }));
+    // On top of everything: the path runs at floor height, where the floor's own points would hide it.
+    const material = new THREE.LineBasicMaterial({ color: PATH_COLOR, depthTest: false });
+    const line = new THREE.Line(new THREE.BufferGeometry().setFromPoints(points), material);
+    line.name = "route-path";
     line.renderOrder = 5;
     state.viewer.content.add(line);
+    drawn = line.geometry.attributes.position.count;
   }
   state.viewer.draw();
-  canvas.dataset.pathPoints = String(points.length > 1 ? points.length : 0);
+  canvas.dataset.pathPoints = String(drawn); // the drawn line's vertex count, for tests and tools
   $("route-viewer-status").textContent = points.length > 1 ? "The route is drawn in green from the start to the goal." : "No path to draw.";
 }
 
@@ -92,10 +121,12 @@ async function planRoute(event) {
   clearProblem();
   if (!photos.files.length) return showHint("Choose the photos first (drop or paste them, or load an example).");
   if (!state.goal) return showHint("Click a point on one of the photos to set the goal.");
+  const posed = await posedInputs();
+  if (posed.hint) return showHint(posed.hint);
   $("plan-route").disabled = true;
   $("route-status").textContent = "planning …";
   try {
-    const response = await apiFetch("/v1/route", { method: "POST", body: formOf() });
+    const response = await apiFetch("/v1/route", { method: "POST", body: formOf(posed) });
     if (!response.ok) {
       $("route-status").textContent = "";
       return showProblem(await problemOf(response), withFileNames);
