@@ -21,6 +21,7 @@ import pytest
 import redis
 from PIL import Image
 
+from shared.synthetic.photo import photo_bytes
 from shared.wire.client import ReconClient
 from shared.wire.settings import AgentSettings, ReconSettings
 from tests.support.processes import running_service
@@ -48,12 +49,16 @@ def png(image: np.ndarray | Image.Image) -> bytes:
     return buffer.getvalue()
 
 
-def jittered(images: list[np.ndarray], seed: int) -> list[bytes]:
-    """The same views with invisible noise: a scene nobody has reconstructed yet."""
+def jittered(images: list[np.ndarray], seed: int, intrinsics: np.ndarray | None = None) -> list[bytes]:
+    """The same views with invisible noise: a scene nobody has reconstructed yet. With `intrinsics`,
+    each PNG carries its focal length in EXIF, as a camera writes it."""
     rng = np.random.default_rng(seed)
-    return [
-        png(np.clip(im.astype(int) + rng.integers(-2, 3, im.shape), 0, 255).astype(np.uint8)) for im in images
+    noisy = [
+        np.clip(im.astype(int) + rng.integers(-2, 3, im.shape), 0, 255).astype(np.uint8) for im in images
     ]
+    if intrinsics is None:
+        return [png(im) for im in noisy]
+    return [photo_bytes(im, k) for im, k in zip(noisy, intrinsics, strict=True)]
 
 
 @pytest.fixture(scope="module")
