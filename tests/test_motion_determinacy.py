@@ -305,3 +305,98 @@ def test_older_sentences_without_tilt_or_roll_never_answer_them():
     assert answer_offline(parse_question(_TILT_QUESTION), older, []).answer is None
     turned = parse_question(_TURN_QUESTION.replace("about 45", "about 30"))
     assert answer_offline(turned, older, []).answer == "A"
+
+
+# ---- through HTTP: /v1/camera-motion and /v1/solve on a stored reconstruction of unknown focal -----
+
+
+def _stored_over_grid(hypotheses: PairHypotheses) -> Reconstruction:
+    """Two views as the classical backbone stores them when the focal is unknown: the poses of the
+    central hypothesis (55 degrees) flagged as resting on it, and every pair's hypotheses."""
+    from services.recon.backbones.classical import ClassicalBackbone
+    from shared.geometry.motion_determinacy import FOCAL_HYPOTHESIS_REASON
+    from shared.geometry.reconstruction import ViewConfidence
+
+    central = _FOVS.index(55.0)
+    second = np.concatenate(
+        [np.asarray(hypotheses.rotations[central]), np.asarray(hypotheses.translations[central])[:, None]], 1
+    )
+    first = np.concatenate([np.eye(3), np.zeros((3, 1))], 1)
+    focal = _focal_px(55.0)
+    intrinsic = np.array([[focal, 0.0, 319.5], [0.0, focal, 239.5], [0.0, 0.0, 1.0]])
+    rng = np.random.default_rng(3)
+    points = rng.normal(size=(200, 3)) + np.array([0.0, 0.0, 6.0])
+    flagged = ViewConfidence(uncertain_reason=f"{FOCAL_HYPOTHESIS_REASON} (55 degrees of 10 to 100)")
+    return Reconstruction(
+        points=points,
+        colors=rng.integers(0, 256, (200, 3)),
+        extrinsics=np.stack([first, second]),
+        intrinsics=np.stack([intrinsic, intrinsic]),
+        image_sizes=[(640, 480)] * 2,
+        registered=[True, True],
+        backbone="classical",
+        backbone_version=ClassicalBackbone.version,
+        view_confidence=[flagged, flagged],
+        focal_hypotheses=FocalHypotheses(list(_FOVS), 55.0, [hypotheses]),
+    )
+
+
+def test_camera_motion_and_solve_over_http_say_per_quantity_what_every_focal_gives(tmp_path, redis_url):
+    import httpx
+    import redis
+
+    from services.recon.camera_inputs import INPUTS_VERSION
+    from shared.imaging.codecs import encode_image
+    from shared.local.services import running_service
+    from shared.wire.client import AgentClient, ReconClient
+
+    namespace = f"determinacy-{tmp_path.name}"
+    env = {
+        "PYSPATIAL_DATA_DIR": str(tmp_path),
+        "PYSPATIAL_BACKBONE": "classical",
+        "REDIS_URL": redis_url,
+        "PYSPATIAL_CACHE_NAMESPACE": namespace,
+    }
+    photos = [encode_image(np.full((480, 640, 3), shade, np.uint8)) for shade in (90, 160)]
+    stored = _stored_over_grid(_over_grid(_tilt_of_shift(400.0), _DOWN_STEP))
+    with running_service("services.recon.app:create_app", env) as service:
+        with ReconClient(service.url, timeout=60) as client:
+            scene_id = client.upload_scene(photos).scene_id
+            # The reconstruction the backbone would store for these photos, under its cache key.
+            version = f"{stored.backbone_version}:in{INPUTS_VERSION}"
+            key = f"pyspatial:{namespace}:recon:{scene_id}:classical:{version}"
+            redis.Redis.from_url(redis_url).set(key, stored.to_bytes(), ex=600)
+            response = httpx.post(service.url + "/v1/camera-motion", json={"scene_id": scene_id}, timeout=60)
+            agent_env = {"PYSPATIAL_RECON_URL": service.url, "PYSPATIAL_SANDBOX_WALL_S": "60"}
+            with running_service("services.agent.app:create_app", agent_env) as agent:
+                with AgentClient(agent.url, timeout=120) as asker:
+                    tilted = asker.solve(_TILT_QUESTION, scene_id=scene_id)
+                    moved = asker.solve(_UPDOWN_QUESTION, scene_id=scene_id)
+    assert response.status_code == 200, response.text
+    [motion] = response.json()["motions"]
+    over = motion["over_focal"]
+    assert over["frame"] == "image" and over["hypotheses"] == 19 and over["fov_range_deg"] == [10.0, 100.0]
+    assert set(over["quantities"]) == {
+        "turn",
+        "tilt",
+        "roll",
+        "direction",
+        "lateral",
+        "depth",
+        "vertical",
+        "still",
+    }
+    tilt = over["quantities"]["tilt"]
+    assert tilt["determined"] and tilt["words"] == ["up"]
+    assert tilt["range"] == pytest.approx([6.24, 56.13], abs=0.01)
+    assert over["quantities"]["vertical"] == {
+        "words": ["down"],
+        "range": pytest.approx([-0.981, -0.981], abs=1e-3),
+        "determined": True,
+    }
+    assert (
+        motion["sentence"] == over["sentence"]
+        and "it tilted up by 6 to 56 degrees (determined)" in (motion["sentence"])
+    )
+    assert tilted.answer == "A", tilted.answer_reason
+    assert moved.answer == "D", moved.answer_reason
