@@ -3,14 +3,20 @@
 Two photos of unknown focal fit a range of focal lengths almost equally well, and the relative pose
 changes with the focal. A backbone then solves the pair at each plausible horizontal field of view
 (a hypothesis) and keeps those the matches support. Here each hypothesis's relative pose is read
-with the rules of camera_motion.py (same compass, same turn threshold), and a quantity is
-*determined* when every supported hypothesis gives it the same words: "turned left by 12 to 42
-degrees (determined) and moved forward or diagonally forward and left (not determined)".
+with the rules of camera_motion.py (same compass, same thresholds) in the first view's image axes,
+and each quantity of the vocabulary (QUANTITIES: turn, tilt, roll, the compass step and its
+left/right and forward/backward axes, the vertical step, stayed still) is *determined* when every
+supported hypothesis gives it the same word: "turned left by 12 to 42 degrees (determined) and
+moved forward or diagonally forward and left (not determined; ...); it made no vertical step
+(determined); it tilted up by 6 to 56 degrees (determined); ...". Each carries its range.
+
+The image axes, not a gravity frame: two cameras do not fix a scene up at every focal (the up
+they suggest is the normal to their x axes, against which a roll is zero by construction), while
+a person looking at the photos reads up, left and forward in them, as MMSI's annotators did.
 
 A hypothesis is the relative pose x_second = R x_first + t (camera axes of the first view, OpenCV),
-t a unit vector or zero (pure rotation), as two-view geometry gives it. The up axis of each
-hypothesis is estimated from its own two cameras (poses.estimate_up_axis), since it moves with the
-focal too.
+t a unit vector or zero (pure rotation), as two-view geometry gives it. Closer to / farther from a
+target is not read over the hypotheses: they carry no points, and the step has no scale.
 """
 
 from __future__ import annotations
@@ -190,7 +196,7 @@ def circular_range(angles_deg: list[float]) -> tuple[float, float]:
 def hypothesis_motions(
     hypotheses: PairHypotheses, threshold: float = 0.05, rotation_threshold_deg: float = 10.0
 ) -> list[CameraMotion]:
-    """camera_motion's description of each hypothesis's relative pose (up from its two cameras)."""
+    """camera_motion's description of each hypothesis's relative pose (its `image` frame is read)."""
     first = np.concatenate([np.eye(3), np.zeros((3, 1))], 1)
     motions = []
     for rotation, translation in zip(hypotheses.rotations, hypotheses.translations, strict=True):
