@@ -342,6 +342,8 @@ def _stored_over_grid(hypotheses: PairHypotheses) -> Reconstruction:
 
 
 def test_camera_motion_and_solve_over_http_say_per_quantity_what_every_focal_gives(tmp_path, redis_url):
+    import uuid
+
     import httpx
     import redis
 
@@ -350,7 +352,7 @@ def test_camera_motion_and_solve_over_http_say_per_quantity_what_every_focal_giv
     from shared.local.services import running_service
     from shared.wire.client import AgentClient, ReconClient
 
-    namespace = f"determinacy-{tmp_path.name}"
+    namespace = f"test-{uuid.uuid4().hex[:8]}"  # its own cache keys on the shared test Redis
     env = {
         "PYSPATIAL_DATA_DIR": str(tmp_path),
         "PYSPATIAL_BACKBONE": "classical",
