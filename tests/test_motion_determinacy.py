@@ -402,3 +402,18 @@ def test_camera_motion_and_solve_over_http_say_per_quantity_what_every_focal_giv
     )
     assert tilted.answer == "A", tilted.answer_reason
     assert moved.answer == "D", moved.answer_reason
+
+
+def test_a_question_about_the_rooms_up_is_not_answered_from_image_axes_over_focal():
+    # Rolled photos make the image's "down" anything in the room; over focal hypotheses only the
+    # image axes are known, so "down in the room" stays unanswered.
+    from services.agent import answering, free_form
+    from shared.questions.intent import parse_question
+
+    tilted = motion_over_focal(_over_grid(_tilt_of_shift(400.0), _DOWN_STEP)).sentence
+    room = parse_question(_UPDOWN_QUESTION.replace("move from", "move, relative to the floor, from"))
+    assert room.motion_frame == "gravity"
+    refused = answering.answer_offline(room, tilted, [])
+    assert refused.answer is None and "gravity frame" in refused.reason
+    free = parse_question(_ASKS + "How did the camera move relative to the floor from image 1 to image 2?")
+    assert free_form.answer_offline(free, tilted, []).answer is None

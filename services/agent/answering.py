@@ -30,6 +30,7 @@ from services.agent.llm import (
     text_part,
 )
 from services.agent.motion_clue import (
+    NO_GRAVITY_OVER_FOCAL,
     UNDETERMINED,
     VISION_MODEL_HINT,
     Hypothetical,
@@ -291,6 +292,8 @@ def _answer_from_motion(intent: QuestionIntent, statements: list[MotionStatement
     if statement is None:
         return no_answer(why)
     if statement.over_focal is not None:
+        if intent.motion_frame == "gravity":
+            return no_answer(f"{UNDETERMINED}: {NO_GRAVITY_OVER_FOCAL}")
         return _answer_over_focal(intent, statement)
     letter, why = _match_motion(intent, statement, intent.options)
     if letter is None:

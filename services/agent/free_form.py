@@ -19,6 +19,7 @@ from typing import Literal
 
 from services.agent.answer_result import AnswerResult, json_object, no_answer
 from services.agent.motion_clue import (
+    NO_GRAVITY_OVER_FOCAL,
     UNDETERMINED,
     MotionStatement,
     OverFocal,
@@ -92,6 +93,8 @@ def answer_offline(intent: QuestionIntent, clue_text: str | None, clue_images: l
     if statement is None:
         return no_answer(why)
     if statement.over_focal is not None:
+        if intent.motion_frame == "gravity":
+            return no_answer(f"{UNDETERMINED}: {NO_GRAVITY_OVER_FOCAL}")
         return _over_focal_in_words(statement, intent.motion_asked)
     words = motion_in_words(statement, intent.asks_turn_only, intent.motion_frame)
     if words is None:

@@ -34,6 +34,11 @@ VISION_MODEL_HINT = (
 )
 # What the offline answerers say when the motion differs between the focal lengths the photos allow.
 UNDETERMINED = "cannot be determined from these photos"
+# Over focal hypotheses the motion is read in view 1's image axes only (motion_determinacy.py).
+NO_GRAVITY_OVER_FOCAL = (
+    "the question asks about the room's up (its gravity frame), but with the focal length unknown "
+    "the motion is known only in the first photo's own axes"
+)
 _PAIR = re.compile(r"\b(?:view|image)\s+(\d+)\b.*?\b(?:view|image)\s+(\d+)\b", re.IGNORECASE)
 _SENTENCE_END = re.compile(r"(?<=[.!?])\s+(?=[A-Z])")
 _MOVED_OR_NOT = re.compile(
@@ -390,6 +395,7 @@ __all__ = [
     "VISION_MODEL_HINT",
     "MotionStatement",
     "OverFocal",
+    "NO_GRAVITY_OVER_FOCAL",
     "UNDETERMINED",
     "Hypothetical",
     "angle_range",
