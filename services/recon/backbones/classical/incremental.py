@@ -329,12 +329,17 @@ class IncrementalMapper:
         projections = np.zeros((count, len(views), 3, 4))
         pixels = np.zeros((count, len(views), 2))
         seen = np.zeros((count, len(views)), dtype=bool)
-        matrices = {view: projection_matrix(self.extrinsics[view], self.intrinsics[view]) for view in views}
-        for point, track in enumerate(self.tracks):
-            for view, keypoint in track.items():
-                projections[point, slot[view]] = matrices[view]
-                pixels[point, slot[view]] = self.keypoints[view][keypoint]
-                seen[point, slot[view]] = True
+        matrices = np.array(
+            [projection_matrix(self.extrinsics[view], self.intrinsics[view]) for view in views]
+        )
+        for view in views:  # one fancy-indexed copy per view instead of one per observation
+            observing = [(point, track[view]) for point, track in enumerate(self.tracks) if view in track]
+            if not observing:
+                continue
+            rows, keypoints = np.array(observing, dtype=np.int64).T
+            projections[rows, slot[view]] = matrices[slot[view]]
+            pixels[rows, slot[view]] = self.keypoints[view][keypoints]
+            seen[rows, slot[view]] = True
         solved = triangulate_many_views(projections, pixels, seen)
         fits = seen.copy()
         for view in views:
