@@ -61,7 +61,9 @@ def run_classical(
     seconds = time.perf_counter() - start
     if result.focal_hypotheses is not None:  # not a claimed pose (see bench.templering)
         return Run(seconds, 0, [])
-    return Run(seconds, int(result.registered.sum()), pair_errors(result.extrinsics, truth, result.registered))
+    return Run(
+        seconds, int(result.registered.sum()), pair_errors(result.extrinsics, truth, result.registered)
+    )
 
 
 def run_colmap(cameras: list[TempleView], root: Path, images: list[int], given: bool) -> Run:
@@ -79,7 +81,11 @@ def run_colmap(cameras: list[TempleView], root: Path, images: list[int], given: 
             reader.camera_model = "SIMPLE_RADIAL"
             mode = pycolmap.CameraMode.SINGLE
         pycolmap.extract_features(
-            database, image_path, image_names=names, camera_mode=mode, reader_options=reader,
+            database,
+            image_path,
+            image_names=names,
+            camera_mode=mode,
+            reader_options=reader,
             device=pycolmap.Device.cpu,
         )
         if given:
@@ -149,7 +155,9 @@ def main(argv: list[str] | None = None) -> None:
         if (images := subset(azimuths, start, args.views, SPACINGS[label])) is not None
     ]
     run_classical(backbone, cameras, root, plan[0], True)  # imports and thread pools, untimed
-    runs: dict[tuple[str, bool], list[Run]] = {(s, g): [] for s in ("classical", "pycolmap") for g in (True, False)}
+    runs: dict[tuple[str, bool], list[Run]] = {
+        (s, g): [] for s in ("classical", "pycolmap") for g in (True, False)
+    }
     for position, images in enumerate(plan):
         for given in (True, False):
             order = ("classical", "pycolmap") if position % 2 == 0 else ("pycolmap", "classical")
@@ -160,11 +168,20 @@ def main(argv: list[str] | None = None) -> None:
                     run = run_colmap(cameras, root, images, given)
                 runs[(system, given)].append(run)
                 if args.verbose:
-                    print(images, system, "true focal" if given else "no focal",
-                          f"{run.seconds:.2f} s", run.placed, f"{run.median_rotation():.2f}", flush=True)
+                    print(
+                        images,
+                        system,
+                        "true focal" if given else "no focal",
+                        f"{run.seconds:.2f} s",
+                        run.placed,
+                        f"{run.median_rotation():.2f}",
+                        flush=True,
+                    )
     print(f"templeRing, {len(plan)} subsets of {args.views} views, spacings {' '.join(args.spacings)} deg\n")
-    print("| focal | classical s (sum) | pycolmap s (sum) | ratio (sum) | ratio (median) "
-          "| classical placed / median rot / worst | pycolmap placed / median rot / worst |")
+    print(
+        "| focal | classical s (sum) | pycolmap s (sum) | ratio (sum) | ratio (median) "
+        "| classical placed / median rot / worst | pycolmap placed / median rot / worst |"
+    )
     print("| --- | --- | --- | --- | --- | --- | --- |")
     for given in (True, False):
         ours, theirs = runs[("classical", given)], runs[("pycolmap", given)]
