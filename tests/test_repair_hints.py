@@ -9,7 +9,7 @@ from services.agent.clue_check import clue_problem
 from services.agent.codegen import repair_hints
 from services.agent.repair_hints import pointed_hints
 from shared.questions.intent import parse_question
-from tests.test_sandbox import PointSceneTools, run
+from tests.test_sandbox import FALSE_POSITIVES_CLUE, PointSceneTools, run
 
 OPENING = "Based on these three images (image 1, 2, and 3) showing the same room from different viewpoints:"
 ONE_TO_THREE = parse_question(
@@ -51,6 +51,16 @@ def test_empty_clues_and_answers_instead_of_clues() -> None:
     assert clue_problem(ONE_TO_THREE, "", [], 0).kind == "empty_clue"
     assert clue_problem(ONE_TO_THREE, "B", [], 0).kind == "answer_letter"
     assert clue_problem(ONE_TO_THREE, "Right", [], 0).kind == "answer_letter"
+    assert clue_problem(ONE_TO_THREE, "The answer is right.", [], 0).kind == "answer_letter"
+    assert clue_problem(ONE_TO_THREE, "3 views\nAnswer: B", [], 0).kind == "answer_letter"
+
+
+def test_an_option_word_among_listed_values_is_no_answer() -> None:
+    # the sandbox's ordinary-code control prints "left" as one of thirteen values
+    left_or_right = parse_question("Which way did the camera move from view 1 to view 2? A. left B. right", 2)
+    assert "left" in FALSE_POSITIVES_CLUE.splitlines()
+    assert clue_problem(left_or_right, FALSE_POSITIVES_CLUE, [], 0) is None
+    assert clue_problem(left_or_right, "left", [], 0).kind == "answer_letter"
 
 
 # Errors as the real sandbox reports them (each run here), and the hint each class must give.

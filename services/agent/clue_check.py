@@ -3,7 +3,8 @@
 A clue is refused (and the program sent back for repair, with a hint that names the fix) when:
 
 - it is empty;
-- it is an answer letter or an option's text rather than tool output;
+- it is an answer letter or an option's text rather than tool output (a one-line clue that names an
+  option, or any clue that states a letter; a value among several lines is no answer);
 - its camera-motion sentences are about other view pairs than the question's ("From view 1 to view
   2" for "how did I move from image 1 to image 3");
 - its rendered views were rendered from another view than the question asks from (a camera turned
@@ -100,7 +101,11 @@ def _letter_problem(intent: QuestionIntent, clue_text: str, has_images: bool) ->
         return None
     if any(statement.pair for statement in motion_statements(text)):
         return None  # a tool's motion sentence (it names its views) may contain an option's words
-    if read_choice(text, intent.options) is None:
+    # One line is read as an answer reply is: a letter, "Answer: B", or an option's text ("Right").
+    # Several lines are a listing of values, where a line that equals an option's text ("left" among
+    # "3", "True", ...) is one value, not a choice: there only a stated letter is an answer.
+    options = intent.options if "\n" not in text else set(intent.options)
+    if read_choice(text, options) is None:
         return None
     fix = (
         f"return {motion_call(intent)}"
