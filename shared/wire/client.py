@@ -49,7 +49,8 @@ class ServiceError(RuntimeError):
     """The service answered with an error status; `message` is its explanation.
 
     `service` names which service answered ("agent service", ...); `retry_after` is the seconds
-    a 429 or 503 asked to wait (its Retry-After header), None when it did not say.
+    a 429 or 503 asked to wait (its Retry-After header), None when it did not say; `challenged`:
+    the answer carried an authentication challenge (WWW-Authenticate), as a refused key's does.
     """
 
     def __init__(
@@ -59,12 +60,20 @@ class ServiceError(RuntimeError):
         url: str,
         service: str = "service",
         retry_after: float | None = None,
+        challenged: bool = False,
     ) -> None:
         super().__init__(f"{url} answered {status_code}: {message}")
         self.status_code = status_code
         self.message = message
         self.service = service
         self.retry_after = retry_after
+        self.challenged = challenged
+
+    @property
+    def refused_key(self) -> bool:
+        """The service refused the caller's key: 401, 403 (a key of another tenant), or a 429 that
+        throttles failed authentications (it carries the challenge; a rate limit's does not)."""
+        return self.status_code in (401, 403) or (self.status_code == 429 and self.challenged)
 
 
 def _retry_after(response: httpx.Response) -> float | None:
@@ -206,6 +215,7 @@ class _ServiceClient:
                 f"{method} {path}",
                 service=self.service_name,
                 retry_after=_retry_after(response),
+                challenged="www-authenticate" in response.headers,
             )
 
     def close(self) -> None:
