@@ -50,15 +50,18 @@ def png(image: np.ndarray | Image.Image) -> bytes:
 
 
 def jittered(images: list[np.ndarray], seed: int, intrinsics: np.ndarray | None = None) -> list[bytes]:
-    """The same views with invisible noise: a scene nobody has reconstructed yet. With `intrinsics`,
-    each PNG carries its focal length in EXIF, as a camera writes it."""
+    """The same views with invisible noise: a scene nobody has reconstructed yet.
+
+    With `intrinsics` (one 3x3 per view) each PNG states its focal length in EXIF as a camera's
+    photo does; without it, two photos fit a range of focal lengths and a motion question whose
+    answer changes over that range is (rightly) not answered."""
     rng = np.random.default_rng(seed)
     noisy = [
         np.clip(im.astype(int) + rng.integers(-2, 3, im.shape), 0, 255).astype(np.uint8) for im in images
     ]
     if intrinsics is None:
-        return [png(im) for im in noisy]
-    return [photo_bytes(im, k) for im, k in zip(noisy, intrinsics, strict=True)]
+        return [png(image) for image in noisy]
+    return [photo_bytes(image, k) for image, k in zip(noisy, intrinsics, strict=True)]
 
 
 @pytest.fixture(scope="module")
