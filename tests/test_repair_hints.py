@@ -96,3 +96,16 @@ def test_each_clue_class_has_its_own_hint() -> None:
     assert "empty clue" in pointed_hints("x", "empty_clue", ONE_TO_THREE)[0]
     assert "ran out of time" in pointed_hints("timed out after 20 s", "timeout", ONE_TO_THREE)[0]
     assert "np.linalg.solve" in pointed_hints("line 3: 'np.linalg.inv' is not available in the sandbox")[0]
+
+
+def test_an_image_only_clue_nothing_reads_goes_back_with_a_text_call() -> None:
+    problem = clue_problem(ONE_TO_THREE, None, [], 2, answerer_reads_images=False)
+    assert problem is not None and problem.kind == "unread_images"
+    assert "2 images" in problem.message and "describe_camera_motion(recon, 1, 3)" in problem.fix
+    assert clue_problem(ONE_TO_THREE, None, [], 2) is None  # a vision answerer looks at them
+    # text with the images is read: the check is only for clues that are images alone
+    sentence = "From view 1 to view 3 the camera moved right."
+    assert clue_problem(ONE_TO_THREE, sentence, [], 2, answerer_reads_images=False) is None
+    hint = pointed_hints("x", "unread_images", ONE_TO_THREE)[0]
+    assert "can look at images" in hint and "describe_camera_motion(recon, 1, 3)" in hint
+    assert "synthesize_novel_view" not in pointed_hints("x", "unread_images", FROM_THREE)[0]

@@ -476,6 +476,7 @@ _PROBLEMS = {
     "answer_letter": "Your program returned an answer instead of a clue.",
     "not_evidence": "Your program returned text it wrote itself instead of a tool's output.",
     "empty_clue": "Your program returned an empty clue.",
+    "unread_images": "Your program returned only images, and nothing here can look at images.",
     "rejected": "Your program was rejected before it ran.",
     "timeout": "Your program ran out of time.",
 }

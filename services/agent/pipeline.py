@@ -208,6 +208,7 @@ class SolvePipeline:
             python_checks=not self.settings.sandbox_test_only_unchecked,
             gate=self.sandbox_gate,
             cpu_budget=CpuBudget(self.settings.sandbox_solve_cpu_s),
+            answerer_reads_images=self.answer_client is not None and not self.settings.answer_model_text_only,
         )
 
 
