@@ -59,7 +59,6 @@ def test_twenty_solves_with_fresh_images_through_nginx(two_replicas, tmp_path):
         running_service(AGENT_APP, {"PYSPATIAL_RECON_URL": nginx.url}) as agent_service,
         AgentClient(agent_service.url, timeout=300) as agent,
     ):
-
         # The photos carry their focal in EXIF, as a camera's do: three views on one orbit cannot
         # self-calibrate, and without a focal the motion is reported over a range of them.
         def solve(index: int):
