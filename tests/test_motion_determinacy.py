@@ -14,6 +14,8 @@ from shared.geometry.poses import axis_angle_matrix
 from shared.geometry.reconstruction import Reconstruction
 from tests.test_reconstruction import sample
 
+# Every quantity of the motion vocabulary that is read over the focal hypotheses.
+QUANTITIES = {"turn", "tilt", "roll", "direction", "lateral", "depth", "vertical", "still"}
 _DOWN = np.array([0.0, 1.0, 0.0])  # camera +y points down: a turn about it is a yaw
 
 
@@ -194,16 +196,7 @@ def test_a_tilt_that_holds_from_10_to_100_degrees_fov_is_determined_with_its_ran
     assert "; it moved down (determined); it tilted up by 6 to 56 degrees (determined); it did not roll " in (
         motion.sentence
     )
-    assert set(motion.to_dict()["quantities"]) == {
-        "turn",
-        "tilt",
-        "roll",
-        "direction",
-        "lateral",
-        "depth",
-        "vertical",
-        "still",
-    }
+    assert set(motion.to_dict()["quantities"]) == QUANTITIES
 
 
 def test_a_tilt_that_crosses_the_threshold_inside_the_fov_range_is_not_determined():
@@ -378,16 +371,7 @@ def test_camera_motion_and_solve_over_http_say_per_quantity_what_every_focal_giv
     [motion] = response.json()["motions"]
     over = motion["over_focal"]
     assert over["frame"] == "image" and over["hypotheses"] == 19 and over["fov_range_deg"] == [10.0, 100.0]
-    assert set(over["quantities"]) == {
-        "turn",
-        "tilt",
-        "roll",
-        "direction",
-        "lateral",
-        "depth",
-        "vertical",
-        "still",
-    }
+    assert set(over["quantities"]) == QUANTITIES
     tilt = over["quantities"]["tilt"]
     assert tilt["determined"] and tilt["words"] == ["up"]
     assert tilt["range"] == pytest.approx([6.24, 56.13], abs=0.01)

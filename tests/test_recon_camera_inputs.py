@@ -24,6 +24,7 @@ from shared.synthetic import default_intrinsic, generate_scene, look_at, render_
 from shared.synthetic.photo import photo_bytes
 from shared.wire.client import AgentClient, ReconClient, ServiceError
 from tests.support.realdata import pose_errors, temple_ring
+from tests.test_motion_determinacy import QUANTITIES
 
 RECON_APP = "services.recon.app:create_app"
 AGENT_APP = "services.agent.app:create_app"
@@ -255,16 +256,7 @@ def test_partially_registered_scene_gets_per_pair_motion(recon, partial_scene):
     # Every quantity of the vocabulary, each with its words, its range and whether all focals agree.
     for motion in (m for m in body["motions"] if m["described"]):
         quantities = motion["over_focal"]["quantities"]
-        assert set(quantities) == {
-            "turn",
-            "tilt",
-            "roll",
-            "direction",
-            "lateral",
-            "depth",
-            "vertical",
-            "still",
-        }
+        assert set(quantities) == QUANTITIES
         for name, quantity in quantities.items():
             assert quantity["determined"] == (len(quantity["words"]) == 1), (name, quantity)
         clauses = motion["sentence"].split("; ")
