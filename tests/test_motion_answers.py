@@ -98,3 +98,22 @@ def test_two_options_that_both_fit_give_no_answer():
 def test_a_turn_in_place_is_not_still():
     assert read_motion("It stayed in the same position but turned left").stated() == {"turn": "turn left"}
     assert read_motion("The camera remained stationary").still
+
+
+@pytest.mark.parametrize(
+    ("rotation", "choice", "words"),
+    [
+        (_axis_rotation("x", 20.0), "C", "did not turn significantly"),  # templeRing's views 1 and 2
+        (_axis_rotation("z", -20.0), "C", "did not turn significantly"),
+        (_axis_rotation("y", -30.0) @ _axis_rotation("x", 20.0), "A", "turned left by about 30 degrees"),
+    ],
+)
+def test_a_tilt_or_roll_without_a_turn_named_did_not_turn(rotation, choice, words):
+    """The sentence names every rotation over its threshold, so one naming only a tilt did not turn."""
+    text = clue(pair(step_in_camera=(0.0, 0.3, 0.0), rotation_in_camera=rotation))
+    asked = "How did the camera turn from image 1 to image 2?"
+    question = asked + " A. Left B. Right C. It did not turn significantly"
+    result = answer_offline(parse_question(question, 2), text, [])
+    assert result.answer == choice, (text, result.reason)
+    free = answer_offline(parse_question(asked, 2), text, [])
+    assert free.answer == words, (text, free.answer, free.reason)

@@ -194,6 +194,19 @@ def over_focal_statement(sentence: str) -> OverFocal | None:
     )
 
 
+def _no_turn_unless_named(reading: MotionReading) -> MotionReading:
+    """A clause that lists its rotations (a tilt, a roll) without a turn did not turn significantly.
+
+    shared/geometry/camera_motion.py names every rotation over its threshold, and says "without
+    turning significantly" only when there is none at all: "moved down, and tilted up by about 20
+    degrees" is no turn, as a question that asks about turning (templeRing's views 1 and 2) needs.
+    """
+    rotated = reading.tilt not in (None, "no tilt") or reading.roll is not None
+    if reading.turn is None and rotated:
+        return reading.model_copy(update={"turn": "no turn"})
+    return reading
+
+
 def motion_statements(clue_text: str) -> list[MotionStatement]:
     statements = []
     for line in clue_text.splitlines():
@@ -217,6 +230,9 @@ def motion_statements(clue_text: str) -> list[MotionStatement]:
             direction, turn = normalize_direction(main), normalize_turn(main)
             if direction is None and turn is None and not _MOVED_OR_NOT.search(main):
                 continue
+            reading = _no_turn_unless_named(_with_target(read_motion(main), target))
+            if turn is None and reading.turn == "no turn":
+                turn = "no turn"
             pair_match = _PAIR.search(sentence)
             pair = (int(pair_match.group(1)), int(pair_match.group(2))) if pair_match else None
             statements.append(
@@ -226,8 +242,10 @@ def motion_statements(clue_text: str) -> list[MotionStatement]:
                     direction=direction,
                     turn=turn,
                     degrees=turn_degrees(main),
-                    reading=_with_target(read_motion(main), target),
-                    gravity=_with_target(read_motion(gravity), target) if gravity else None,
+                    reading=reading,
+                    gravity=(
+                        _no_turn_unless_named(_with_target(read_motion(gravity), target)) if gravity else None
+                    ),
                     main_clause=main,
                     gravity_clause=gravity,
                 )
