@@ -44,7 +44,7 @@ def fuzz(url: str, examples: int, key: str | None) -> tuple[int, str]:
     return finished.returncode, finished.stdout[-4000:] + finished.stderr[-2000:]
 
 
-def _stack_env(data_dir: str, keys: bool) -> tuple[dict[str, str], dict[str, str]]:
+def stack_env(data_dir: str, keys: bool) -> tuple[dict[str, str], dict[str, str]]:
     recon = {"PYSPATIAL_DATA_DIR": data_dir, "PYSPATIAL_BACKBONE": "posed-rgbd", "REDIS_URL": ""}
     agent: dict[str, str] = {}
     if keys:
@@ -62,7 +62,7 @@ def main(argv: list[str] | None = None) -> int:
     worst = 0
     for keys in args.keys:
         with tempfile.TemporaryDirectory(prefix="pyspatial-fuzz-") as data_dir:
-            recon_env, agent_env = _stack_env(data_dir, keys == "on")
+            recon_env, agent_env = stack_env(data_dir, keys == "on")
             with running_service(RECON_APP, recon_env) as recon:
                 agent_env["PYSPATIAL_RECON_URL"] = recon.url
                 with running_service(AGENT_APP, agent_env) as agent:

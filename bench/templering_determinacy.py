@@ -3,9 +3,10 @@
 Each pair (two photos 7.7 to ~46 degrees apart around the ring, also both turned 90 degrees as if
 held sideways) is reconstructed by the classical backbone with no intrinsics. Two views cannot fix
 the focal, so the pair is solved over field-of-view hypotheses; every determined word (turn side,
-step direction, vertical step) is compared with the words the same rules give for the
-ground-truth cameras (turned the same way for the sideways photos). A pair is "determined" when
-its turn or its step is determined; "wrong" when any determined word differs from the truth.
+step direction, vertical step, tilt, roll; all in view 1's image axes) is compared with the words
+the same rules give for the ground-truth cameras (turned the same way for the sideways photos). A
+pair is "determined" when its turn or its step is determined; "wrong" when any determined word
+differs from the truth.
 
     python -m bench templering_determinacy [--starts 1,5,9,13,17,21] [--steps 1,2,3,4,6]
 """
@@ -34,14 +35,10 @@ def true_words(first: np.ndarray, second: np.ndarray) -> dict[str, str]:
     rotation, translation = relative_pose(first, second)
     unit = translation / np.linalg.norm(translation)
     motion = motion_over_focal(PairHypotheses(0, 1, [0.0], [rotation.tolist()], [unit.tolist()], [0]))
-    return {
-        "turn": motion.turns[0],
-        "direction": motion.directions[0],
-        "vertical": motion.vertical_directions[0],
-    }
+    return {name: motion.quantities[name].words[0] for name in WORDS}
 
 
-WORDS = ("turn", "direction", "vertical")
+WORDS = ("turn", "direction", "vertical", "tilt", "roll")  # each read in view 1's image axes
 
 
 def judge(recon, truth: dict[str, str]) -> tuple[str, str, dict[str, str]]:
@@ -54,11 +51,8 @@ def judge(recon, truth: dict[str, str]) -> tuple[str, str, dict[str, str]]:
     if not isinstance(motion, CameraMotion) or motion.over_focal is None:
         return "unknown", motion.sentence, {}
     over = motion.over_focal
-    determined = {
-        "turn": (over["turn_determined"], over["turns"][0]),
-        "direction": (over["direction_determined"], over["directions"][0]),
-        "vertical": (over["vertical_determined"], over["vertical_directions"][0]),
-    }
+    quantities = over["quantities"]
+    determined = {name: (quantities[name]["determined"], quantities[name]["words"][0]) for name in WORDS}
     words = {
         name: ("right" if word == truth[name] else "wrong") if flag else "undetermined"
         for name, (flag, word) in determined.items()

@@ -7,6 +7,8 @@ the ids already there, so an interrupted run continues where it stopped.
 from __future__ import annotations
 
 import json
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated
 
@@ -81,6 +83,17 @@ def _fail(message: str) -> typer.Exit:
     return typer.Exit(code=2)
 
 
+@contextmanager
+def _failing_clearly() -> Iterator[None]:
+    """A bad dataset or an unreachable service ends the command with its message (exit 2)."""
+    try:
+        yield
+    except DatasetError as error:
+        raise _fail(str(error)) from error
+    except ServiceError as error:
+        raise _fail(explain_service_error(error)) from error
+
+
 @eval_app.command("mindcube")
 def mindcube(
     jsonl: JsonlOption,
@@ -105,15 +118,11 @@ def mindcube(
     over all items (MindCube's denominator) and over answered items (the paper's code's).
     """
     image_root = image_root or default_image_root(jsonl)
-    try:
+    with _failing_clearly():
         with pyspatial_solver(agent_url, image_root, backbone, recon_url, api_key, recon_api_key) as solver:
             run = evaluate_mindcube(
                 jsonl, image_root, solver.solve, out, limit, concurrency, resume, console, progress
             )
-    except DatasetError as error:
-        raise _fail(str(error)) from error
-    except ServiceError as error:
-        raise _fail(explain_service_error(error)) from error
     console.print(mindcube_report([run.summary]))
     if run.skipped:
         console.print(f"{len(run.skipped)} item(s) skipped: their images are missing (warnings above)")
@@ -140,15 +149,11 @@ def omni3d(
     The agent answers with option letters; for these free-form questions its answer text and
     reasoning are parsed for the value (see evaluation/omni3d.py for what that means for scores).
     """
-    try:
+    with _failing_clearly():
         with pyspatial_solver(agent_url, image_root, backbone, api_key=api_key) as solver:
             run = evaluate_omni3d(
                 jsonl, image_root, solver.solve, out, limit, concurrency, resume, console, progress
             )
-    except DatasetError as error:
-        raise _fail(str(error)) from error
-    except ServiceError as error:
-        raise _fail(explain_service_error(error)) from error
     console.print(omni3d_report([run.summary]))
     console.print(f"results: {out}")
 
@@ -258,7 +263,7 @@ def mmsi(
     if (parquet is None) == (not fetch):
         raise _fail("give exactly one of --parquet PATH or --fetch")
     wanted = [name.strip() for value in types or [] for name in value.split(",") if name.strip()] or None
-    try:
+    with _failing_clearly():
         source = parquet if parquet is not None else fetch_parquet()
         items = read_mmsi(source, out.parent / f"{out.stem}_images", limit, wanted)
         if replies is not None:
@@ -270,10 +275,6 @@ def mmsi(
                 records, summary = evaluate_mmsi(
                     items, solver.solve, out, circular, concurrency, resume, console, progress
                 )
-    except DatasetError as error:
-        raise _fail(str(error)) from error
-    except ServiceError as error:
-        raise _fail(explain_service_error(error)) from error
     console.print(mmsi_table(summary))
     summary_path = out.with_suffix(".summary.json")
     summary_path.write_text(json.dumps(summary.as_dict(), indent=2) + "\n", encoding="utf-8")

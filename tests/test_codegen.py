@@ -241,6 +241,22 @@ def test_execution_errors_are_fed_back(llm: ScriptedLLM, client: ChatClient) -> 
     assert "IndexError: list index out of range" in llm.requests()[1]["messages"][2]["content"]
 
 
+def test_a_spent_solve_budget_ends_the_loop_without_asking_for_a_repair(
+    llm: ScriptedLLM, client: ChatClient
+) -> None:
+    spent = "cpu_budget: this solve's programs used 2.0 s of CPU, its budget is 2 s across all attempts"
+    outcomes = iter([ExecutionOutcome(False, "CPU limit of 1 s exceeded", None, "cpu")])
+
+    def execute(source: str) -> ExecutionOutcome:
+        return next(outcomes, ExecutionOutcome(False, spent, None, "cpu_budget"))
+
+    llm.script([GOOD_REPLY, GOOD_REPLY.replace("[1]", "[0]"), GOOD_REPLY.replace("[1]", "[2]")])
+    result = generate_program(client, INTENT, [PNG], execute, max_repairs=2)
+    assert not result.ok and result.failure == "budget"
+    assert [attempt.error_kind for attempt in result.attempts] == ["cpu", "cpu_budget"]
+    assert result.error.endswith(spent) and len(llm.requests()) == 2  # the third reply never asked for
+
+
 def test_model_failure_ends_the_loop_with_the_attempts_so_far(llm: ScriptedLLM, client: ChatClient) -> None:
     llm.script([IMPORTING_REPLY, {"status": 400, "error_message": "context length exceeded"}])
     result = generate_program(client, INTENT, [PNG], validate_only)

@@ -121,7 +121,7 @@ def test_each_dockerfile_starts_through_pyspatial_serve(name):
     assert "uvicorn" not in text.split("CMD ")[-1]  # plain uvicorn would ignore PYSPATIAL_DRAIN_S
     assert command[command.index("--host") + 1] == "0.0.0.0"
     assert command[command.index(f"--{name}-port") + 1] == str(APP_SERVICES[name])
-    assert "pyspatial = \"cli.main:app\"" in (REPO_ROOT / "pyproject.toml").read_text()  # the console script
+    assert 'pyspatial = "cli.main:app"' in (REPO_ROOT / "pyproject.toml").read_text()  # the console script
     assert "--forwarded-allow-ips" not in command  # X-Forwarded-For: PYSPATIAL_TRUSTED_PROXIES only
 
 

@@ -60,8 +60,11 @@ def test_the_container_entry_point_drains_and_a_cut_off_request_gets_a_503(tmp_p
         port = free_port()
         env = {**os.environ, "PYSPATIAL_RECON_URL": recon.url, "PYSPATIAL_DRAIN_S": "1"}
         process = subprocess.Popen(
-            container_command("agent", port), cwd=tmp_path, env=env,
-            stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+            container_command("agent", port),
+            cwd=tmp_path,
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
         )
         try:
             url = f"http://127.0.0.1:{port}"
@@ -126,6 +129,25 @@ def test_retries_stop_at_the_attempts_and_the_window(recon):
             with pytest.raises(ServiceUnreachable):
                 client.backbones()
         assert time.monotonic() - started < 0.5 + 1 and proxy.connections < 10  # the window, not 10 tries
+
+
+def test_retries_stop_at_the_solves_deadline_before_their_own_window(recon):
+    """A solve's client (`until`, as the pipeline makes one per solve) retries no later than its
+    deadline, though the retry window and the attempts would allow many more tries."""
+    # Resets (the 503s here ask for Retry-After: 0, so their tries are back to back, not spaced).
+    for answers in (["reset"] * 20,):
+        with MisbehavingServer(flaky(recon_port(recon), answers)) as proxy:
+            retry = RetryPolicy(attempts=10, backoff_base_s=0.2, backoff_max_s=0.2, window_s=60)
+            with ReconClient(proxy.url, timeout=10, retry=retry) as client:
+                started = time.monotonic()
+                with pytest.raises((ServiceError, ServiceUnreachable)):
+                    client.until(started + 0.6).backbones()
+                took = time.monotonic() - started
+            assert took < 0.6 + 0.5 and 2 <= proxy.connections < 10, (answers[0], took, proxy.connections)
+    with ReconClient(recon.url, timeout=10, retry=RetryPolicy(attempts=3)) as client:
+        assert "classical" in str(client.until(time.monotonic() + 30).backbones())  # in time: answered
+        with pytest.raises(ServiceUnreachable, match="deadline"):
+            client.until(time.monotonic() - 1).backbones()  # past it: not even tried
 
 
 def test_a_refusal_is_not_retried(recon):

@@ -50,8 +50,6 @@ def _outcomes(results: list[dict]) -> list[tuple]:
     return [(r["id"], r["program_source"], r["answer"], r["model_replies"]) for r in results]
 
 
-# Known failure since the stop-29 merge (closing note): out of the default run until fixed.
-@pytest.mark.slow
 def test_the_first_live_questions_replay_to_the_same_outcomes(llm, monkeypatch, tmp_path) -> None:
     results = _replay(llm, monkeypatch, tmp_path, 4)
     assert _outcomes(results) == _outcomes(_live()["record"]["results"][:4])

@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pyarrow as pa
@@ -29,8 +31,10 @@ from evaluation.mmsi import (
     rotated_question,
 )
 from evaluation.solvers import Prediction
+from shared.local.services import running_service
 from shared.synthetic.mmsi import MOTION_CAM, MOTIONS, mmsi_rows, motion_word, moved_camera, write_parquet
 from tests.support.hub_standin import HubStandIn
+from tests.support.stack import recon_env
 
 
 @pytest.fixture(scope="module")
@@ -215,3 +219,38 @@ def test_fetch_pulls_the_parquet_through_huggingface_hub(parquet, tmp_path):
     assert done.returncode == 0, done.stdout + done.stderr
     assert any("datasets/RunsenXu/MMSI-Bench/resolve" in path for _, path, _ in hub.requests)
     assert json.loads(out.with_suffix(".summary.json").read_text())["types"]["overall"]["accuracy"] == 1.0
+
+
+def test_a_run_killed_by_sigkill_resumes_where_it_stopped(parquet, rows, tmp_path, redis_url):
+    """The command itself, asking a real agent and recon, is SIGKILLed after its first predictions;
+    `--resume` then asks only the rest, and every question is in the file exactly once."""
+    recon_settings = recon_env(tmp_path / "recon", redis_url, backbone="classical")
+    out = tmp_path / "run" / "mmsi.jsonl"
+    with (
+        running_service("services.recon.app:create_app", recon_settings) as recon,
+        running_service("services.agent.app:create_app", {"PYSPATIAL_RECON_URL": recon.url}) as agent,
+    ):
+        command = [sys.executable, "-m", "cli.main", "eval", "mmsi", "--parquet", str(parquet)]
+        command += ["--agent-url", agent.url, "--out", str(out), "--concurrency", "1", "--no-progress"]
+        environment = {k: v for k, v in os.environ.items() if not k.startswith("PYSPATIAL_")}
+        first = subprocess.Popen(
+            command, env=environment, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+        )
+        deadline = time.monotonic() + 240
+        while not (out.exists() and len(out.read_text().splitlines()) >= 2):
+            assert first.poll() is None, "the run ended before it could be killed"
+            assert time.monotonic() < deadline, "no predictions were written"
+            time.sleep(0.05)
+        first.send_signal(signal.SIGKILL)
+        first.wait()
+        before = [json.loads(line)["id"] for line in out.read_text().splitlines() if line.endswith("}")]
+        assert 2 <= len(before) < len(rows)  # killed mid-run
+        resumed = subprocess.run(
+            [*command, "--resume"], env=environment, capture_output=True, text=True, timeout=600
+        )
+        assert resumed.returncode == 0, resumed.stdout + resumed.stderr
+    ids = [json.loads(line)["id"] for line in out.read_text().splitlines()]
+    assert sorted(ids) == sorted(row["id"] for row in rows)  # each question once, none lost
+    assert ids[: len(before)] == before  # what was done before the kill was kept, not asked again
+    summary = json.loads(out.with_suffix(".summary.json").read_text())
+    assert summary["types"]["overall"]["count"] == len(rows)

@@ -101,6 +101,9 @@ def stack(tmp_path_factory, redis_url):
             PYSPATIAL_BACKBONE="posed-rgbd",
             PYSPATIAL_API_KEYS=RECON_KEY,
             PYSPATIAL_MAX_REQUEST_BYTES="3000000",
+            # This test sends bad keys on purpose to see each route's 401; the throttle of failed
+            # authentications is provoked on `recon_limited`, where it is counted exactly.
+            PYSPATIAL_AUTH_FAILURES_PER_MINUTE="0",
         ),
         "recon_limited": recon_env(
             tmp_path_factory,
@@ -108,6 +111,7 @@ def stack(tmp_path_factory, redis_url):
             PYSPATIAL_API_KEYS=RECON_KEY,
             PYSPATIAL_RATE_LIMIT_PER_MINUTE="1",
             PYSPATIAL_RATE_LIMIT_BURST="1",
+            PYSPATIAL_AUTH_FAILURES_PER_MINUTE="1",
         ),
         # A checkpoint that is there but broken: the backbone cannot be built, 503s (weights that are
         # simply absent are the caller's 409 instead, provoked on `recon` by naming pi3x).
@@ -126,15 +130,24 @@ def stack(tmp_path_factory, redis_url):
             RECON_APP, {"PYSPATIAL_DATA_DIR": str(storage_dir)}, preexec_fn=small_file_size_limit
         )
         recon_url, unready_url = services["recon"].url, services["recon_unready"].url
+        limited_url = services["recon_limited"].url
         agents = {
             "agent": {
                 "PYSPATIAL_RECON_URL": recon_url,
                 "PYSPATIAL_RECON_API_KEY": RECON_KEY,
                 "PYSPATIAL_API_KEYS": AGENT_KEY,
                 "PYSPATIAL_MAX_REQUEST_BYTES": "3000000",
+                "PYSPATIAL_AUTH_FAILURES_PER_MINUTE": "0",  # each guarded route's 401 is provoked
             },
             # recon refuses it (no key): the stack's fault, a 502
             "agent_without_recon_key": {"PYSPATIAL_RECON_URL": recon_url},
+            # recon refuses it, then throttles its failed authentications: still the key, a 502
+            "agent_throttled_by_recon": {"PYSPATIAL_RECON_URL": limited_url},
+            # recon rate-limits its (valid) key: overloaded for now, a 503 with recon's wait
+            "agent_of_limited_recon": {
+                "PYSPATIAL_RECON_URL": limited_url,
+                "PYSPATIAL_RECON_API_KEY": RECON_KEY,
+            },
             # recon not ready (503) or, stopped, hung (504)
             "agent_of_unready": {
                 "PYSPATIAL_RECON_URL": unready_url,
@@ -373,6 +386,7 @@ def exercise_agent(observe: Observer, stack, views, scene_id: str) -> None:
         if route in ("/v1/solve", "/v1/route", points, "/v1/backbones", download):
             agent(method, route, path, 502, name="agent_without_recon_key", headers={}, **kwargs)
             agent(method, route, path, 503, name="agent_of_nothing", headers={}, **kwargs)
+    refused_key_when_recon_throttles(agent, stack)
     process = stack["recon_unready"].process
     os.kill(process.pid, signal.SIGSTOP)  # a hung recon: connections are accepted, nothing answers
     try:
@@ -382,8 +396,25 @@ def exercise_agent(observe: Observer, stack, views, scene_id: str) -> None:
         os.kill(process.pid, signal.SIGCONT)
 
 
-# Known failure since the stop-29 merge (closing note): out of the default run until fixed.
-@pytest.mark.slow
+def refused_key_when_recon_throttles(agent, stack) -> None:
+    """Recon throttling the agent tells the agent's fault (its key) from overload (its rate)."""
+    # A keyless agent in front of recon_limited (one failed authentication a minute): the first
+    # call is recon's 401, the second recon's 429; both are the agent's misconfigured key, a 502.
+    for recon_answered in ("missing bearer API key", "too many failed authentications"):
+        refused = agent(
+            "GET", "/v1/backbones", "/v1/backbones", 502, name="agent_throttled_by_recon", headers={}
+        )
+        detail = refused.json()["detail"]
+        assert "reconstruction service refused the agent's own API key" in detail and recon_answered in detail
+    # An agent with the right key, over recon_limited's rate (its bucket spent just now): a 503
+    # with recon's own wait, not the default one.
+    key = {"Authorization": f"Bearer {RECON_KEY}"}
+    httpx.get(stack["recon_limited"].url + "/v1/backbones", headers=key, timeout=60)
+    limited = agent("GET", "/v1/backbones", "/v1/backbones", 503, name="agent_of_limited_recon", headers={})
+    assert "rate limit exceeded" in limited.json()["detail"]
+    assert int(limited.headers["retry-after"]) > 30  # one request a minute: recon asks ~60 s
+
+
 def test_documented_status_codes_are_exactly_the_observed_ones(stack, views):
     observe = Observer()
     exercise_recon(observe, stack, views)

@@ -152,9 +152,7 @@ def test_motion_consecutive_pair_uses_describe_camera_motion() -> None:
         ("From the first picture to the last picture, how did I turn? A. left B. right", [1, 4], (0, 3)),
     ],
 )
-def test_motion_other_pairs_name_the_pair(
-    question: str, views: list[int], indices: tuple[int, int]
-) -> None:
+def test_motion_other_pairs_name_the_pair(question: str, views: list[int], indices: tuple[int, int]) -> None:
     plan = planned(question, 4)
     assert plan.family == "motion" and plan.views == views
     assert f"pySpatial.describe_camera_motion(recon, {views[0]}, {views[1]})" in plan.source

@@ -24,6 +24,7 @@ from shared.synthetic import default_intrinsic, generate_scene, look_at, render_
 from shared.synthetic.photo import photo_bytes
 from shared.wire.client import AgentClient, ReconClient, ServiceError
 from tests.support.realdata import pose_errors, temple_ring
+from tests.test_motion_determinacy import QUANTITIES
 
 RECON_APP = "services.recon.app:create_app"
 AGENT_APP = "services.agent.app:create_app"
@@ -252,6 +253,17 @@ def test_partially_registered_scene_gets_per_pair_motion(recon, partial_scene):
     # every such pair has its sentence of what they share (view 1 -> 4 too).
     assert pairs == [(0, 1, False), (0, 2, True), (0, 3, True), (1, 2, False), (2, 3, True)]
     assert all(m["over_focal"] is not None for m in body["motions"] if m["described"])
+    # Every quantity of the vocabulary, each with its words, its range and whether all focals agree.
+    for motion in (m for m in body["motions"] if m["described"]):
+        quantities = motion["over_focal"]["quantities"]
+        assert set(quantities) == QUANTITIES
+        for name, quantity in quantities.items():
+            assert quantity["determined"] == (len(quantity["words"]) == 1), (name, quantity)
+        clauses = motion["sentence"].split("; ")
+        for name, verb in (("tilt", "tilted"), ("roll", "rolled")):
+            [clause] = [c for c in clauses if c.startswith((f"it {verb}", f"it did not {name}"))]
+            mark = "(determined)" if quantities[name]["determined"] else "(not determined)"
+            assert clause.endswith(mark), (clause, quantities[name])
     unknown = body["motions"][0]
     assert unknown["reason"] == "view 2 could not be registered by the classical backbone"
     assert unknown["sentence"] == (

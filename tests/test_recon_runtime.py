@@ -21,6 +21,7 @@ import pytest
 import redis
 from PIL import Image
 
+from shared.synthetic.photo import photo_bytes
 from shared.wire.client import ReconClient
 from shared.wire.settings import AgentSettings, ReconSettings
 from tests.support.processes import running_service
@@ -48,12 +49,19 @@ def png(image: np.ndarray | Image.Image) -> bytes:
     return buffer.getvalue()
 
 
-def jittered(images: list[np.ndarray], seed: int) -> list[bytes]:
-    """The same views with invisible noise: a scene nobody has reconstructed yet."""
+def jittered(images: list[np.ndarray], seed: int, intrinsics: np.ndarray | None = None) -> list[bytes]:
+    """The same views with invisible noise: a scene nobody has reconstructed yet.
+
+    With `intrinsics` (one 3x3 per view) each PNG states its focal length in EXIF as a camera's
+    photo does; without it, two photos fit a range of focal lengths and a motion question whose
+    answer changes over that range is (rightly) not answered."""
     rng = np.random.default_rng(seed)
-    return [
-        png(np.clip(im.astype(int) + rng.integers(-2, 3, im.shape), 0, 255).astype(np.uint8)) for im in images
+    noisy = [
+        np.clip(im.astype(int) + rng.integers(-2, 3, im.shape), 0, 255).astype(np.uint8) for im in images
     ]
+    if intrinsics is None:
+        return [png(image) for image in noisy]
+    return [photo_bytes(image, k) for image, k in zip(noisy, intrinsics, strict=True)]
 
 
 @pytest.fixture(scope="module")

@@ -9,7 +9,7 @@ from services.agent.clue_check import clue_problem
 from services.agent.codegen import repair_hints
 from services.agent.repair_hints import pointed_hints
 from shared.questions.intent import parse_question
-from tests.test_sandbox import PointSceneTools, run
+from tests.test_sandbox import FALSE_POSITIVES_CLUE, PointSceneTools, run
 
 OPENING = "Based on these three images (image 1, 2, and 3) showing the same room from different viewpoints:"
 ONE_TO_THREE = parse_question(
@@ -51,6 +51,16 @@ def test_empty_clues_and_answers_instead_of_clues() -> None:
     assert clue_problem(ONE_TO_THREE, "", [], 0).kind == "empty_clue"
     assert clue_problem(ONE_TO_THREE, "B", [], 0).kind == "answer_letter"
     assert clue_problem(ONE_TO_THREE, "Right", [], 0).kind == "answer_letter"
+    assert clue_problem(ONE_TO_THREE, "The answer is right.", [], 0).kind == "answer_letter"
+    assert clue_problem(ONE_TO_THREE, "3 views\nAnswer: B", [], 0).kind == "answer_letter"
+
+
+def test_an_option_word_among_listed_values_is_no_answer() -> None:
+    # the sandbox's ordinary-code control prints "left" as one of thirteen values
+    left_or_right = parse_question("Which way did the camera move from view 1 to view 2? A. left B. right", 2)
+    assert "left" in FALSE_POSITIVES_CLUE.splitlines()
+    assert clue_problem(left_or_right, FALSE_POSITIVES_CLUE, [], 0) is None
+    assert clue_problem(left_or_right, "left", [], 0).kind == "answer_letter"
 
 
 # Errors as the real sandbox reports them (each run here), and the hint each class must give.
@@ -86,3 +96,16 @@ def test_each_clue_class_has_its_own_hint() -> None:
     assert "empty clue" in pointed_hints("x", "empty_clue", ONE_TO_THREE)[0]
     assert "ran out of time" in pointed_hints("timed out after 20 s", "timeout", ONE_TO_THREE)[0]
     assert "np.linalg.solve" in pointed_hints("line 3: 'np.linalg.inv' is not available in the sandbox")[0]
+
+
+def test_an_image_only_clue_nothing_reads_goes_back_with_a_text_call() -> None:
+    problem = clue_problem(ONE_TO_THREE, None, [], 2, answerer_reads_images=False)
+    assert problem is not None and problem.kind == "unread_images"
+    assert "2 images" in problem.message and "describe_camera_motion(recon, 1, 3)" in problem.fix
+    assert clue_problem(ONE_TO_THREE, None, [], 2) is None  # a vision answerer looks at them
+    # text with the images is read: the check is only for clues that are images alone
+    sentence = "From view 1 to view 3 the camera moved right."
+    assert clue_problem(ONE_TO_THREE, sentence, [], 2, answerer_reads_images=False) is None
+    hint = pointed_hints("x", "unread_images", ONE_TO_THREE)[0]
+    assert "can look at images" in hint and "describe_camera_motion(recon, 1, 3)" in hint
+    assert "synthesize_novel_view" not in pointed_hints("x", "unread_images", FROM_THREE)[0]

@@ -95,8 +95,6 @@ def through_http(attack: Attack) -> bool:
     return extract_program(fenced(attack.source)) is not None
 
 
-# Known failure since the stop-29 merge (closing note): out of the default run until fixed.
-@pytest.mark.slow
 def test_the_attack_corpus_ends_the_same_way_through_v1_solve(recon, llm, scene_id) -> None:
     attacks = [attack for attack in ATTACKS if through_http(attack)]
     assert len(attacks) >= 150
@@ -230,8 +228,6 @@ def test_an_operator_opt_out_runs_programs_and_says_so(recon, llm, scene_id) -> 
 BURNER = "def program(input_scene):\n    n = {attempt}\n    while True:\n        n += 1\n"
 
 
-# Known failure since the stop-29 merge (closing note): out of the default run until fixed.
-@pytest.mark.slow
 def test_cpu_across_repairs_stops_at_the_solve_budget_and_a_full_agent_answers_503(
     recon, llm, scene_id
 ) -> None:
@@ -256,6 +252,7 @@ def test_cpu_across_repairs_stops_at_the_solve_budget_and_a_full_agent_answers_5
             _wait_for_code_requests(llm, 1)
             refused = solve(agent.url, scene_id)
             burnt = burning.result()
+        code_requests = sum(request["model"] == "coder" for request in llm.requests())
         llm.script([fenced(MOTION_PROGRAM)], model="coder")
         after = solve(agent.url, scene_id)  # the ticket came back: admitted again
     assert refused.status_code == 503 and refused.headers["retry-after"] == "9"
@@ -263,9 +260,13 @@ def test_cpu_across_repairs_stops_at_the_solve_budget_and_a_full_agent_answers_5
     assert burnt.status_code == 200, burnt.text
     kinds = [attempt["error_kind"] for attempt in burnt.json()["attempts"]]
     errors = [attempt["error"] for attempt in burnt.json()["attempts"]]
-    # two runs stopped by their 1 s CPU limit, then the budget (2 s) has less than a second left
-    assert kinds == ["cpu", "cpu", "cpu_budget", "cpu_budget"], errors
+    # two runs stopped by their 1 s CPU limit, then the budget (2 s) has less than a second left: the
+    # third program is refused unrun and the solve ends there (no fourth request, no planner run)
+    assert kinds == ["cpu", "cpu", "cpu_budget"], errors
     assert (
         errors[2].startswith("cpu_budget: this solve's programs used ") and "its budget is 2 s" in errors[2]
     )
+    assert code_requests == 3
+    assert burnt.json()["program_source"] is None and burnt.json()["code_model_fallback"] is None
+    assert burnt.json()["fallback_reason"] == f"no program ran successfully: {errors[2]}"
     assert after.status_code == 200 and after.json()["attempts"][0]["error"] is None

@@ -30,25 +30,21 @@ from services.agent.llm import (
     text_part,
 )
 from services.agent.motion_clue import (
+    NO_GRAVITY_OVER_FOCAL,
     UNDETERMINED,
     VISION_MODEL_HINT,
+    Hypothetical,
     MotionStatement,
-    hypothetical_statements,
+    hypothetical_readings,
     motion_statements,
     not_a_motion_question,
     pick_statement,
     unreadable_clue,
 )
 from services.agent.prompts import load_template
-from shared.questions.choices import (
-    DIRECTIONS,
-    normalize_direction,
-    normalize_turn,
-    read_choice,
-    turn_degrees,
-)
+from shared.questions.choices import DIRECTIONS, read_choice
 from shared.questions.intent import QuestionIntent
-from shared.questions.motion_words import agrees, read_motion
+from shared.questions.motion_words import MotionReading, agrees, read_motion
 
 DEFAULT_TEMPLATE = "answer_v1"
 IMAGES_ONLY_TEMPLATE = "answer_images_only_v1"
@@ -296,6 +292,8 @@ def _answer_from_motion(intent: QuestionIntent, statements: list[MotionStatement
     if statement is None:
         return no_answer(why)
     if statement.over_focal is not None:
+        if intent.motion_frame == "gravity":
+            return no_answer(f"{UNDETERMINED}: {NO_GRAVITY_OVER_FOCAL}")
         return _answer_over_focal(intent, statement)
     letter, why = _match_motion(intent, statement, intent.options)
     if letter is None:
@@ -308,26 +306,18 @@ def _answer_from_motion(intent: QuestionIntent, statements: list[MotionStatement
     )
 
 
-
-
-def _option_motion(text: str, asks_turn_only: bool) -> tuple[str | None, str | None, float | None]:
-    """An option's (direction, turn, degrees), for matching it against one focal hypothesis."""
-    direction, turn, degrees = normalize_direction(text), normalize_turn(text), turn_degrees(text)
-    if asks_turn_only and turn is None and direction is not None:
-        # "Which way did I turn? A. Left B. Right": a bare side names the turn.
-        if direction in ("left", "right"):
-            return None, f"turn {direction}", degrees
-        if direction == "backward":
-            return None, "turn around", degrees if degrees is not None else 180.0
-    return direction, turn, degrees
-
-
 def _answer_over_focal(intent: QuestionIntent, statement: MotionStatement) -> AnswerResult:
     """The option that fits best under every focal hypothesis, else "cannot be determined" with the
-    range. Under one hypothesis the best fit is the option nearest to its step's heading (within
-    45 degrees, one compass sector) and, for turns, the matching side with the nearest degrees."""
-    options = {letter: _option_motion(text, intent.asks_turn_only) for letter, text in intent.options.items()}
-    letters = {_nearest_option(options, variant) for variant in hypothetical_statements(statement)}
+    range. Every quantity counts (step, vertical step, turn, tilt, roll, stayed still): an option
+    fits a hypothesis when every other quantity it states holds there and, for a step, when its
+    direction is within 45 degrees (one compass sector) of the hypothesis's heading; of several,
+    the nearest in heading, then in degrees, wins."""
+    assert statement.over_focal is not None
+    options = {letter: read_motion(text, intent.motion_asked) for letter, text in intent.options.items()}
+    keys = {key for option in options.values() for key in option.stated()}
+    with_degrees = any(option.degrees is not None for option in options.values())
+    variants = hypothetical_readings(statement.over_focal, intent.motion_asked, keys, with_degrees)
+    letters = {_nearest_option(options, variant) for variant in variants}
     if len(letters) == 1 and None not in letters:
         (letter,) = letters
         return AnswerResult(
@@ -344,33 +334,34 @@ def _answer_over_focal(intent: QuestionIntent, statement: MotionStatement) -> An
 _SECTOR_DEG = 45.0
 
 
-def _nearest_option(
-    options: dict[str, tuple[str | None, str | None, float | None]], variant: MotionStatement
-) -> str | None:
+def _heading_gap(direction: str, variant: Hypothetical) -> float:
+    """How far an option's compass direction is from a hypothetical step (inf: it did not step)."""
+    if variant.reading.direction is None:
+        return math.inf  # the option steps; this hypothesis made no horizontal step
+    if variant.heading_deg is None:
+        return 0.0 if direction == variant.reading.direction else math.inf
+    offset = DIRECTIONS.index(direction) * _SECTOR_DEG - variant.heading_deg
+    return abs((offset + 180.0) % 360.0 - 180.0)
+
+
+def _nearest_option(options: dict[str, MotionReading], variant: Hypothetical) -> str | None:
     """The one option that fits a hypothetical motion best, or None (none fits, or a tie)."""
     scored = []
-    for letter, (direction, turn, degrees) in options.items():
-        if (direction is None and turn is None) or (turn is not None and turn != variant.turn):
+    for letter, option in options.items():
+        stated = option.stated()
+        rest = option.model_copy(update={"direction": None})
+        if not stated or (rest.stated() and not agrees(rest, variant.reading)[0]):
             continue
-        heading_gap = 0.0
-        if direction is not None:
-            if variant.direction is None:
-                continue  # the option moves; this hypothesis stayed in place
-            if variant.heading_deg is None:
-                heading_gap = 0.0 if direction == variant.direction else math.inf
-            else:
-                offset = DIRECTIONS.index(direction) * _SECTOR_DEG - variant.heading_deg
-                heading_gap = abs((offset + 180.0) % 360.0 - 180.0)
-            if heading_gap > _SECTOR_DEG:
-                continue
-        turn_gap = (
-            abs(degrees - variant.degrees) if degrees is not None and variant.degrees is not None else 0.0
-        )
-        scored.append((heading_gap, turn_gap, letter))
+        heading_gap = 0.0 if option.direction is None else _heading_gap(option.direction, variant)
+        if heading_gap > _SECTOR_DEG:
+            continue
+        said = variant.reading.degrees
+        degree_gap = abs(option.degrees - said) if option.degrees is not None and said is not None else 0.0
+        scored.append((heading_gap, degree_gap, -len(stated), letter))
     if not scored:
         return None
-    best = min(scored)[:2]
-    closest = [letter for heading, turn, letter in scored if (heading, turn) == best]
+    best = min(scored)[:3]
+    closest = [entry[3] for entry in scored if entry[:3] == best]
     return closest[0] if len(closest) == 1 else None
 
 

@@ -17,7 +17,7 @@ from fastapi.staticfiles import StaticFiles
 from starlette_compress import CompressMiddleware
 
 from services.agent.errors import SolveError
-from services.agent.infrastructure import InfrastructureFailure, recon_error_status
+from services.agent.infrastructure import InfrastructureFailure, recon_error_status, recon_retry_after
 from services.agent.llm import LLMError
 from services.agent.pipeline import SolvePipeline
 from services.agent.routes import ROUTERS
@@ -76,7 +76,7 @@ async def _solve_error(_: Request, error: SolveError) -> JSONResponse:
 async def _recon_error(_: Request, error: ServiceError | ServiceUnreachable) -> JSONResponse:
     """Recon failed or refused our call: its 4xx about the client's input, else 502/503/504."""
     status, detail = recon_error_status(error)
-    return JSONResponse({"detail": detail}, status_code=status)
+    return JSONResponse({"detail": detail}, status_code=status, headers=recon_retry_after(error))
 
 
 async def _infrastructure_failure(_: Request, error: InfrastructureFailure) -> JSONResponse:

@@ -3,11 +3,14 @@
 A clue is refused (and the program sent back for repair, with a hint that names the fix) when:
 
 - it is empty;
-- it is an answer letter or an option's text rather than tool output;
+- it is an answer letter or an option's text rather than tool output (a one-line clue that names an
+  option, or any clue that states a letter; a value among several lines is no answer);
 - its camera-motion sentences are about other view pairs than the question's ("From view 1 to view
   2" for "how did I move from image 1 to image 3");
 - its rendered views were rendered from another view than the question asks from (a camera turned
-  in place at view 1 for "from image 3, what is to your left?").
+  in place at view 1 for "from image 3, what is to your left?");
+- it is images only while nothing here reads images (no vision answer model is configured: the
+  offline answerer reads text), so the answer would be null however right the program is.
 
 Each problem is a `ClueProblem`: its kind becomes the execution's error_kind and its message the
 repair request's error; `fix` is the one-line advice (services/agent/repair_hints.py uses it).
@@ -29,7 +32,7 @@ _SAME_PLACE = 0.05
 
 @dataclass(frozen=True)
 class ClueProblem:
-    kind: str  # empty_clue | answer_letter | wrong_view
+    kind: str  # empty_clue | answer_letter | wrong_view | unread_images
     message: str
     fix: str
 
@@ -100,7 +103,11 @@ def _letter_problem(intent: QuestionIntent, clue_text: str, has_images: bool) ->
         return None
     if any(statement.pair for statement in motion_statements(text)):
         return None  # a tool's motion sentence (it names its views) may contain an option's words
-    if read_choice(text, intent.options) is None:
+    # One line is read as an answer reply is: a letter, "Answer: B", or an option's text ("Right").
+    # Several lines are a listing of values, where a line that equals an option's text ("left" among
+    # "3", "True", ...) is one value, not a choice: there only a stated letter is an answer.
+    options = intent.options if "\n" not in text else set(intent.options)
+    if read_choice(text, options) is None:
         return None
     fix = (
         f"return {motion_call(intent)}"
@@ -114,22 +121,40 @@ def _letter_problem(intent: QuestionIntent, clue_text: str, has_images: bool) ->
     )
 
 
+def _unread_images_problem(intent: QuestionIntent, num_images: int) -> ClueProblem:
+    fix = (
+        f"return {motion_call(intent)}: its sentence is text"
+        if intent.family == "self_movement"
+        else "return the tools' text output (for example describe_camera_motion's sentence)"
+    )
+    views = f"{num_images} image{'s' if num_images != 1 else ''}"
+    return ClueProblem(
+        "unread_images",
+        f"the program returned only {views}, but no vision model answers here: the answerer reads text",
+        fix,
+    )
+
+
 def clue_problem(
     intent: QuestionIntent,
     clue_text: str | None,
     rendered: list[np.ndarray],
     num_images: int,
     view_extrinsics: list[np.ndarray] | None = None,
+    answerer_reads_images: bool = True,
 ) -> ClueProblem | None:
     """What is wrong with the clue of a successful run (None: it covers what the question asks).
 
     `rendered`: the camera-from-world poses of the clue's rendered images; `num_images` counts all
-    clue images (photos included); `view_extrinsics`: the input views' poses, when known.
+    clue images (photos included); `view_extrinsics`: the input views' poses, when known;
+    `answerer_reads_images`: whether a vision answer model will see the clue's images.
     """
     text = (clue_text or "").strip()
     if not text and num_images == 0:
         fix = f"return {motion_call(intent)}" if intent.family == "self_movement" else "return rendered views"
         return ClueProblem("empty_clue", "the program returned an empty clue (no text, no image)", fix)
+    if not text and not answerer_reads_images:
+        return _unread_images_problem(intent, num_images)
     return (
         _letter_problem(intent, text, num_images > 0)
         or _motion_problem(intent, text)

@@ -16,7 +16,8 @@ Taking the program out of a reply (all linear in the reply's length, and replies
 
 Repairs that change something: a program identical to one that already failed (same syntax tree)
 is never run again; the model is told so, plainly; each repair raises the temperature; when the
-model repeats itself a second time the loop stops early.
+model repeats itself a second time the loop stops early. A run refused because the solve's CPU
+budget is spent ends the loop at once (`failure="budget"`): no later program could run.
 """
 
 from __future__ import annotations
@@ -52,7 +53,10 @@ REPEATS_BEFORE_STOPPING = 2
 _MAX_ERROR_CHARS = 2000
 PROGRAM_NAME = "program"
 
-Failure = Literal["no_program", "execution", "model", "repeated"]
+Failure = Literal["no_program", "execution", "model", "repeated", "budget"]
+# Error kinds after which no program of this solve can run (its CPU budget is spent): the loop ends
+# there, since a repair request would cost a model call for a program that is refused unrun.
+FINAL_ERROR_KINDS = frozenset({"cpu_budget"})
 
 
 class ExecutionOutcome(NamedTuple):
@@ -456,6 +460,9 @@ def _run(
     attempt.error = loop.last_error = error
     attempt.error_kind = outcome[3] if len(outcome) > 3 and outcome[3] else "execution"
     loop.failure = "execution"
+    if attempt.error_kind in FINAL_ERROR_KINDS:
+        failed = f"no working program after {len(loop.attempts)} attempt(s); the solve stopped: {error}"
+        return CodegenResult(ok=False, attempts=loop.attempts, error=failed, failure="budget"), None
     loop.failed[program_fingerprint(program)] = (number, error, attempt.error_kind)
     loop.repairing = loop.runs
     hints = repair_hints(error, attempt.error_kind, loop.intent)
@@ -469,6 +476,7 @@ _PROBLEMS = {
     "answer_letter": "Your program returned an answer instead of a clue.",
     "not_evidence": "Your program returned text it wrote itself instead of a tool's output.",
     "empty_clue": "Your program returned an empty clue.",
+    "unread_images": "Your program returned only images, and nothing here can look at images.",
     "rejected": "Your program was rejected before it ran.",
     "timeout": "Your program ran out of time.",
 }

@@ -19,9 +19,11 @@ from typing import Literal
 
 from services.agent.answer_result import AnswerResult, json_object, no_answer
 from services.agent.motion_clue import (
+    NO_GRAVITY_OVER_FOCAL,
     UNDETERMINED,
     MotionStatement,
-    hypothetical_statements,
+    OverFocal,
+    hypothetical_readings,
     motion_statements,
     not_a_motion_question,
     pick_statement,
@@ -29,7 +31,7 @@ from services.agent.motion_clue import (
     unreadable_clue,
 )
 from shared.questions.intent import QuestionIntent
-from shared.questions.motion_words import Frame, MotionReading
+from shared.questions.motion_words import AskedMotion, Frame, MotionReading
 
 AnswerFormat = Literal["choice", "free_form"]
 CHOICE: AnswerFormat = "choice"
@@ -91,7 +93,9 @@ def answer_offline(intent: QuestionIntent, clue_text: str | None, clue_images: l
     if statement is None:
         return no_answer(why)
     if statement.over_focal is not None:
-        return _over_focal_in_words(statement, intent.asks_turn_only)
+        if intent.motion_frame == "gravity":
+            return no_answer(f"{UNDETERMINED}: {NO_GRAVITY_OVER_FOCAL}")
+        return _over_focal_in_words(statement, intent.motion_asked)
     words = motion_in_words(statement, intent.asks_turn_only, intent.motion_frame)
     if words is None:
         return no_answer(f"the offline answerer finds no direction or turn in {statement.sentence!r}")
@@ -102,34 +106,77 @@ def answer_offline(intent: QuestionIntent, clue_text: str | None, clue_images: l
     )
 
 
-def _over_focal_in_words(statement: MotionStatement, asks_turn_only: bool) -> AnswerResult:
-    """Only what holds at every focal hypothesis; the rest is said to be undetermined."""
-    variants = hypothetical_statements(statement)
-    turns = {variant.turn for variant in variants}
-    directions = {variant.direction for variant in variants}
-    turned = None
-    if len(turns) == 1:
-        (turn,) = turns
-        yaw = statement.over_focal.yaw_range_deg if statement.over_focal else None
-        turned = "did not turn significantly"
-        if turn != "no turn" and yaw is not None:
-            low, high = sorted(abs(end) for end in yaw)
-            turned = f"{turn.replace('turn ', 'turned ')} by {low:g} to {high:g} degrees"
-    moved = None
-    if len(directions) == 1:
-        (direction,) = directions
-        moved = "stayed in place" if direction is None else f"moved {direction}"
-    parts = [turned] if asks_turn_only else [moved, turned]
-    if not any(parts):
+# What a free-form answer over focal hypotheses says, per asked motion (intent.motion_asked).
+_SAID_FOR = {
+    "turn": ("turn",),
+    "tilt": ("tilt",),
+    "roll": ("roll",),
+    "move": ("step", "turn", "tilt", "roll"),
+    "any": ("step", "turn", "tilt", "roll"),
+}
+
+
+def _over_focal_in_words(statement: MotionStatement, asked: AskedMotion) -> AnswerResult:
+    """Only what holds at every focal hypothesis; the rest is said to be undetermined, with its range."""
+    over = statement.over_focal
+    assert over is not None
+    said, open_ = [], []
+    for quantity in _SAID_FOR[asked]:
+        words = _determined_words(over, quantity)
+        if words is None:
+            open_.append(f"the {quantity} {UNDETERMINED}: {_range_words(over, quantity)}")
+        elif words or quantity == _SAID_FOR[asked][0]:
+            said.append(words or _NONE_WORDS[quantity])
+    if not said:
         return no_answer(f"{UNDETERMINED}: {statement.sentence}")
-    said = ", ".join(part for part in parts if part)
-    if None in parts:
-        said += f" (the {'turn' if turned is None else 'step'} {UNDETERMINED})"
+    answer = ", ".join(said) + (f" ({'; '.join(open_)})" if open_ else "")
     return AnswerResult(
-        answer=said,
+        answer=answer,
         reasoning=f"The program's output says: {statement.sentence!r}; this holds at every focal length.",
         method="offline_text",
     )
+
+
+_NONE_WORDS = {
+    "step": "stayed in place",
+    "turn": "did not turn significantly",
+    "tilt": "did not tilt significantly",
+    "roll": "did not roll significantly",
+}
+
+
+_MARK = re.compile(r" \(not determined(?:; (heading [^,]+), 0 = forward, \+ = right)?\)")
+
+
+def _range_words(over: OverFocal, quantity: str) -> str:
+    """'moved forward or diagonally forward and left, heading -45 to 0 degrees': a clause without its mark."""
+    clause = over.clauses.get(quantity, "the sentence does not state it").removeprefix("it ")
+    return _MARK.sub(lambda found: f", {found.group(1)} (0 = forward)" if found.group(1) else "", clause)
+
+
+def _determined_words(over: OverFocal, quantity: str) -> str | None:
+    """One quantity's words when every hypothesis agrees ("" when they agree it is none), else None."""
+    if quantity == "step":
+        readings = hypothetical_readings(over, keys=("direction", "vertical"), degrees=False)
+        steps = {(v.reading.direction, v.reading.vertical) for v in readings}
+        if len(steps) != 1:
+            return None
+        ways = [way for way in steps.pop() if way]
+        return f"moved {' and '.join(ways)}" if ways else ""
+    readings = hypothetical_readings(over, quantity, keys=(quantity,), degrees=False)  # type: ignore[arg-type]
+    words = {getattr(v.reading, quantity) for v in readings}
+    if len(words) != 1:
+        return None
+    word = words.pop()
+    if word in (None, "no turn", "no tilt"):
+        return ""
+    verb, side = str(word).split(" ", 1)
+    ends = {"turn": over.yaw_range_deg, "tilt": over.tilt_range_deg, "roll": over.roll_range_deg}[quantity]
+    if ends is None or side == "around":
+        return f"{verb}ed {side}"
+    low, high = sorted(abs(end) for end in ends)
+    span = f"about {high:g}" if low == high else f"{low:g} to {high:g}"
+    return f"{verb}ed {side} by {span} degrees"
 
 
 def motion_in_words(statement: MotionStatement, asks_turn_only: bool, frame: Frame = "image") -> str | None:

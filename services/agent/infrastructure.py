@@ -7,6 +7,8 @@ with `answer: null`.
 
 from __future__ import annotations
 
+import math
+
 from shared.wire.client import ServiceError, ServiceTimeout, ServiceUnreachable
 from shared.wire.schemas import AttemptRecord
 
@@ -41,18 +43,31 @@ def gateway_status(error: Exception) -> int:
 def recon_error_status(error: ServiceError | ServiceUnreachable) -> tuple[int, str]:
     """The status and message the agent answers when a recon call failed.
 
-    Recon's 4xx about the client's input pass through; recon refusing the agent's own key
-    (401/403) is a 502 and recon limiting it (429) a 503: the stack, not the client, is at fault.
+    Recon's 4xx about the client's input pass through. Recon refusing the agent's own key (401,
+    403, or throttling its failed authentications) is a 502 that says so: a misconfigured stack,
+    not the client's fault, and waiting does not cure it. Recon rate-limiting the agent (429) is a
+    503: the stack is overloaded for now (recon_retry_after gives the wait it asked for).
     """
     if isinstance(error, ServiceUnreachable):
         return gateway_status(error), str(error)
-    if error.status_code in (401, 403):
-        status = 502
-    elif error.status_code == 429:
+    if error.refused_key:
+        return 502, (
+            f"reconstruction service refused the agent's own API key (PYSPATIAL_RECON_API_KEY; "
+            f"answered {error.status_code}): {error.message}"
+        )
+    if error.status_code == 429:
         status = 503
     else:
         status = error.status_code if error.status_code < 500 else gateway_status(error)
     return status, f"reconstruction service: {error.message}"
+
+
+def recon_retry_after(error: ServiceError | ServiceUnreachable) -> dict[str, str]:
+    """The Retry-After header of the agent's 503 for `error`: recon's own when it named one."""
+    if isinstance(error, ServiceError) and error.retry_after is not None:
+        if recon_error_status(error)[0] == 503:
+            return {"Retry-After": str(max(1, math.ceil(error.retry_after)))}
+    return {}  # the catch-all adds the default wait to a 503 that names none
 
 
 class FailureRecordingClient:

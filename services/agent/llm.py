@@ -142,6 +142,7 @@ _DETERMINISTIC_SERVER_ERROR = re.compile(
 )
 _TRANSIENT_STATUSES = {408, 429, 502, 503, 504}
 
+
 def scrub_secrets(text: str, secrets: list[str] | tuple[str, ...] = ()) -> str:
     """`text` with the given secret values (in every encoding) and credential-shaped strings replaced."""
     return scrub(text, secrets)

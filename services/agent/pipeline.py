@@ -9,6 +9,8 @@ the response is made from them (services/agent/response.py).
 
 from __future__ import annotations
 
+import time
+
 from services.agent import cancellation as solve_cancellation
 from services.agent.cancellation import Cancellation
 from services.agent.errors import SolveError
@@ -118,7 +120,9 @@ class SolvePipeline:
         if progress is not None:
             StageReporter(progress).watch(log.callbacks)
         with solve_cancellation.bound(log.cancellation):  # the model clients abandon their calls
-            recon = self.recon.for_tenant(tenant)
+            # The solve's deadline bounds its recon calls and their retries, not only each window.
+            deadline = time.monotonic() + self.settings.solve_deadline_s
+            recon = self.recon.for_tenant(tenant).until(deadline)
             return self._solve(log, recon, question, image_files, (scene_id, backbone, max_repairs))
 
     def _solve(
@@ -204,6 +208,7 @@ class SolvePipeline:
             python_checks=not self.settings.sandbox_test_only_unchecked,
             gate=self.sandbox_gate,
             cpu_budget=CpuBudget(self.settings.sandbox_solve_cpu_s),
+            answerer_reads_images=self.answer_client is not None and not self.settings.answer_model_text_only,
         )
 
 

@@ -27,8 +27,17 @@ from pydantic import BaseModel
 from shared.questions.intent import PoseStep, QuestionIntent, view_references
 
 ProgramKind = Literal[
-    "motion", "behind", "left", "right", "front", "front-left", "front-right", "back-left", "back-right",
-    "turn_and_move", "around",
+    "motion",
+    "behind",
+    "left",
+    "right",
+    "front",
+    "front-left",
+    "front-right",
+    "back-left",
+    "back-right",
+    "turn_and_move",
+    "around",
 ]
 # Kept under its old name: the kind of program the planner wrote.
 Family = ProgramKind

@@ -86,6 +86,13 @@ def pointed_hints(error: str, kind: str | None = None, intent: QuestionIntent | 
         )
     if kind == "empty_clue":
         hints.append(f"Your program returned an empty clue. Return {_clue_call(intent)}.")
+    if kind == "unread_images":
+        text_call = (
+            motion_call(intent)
+            if intent is not None and intent.family == "self_movement"
+            else "the text a pySpatial tool returns (describe_camera_motion's sentence)"
+        )
+        hints.append(f"Nothing here can look at images: the answer is read from text. Return {text_call}.")
     if kind in ("timeout", "cpu"):
         hints.append(
             "The program ran out of time: no loops over pixels or points; call each tool once and "

@@ -3,14 +3,20 @@
 Two photos of unknown focal fit a range of focal lengths almost equally well, and the relative pose
 changes with the focal. A backbone then solves the pair at each plausible horizontal field of view
 (a hypothesis) and keeps those the matches support. Here each hypothesis's relative pose is read
-with the rules of camera_motion.py (same compass, same turn threshold), and a quantity is
-*determined* when every supported hypothesis gives it the same words: "turned left by 12 to 42
-degrees (determined) and moved forward or diagonally forward and left (not determined)".
+with the rules of camera_motion.py (same compass, same thresholds) in the first view's image axes,
+and each quantity of the vocabulary (QUANTITIES: turn, tilt, roll, the compass step and its
+left/right and forward/backward axes, the vertical step, stayed still) is *determined* when every
+supported hypothesis gives it the same word: "turned left by 12 to 42 degrees (determined) and
+moved forward or diagonally forward and left (not determined; ...); it made no vertical step
+(determined); it tilted up by 6 to 56 degrees (determined); ...". Each carries its range.
+
+The image axes, not a gravity frame: two cameras do not fix a scene up at every focal (the up
+they suggest is the normal to their x axes, against which a roll is zero by construction), while
+a person looking at the photos reads up, left and forward in them, as MMSI's annotators did.
 
 A hypothesis is the relative pose x_second = R x_first + t (camera axes of the first view, OpenCV),
-t a unit vector or zero (pure rotation), as two-view geometry gives it. The up axis of each
-hypothesis is estimated from its own two cameras (poses.estimate_up_axis), since it moves with the
-focal too.
+t a unit vector or zero (pure rotation), as two-view geometry gives it. Closer to / farther from a
+target is not read over the hypotheses: they carry no points, and the step has no scale.
 """
 
 from __future__ import annotations
@@ -20,9 +26,10 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 
 from shared.geometry.camera_motion import (
+    IMAGE_FRAME,
     NO_MOVEMENT,
-    NO_ROTATION,
     CameraMotion,
+    FrameMotion,
     UnknownMotion,
     describe_camera_motion,
     unknown_motion,
@@ -34,6 +41,10 @@ FOCAL_HYPOTHESIS_REASON = "its pose rests on one focal hypothesis"
 DETERMINED = "(determined)"
 NOT_DETERMINED = "(not determined)"
 NO_TURN_WORDS = "did not turn significantly"
+NO_TILT_WORDS = "did not tilt significantly"
+NO_ROLL_WORDS = "did not roll significantly"
+NO_HORIZONTAL_STEP = "made no horizontal step"
+NO_VERTICAL_STEP = "made no vertical step"
 
 
 @dataclass
@@ -85,8 +96,34 @@ class FocalHypotheses:
 
 
 @dataclass(frozen=True)
+class QuantityOverFocal:
+    """One quantity of the motion vocabulary (turn, tilt, roll, a step's axis, ...) over every
+    supported hypothesis: its distinct words, its range, and whether every hypothesis agrees."""
+
+    words: list[str]  # distinct, in hypothesis order; "none" where a hypothesis says nothing of it
+    range: tuple[float, float] | None  # degrees for angles; unit-step share for steps; None if no number
+    determined: bool
+
+    def to_dict(self) -> dict[str, object]:
+        return {
+            "words": list(self.words),
+            "range": None if self.range is None else list(self.range),
+            "determined": self.determined,
+        }
+
+
+# The vocabulary's quantities, in the order the sentence says them (the image frame: view i's axes).
+QUANTITIES = ("turn", "tilt", "roll", "direction", "lateral", "depth", "vertical", "still")
+
+
+@dataclass(frozen=True)
 class MotionOverFocal:
-    """A pair's motion over every supported hypothesis, and which words all of them share."""
+    """A pair's motion over every supported hypothesis, and which words all of them share.
+
+    Read in the first view's image axes (what a person looking at the photos calls left, up and
+    forward): two cameras cannot fix a gravity frame at every focal. `quantities` has every
+    quantity of the vocabulary (QUANTITIES); the older flat fields repeat turn, direction and
+    vertical."""
 
     from_view: int
     to_view: int
@@ -102,12 +139,15 @@ class MotionOverFocal:
     translation_directions: list[list[float]]  # per hypothesis, unit step in the first camera's axes
     sentence: str
     heading_range_deg: tuple[float, float] | None = None  # of the steps, 0 forward, + right (angle_deg)
+    frame: str = IMAGE_FRAME
+    quantities: dict[str, QuantityOverFocal] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, object]:
         result = asdict(self)
         result["fov_range_deg"] = list(self.fov_range_deg)
         result["yaw_range_deg"] = list(self.yaw_range_deg)
         result["heading_range_deg"] = None if self.heading_range_deg is None else list(self.heading_range_deg)
+        result["quantities"] = {name: quantity.to_dict() for name, quantity in self.quantities.items()}
         return result
 
 
@@ -115,27 +155,34 @@ def _distinct(values: list[str]) -> list[str]:
     return list(dict.fromkeys(values))
 
 
-def _turn_side(yaw_deg: float, turn: str) -> str:
-    if turn == NO_ROTATION:
+def _side(value: float, threshold: float, positive: str, negative: str) -> str:
+    if abs(value) < threshold:
         return "none"
-    return "left" if yaw_deg > 0 else "right"
+    return positive if value > 0 else negative
 
 
 def turn_words(turns: list[str], yaw_range_deg: tuple[float, float]) -> str:
     """The turn clause: a side with its range when one side holds, else the signed range."""
-    low, high = yaw_range_deg
-    if turns == ["none"]:
-        return NO_TURN_WORDS
-    if len(turns) == 1:
+    return _angle_clause("turned", turns, yaw_range_deg, ("left", "right"), NO_TURN_WORDS)
+
+
+def _angle_clause(
+    verb: str, sides: list[str], ends: tuple[float, float], names: tuple[str, str], none: str
+) -> str:
+    """'tilted up by 6 to 9 degrees', 'tilted between 3 degrees down and 6 degrees up', or `none`."""
+    low, high = ends
+    if sides == ["none"]:
+        return none
+    if len(sides) == 1:
         magnitudes = sorted((abs(low), abs(high)))
         if round(magnitudes[1]) - round(magnitudes[0]) < 1:
-            return f"turned {turns[0]} by about {round(magnitudes[1])} degrees"
-        return f"turned {turns[0]} by {round(magnitudes[0])} to {round(magnitudes[1])} degrees"
+            return f"{verb} {sides[0]} by about {round(magnitudes[1])} degrees"
+        return f"{verb} {sides[0]} by {round(magnitudes[0])} to {round(magnitudes[1])} degrees"
 
-    def side(yaw: float) -> str:
-        return f"{round(abs(yaw))} degrees {'left' if yaw > 0 else 'right'}"
+    def side(value: float) -> str:
+        return f"{round(abs(value))} degrees {names[0] if value > 0 else names[1]}"
 
-    return f"turned between {side(low)} and {side(high)}"
+    return f"{verb} between {side(low)} and {side(high)}"
 
 
 def circular_range(angles_deg: list[float]) -> tuple[float, float]:
@@ -149,7 +196,7 @@ def circular_range(angles_deg: list[float]) -> tuple[float, float]:
 def hypothesis_motions(
     hypotheses: PairHypotheses, threshold: float = 0.05, rotation_threshold_deg: float = 10.0
 ) -> list[CameraMotion]:
-    """camera_motion's description of each hypothesis's relative pose (up from its two cameras)."""
+    """camera_motion's description of each hypothesis's relative pose (its `image` frame is read)."""
     first = np.concatenate([np.eye(3), np.zeros((3, 1))], 1)
     motions = []
     for rotation, translation in zip(hypotheses.rotations, hypotheses.translations, strict=True):
@@ -164,8 +211,63 @@ def hypothesis_motions(
     return motions
 
 
+def _quantity(words: list[str], values: list[float] | None, circular: bool = False) -> QuantityOverFocal:
+    distinct = _distinct(words)
+    span = None
+    if values:
+        span = circular_range(values) if circular else (float(min(values)), float(max(values)))
+    return QuantityOverFocal(distinct, span, len(distinct) == 1)
+
+
+def _axis_word(direction: str, positive: str, negative: str) -> str:
+    """'left' of 'diagonally forward and left': one axis of a compass direction, or "none"."""
+    words = direction.replace("back ", "backward ").split()
+    return next((word for word in (positive, negative) if word in words), "none")
+
+
+def image_quantities(
+    motions: list[CameraMotion], limits: tuple[float, float]
+) -> dict[str, QuantityOverFocal]:
+    """Every quantity of the vocabulary over the hypotheses, in the first view's image axes.
+    `limits`: (turn threshold, tilt and roll threshold) in degrees."""
+    frames: list[FrameMotion] = [m.image for m in motions if m.image is not None]
+    turn_limit, tilt_limit = limits
+    moved = [f for f in frames if f.direction != NO_MOVEMENT]
+    return {
+        "turn": _quantity(
+            [_side(f.turn_deg, turn_limit, "left", "right") for f in frames],
+            [f.turn_deg for f in frames],
+            circular=True,
+        ),
+        "tilt": _quantity(
+            [_side(f.tilt_deg, tilt_limit, "up", "down") for f in frames], [f.tilt_deg for f in frames]
+        ),
+        "roll": _quantity(
+            [_side(f.roll_deg, tilt_limit, "clockwise", "counterclockwise") for f in frames],
+            [f.roll_deg for f in frames],
+            circular=True,
+        ),
+        "direction": _quantity(
+            [f.direction for f in frames],
+            [float(np.degrees(np.arctan2(f.right, f.forward))) for f in moved],
+            circular=True,
+        ),
+        "lateral": _quantity(
+            [_axis_word(f.direction, "right", "left") for f in frames], [f.right for f in frames]
+        ),
+        "depth": _quantity(
+            [_axis_word(f.direction, "forward", "backward") for f in frames], [f.forward for f in frames]
+        ),
+        "vertical": _quantity([f.vertical_direction or "none" for f in frames], [f.up for f in frames]),
+        "still": _quantity(["still" if m.still else "moved" for m in motions], None),
+    }
+
+
 def motion_over_focal(
-    hypotheses: PairHypotheses, threshold: float = 0.05, rotation_threshold_deg: float = 10.0
+    hypotheses: PairHypotheses,
+    threshold: float = 0.05,
+    rotation_threshold_deg: float = 10.0,
+    tilt_threshold_deg: float = 5.0,
 ) -> MotionOverFocal:
     """The pair's motion at every hypothesis and what they all agree on (see the module docstring).
 
@@ -179,67 +281,74 @@ def motion_over_focal(
         step = np.asarray(motion.displacement_in_first_camera)
         norm = np.linalg.norm(step)
         steps.append((step / norm if norm > 1e-12 else step).tolist())
-    yaw_range = circular_range([m.yaw_deg for m in motions])
-    headings = [m.angle_deg for m in motions if m.direction != NO_MOVEMENT]
-    heading_range = circular_range(headings) if headings else None
+    quantities = image_quantities(motions, (rotation_threshold_deg, tilt_threshold_deg))
+    turn, direction, vertical = quantities["turn"], quantities["direction"], quantities["vertical"]
     fov_range = (float(min(hypotheses.fov_deg)), float(max(hypotheses.fov_deg)))
-    turns = _distinct([_turn_side(m.yaw_deg, m.turn) for m in motions])
-    directions = _distinct([m.direction for m in motions])
-    verticals = _distinct([m.vertical_direction or "none" for m in motions])
-    words = Words(turns, yaw_range, directions, heading_range)
+    assert turn.range is not None
     return MotionOverFocal(
         from_view=hypotheses.first,
         to_view=hypotheses.second,
         hypotheses=len(hypotheses.fov_deg),
         fov_range_deg=fov_range,
-        yaw_range_deg=yaw_range,
-        turns=turns,
-        turn_determined=len(turns) == 1,
-        directions=directions,
-        direction_determined=len(directions) == 1,
-        vertical_directions=verticals,
-        vertical_determined=len(verticals) == 1,
+        yaw_range_deg=turn.range,
+        turns=turn.words,
+        turn_determined=turn.determined,
+        directions=direction.words,
+        direction_determined=direction.determined,
+        vertical_directions=vertical.words,
+        vertical_determined=vertical.determined,
         translation_directions=steps,
-        sentence=determinacy_sentence(hypotheses.first, hypotheses.second, words, fov_range),
-        heading_range_deg=heading_range,
+        sentence=determinacy_sentence(hypotheses.first, hypotheses.second, quantities, fov_range),
+        heading_range_deg=direction.range,
+        quantities=quantities,
     )
-
-
-@dataclass(frozen=True)
-class Words:
-    """What a determinacy sentence says of a pair over its hypotheses."""
-
-    turns: list[str]
-    yaw_range_deg: tuple[float, float]
-    directions: list[str]
-    heading_range_deg: tuple[float, float] | None  # of the steps that moved; None when none did
 
 
 def _mark(determined: bool) -> str:
     return DETERMINED if determined else NOT_DETERMINED
 
 
-def determinacy_sentence(first: int, second: int, words: Words, fov_range_deg: tuple[float, float]) -> str:
-    """One sentence (1-based view numbers) that the agent's offline answerer reads back. The step's
-    heading range (0 = forward, + = right, as camera_motion's angle_deg) goes with its words."""
-    moves = [d for d in words.directions if d != NO_MOVEMENT]
+def _horizontal_clause(direction: QuantityOverFocal, still: QuantityOverFocal) -> str:
+    """'moved forward or diagonally forward and left (not determined; heading -45 to 0 degrees, ...)'."""
+    moves = [d for d in direction.words if d != NO_MOVEMENT]
+    nothing = "stayed in place" if still.words == ["still"] else NO_HORIZONTAL_STEP
     if not moves:
-        moved = "stayed in place"
+        moved = nothing
     else:
         moved = "moved " + " or ".join(moves)
-        if len(moves) < len(words.directions):
-            moved += " or stayed in place"
-    mark = _mark(len(words.directions) == 1)
-    if words.heading_range_deg is not None:
-        low, high = (round(end) for end in words.heading_range_deg)
+        if len(moves) < len(direction.words):
+            moved += f" or {nothing}"
+    mark = _mark(direction.determined)
+    if direction.range is not None:
+        low, high = (round(end) for end in direction.range)
         mark = f"{mark[:-1]}; heading {low} to {high} degrees, 0 = forward, + = right)"
+    return f"{moved} {mark}"
+
+
+def _vertical_clause(vertical: QuantityOverFocal) -> str:
+    words = [f"moved {w}" if w != "none" else NO_VERTICAL_STEP for w in vertical.words]
+    return f"{' or '.join(words)} {_mark(vertical.determined)}"
+
+
+def determinacy_sentence(
+    first: int, second: int, quantities: dict[str, QuantityOverFocal], fov_range_deg: tuple[float, float]
+) -> str:
+    """One sentence (1-based view numbers, view `first`'s image axes) that the agent's offline
+    answerer reads back (services/agent/motion_clue.py): each quantity with its range and its mark.
+    The step's heading range (0 = forward, + = right, as camera_motion's angle_deg) goes with it."""
+    turn, tilt, roll = (quantities[name] for name in ("turn", "tilt", "roll"))
+    assert turn.range is not None and tilt.range is not None and roll.range is not None
     low, high = fov_range_deg
     fovs = f"{round(low)} to {round(high)} degrees" if round(high) != round(low) else f"{round(low)} degrees"
-    turn = turn_words(words.turns, words.yaw_range_deg)
+    turned = turn_words(turn.words, turn.range)
+    tilted = _angle_clause("tilted", tilt.words, tilt.range, ("up", "down"), NO_TILT_WORDS)
+    rolled = _angle_clause("rolled", roll.words, roll.range, ("clockwise", "counterclockwise"), NO_ROLL_WORDS)
     return (
-        f"From view {first + 1} to view {second + 1} the camera {turn} {_mark(len(words.turns) == 1)} "
-        f"and {moved} {mark}, over every horizontal field of view the photos allow ({fovs}; the focal "
-        "length is unknown)."
+        f"From view {first + 1} to view {second + 1} the camera {turned} {_mark(turn.determined)} "
+        f"and {_horizontal_clause(quantities['direction'], quantities['still'])}; "
+        f"it {_vertical_clause(quantities['vertical'])}; it {tilted} {_mark(tilt.determined)}; "
+        f"it {rolled} {_mark(roll.determined)}; in view {first + 1}'s image axes, over every horizontal "
+        f"field of view the photos allow ({fovs}; the focal length is unknown)."
     )
 
 
@@ -266,7 +375,9 @@ __all__ = [
     "FOCAL_HYPOTHESIS_REASON",
     "NOT_DETERMINED",
     "FocalHypotheses",
-    "Words",
+    "QUANTITIES",
+    "QuantityOverFocal",
+    "image_quantities",
     "circular_range",
     "hypothesis_motions",
     "MotionOverFocal",

@@ -166,16 +166,12 @@ def _option_named(text: str, options: Mapping[str, str]) -> str | None:
     named = {
         letter
         for letter in named
-        if not any(
-            other != letter and options[letter].lower() in options[other].lower() for other in named
-        )
+        if not any(other != letter and options[letter].lower() in options[other].lower() for other in named)
     }
     return named.pop() if len(named) == 1 else None
 
 
-def read_choice(
-    text: str | None, options: Mapping[str, str] | Iterable[str] | None = None
-) -> str | None:
+def read_choice(text: str | None, options: Mapping[str, str] | Iterable[str] | None = None) -> str | None:
     """The option a reply commits to, or None when it commits to none (or to several): never a guess.
 
     The one answer extractor: the agent, the evaluation and every bench read replies with it.

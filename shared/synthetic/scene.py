@@ -235,6 +235,23 @@ class _Builder:
     def add_quad(self, corners: np.ndarray, material_id: int) -> None:
         self.add(corners, np.array([[0, 1, 2], [0, 2, 3]]), ROOM_OBJECT_ID, material_id)
 
+    def scene(
+        self, seed: int, objects: list[SceneObject], room_max: np.ndarray, has_ceiling: bool
+    ) -> SyntheticScene:
+        """The accumulated mesh as a scene whose room spans from the origin to `room_max`."""
+        return SyntheticScene(
+            seed=seed,
+            vertices=np.concatenate(self.vertices).astype(np.float32),
+            triangles=np.concatenate(self.triangles).astype(np.int32),
+            triangle_object_ids=np.concatenate(self.object_ids),
+            triangle_material_ids=np.concatenate(self.material_ids),
+            materials=self.materials,
+            objects=objects,
+            room_min=np.zeros(3),
+            room_max=room_max,
+            has_ceiling=has_ceiling,
+        )
+
 
 def _add_room(builder: _Builder, size: np.ndarray, has_ceiling: bool) -> None:
     sx, sy, sz = size
@@ -322,15 +339,4 @@ def generate_scene(seed: int, num_objects: int | None = None) -> SyntheticScene:
 
     if len(objects) < count:
         raise ValueError(f"seed {seed}: could place only {len(objects)} of {count} objects")
-    return SyntheticScene(
-        seed=seed,
-        vertices=np.concatenate(builder.vertices).astype(np.float32),
-        triangles=np.concatenate(builder.triangles).astype(np.int32),
-        triangle_object_ids=np.concatenate(builder.object_ids),
-        triangle_material_ids=np.concatenate(builder.material_ids),
-        materials=builder.materials,
-        objects=objects,
-        room_min=np.zeros(3),
-        room_max=room_size,
-        has_ceiling=has_ceiling,
-    )
+    return builder.scene(seed, objects, room_size, has_ceiling)

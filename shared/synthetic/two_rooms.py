@@ -329,18 +329,7 @@ def _build(seed: int, kind: str, size: tuple[int, int]) -> TwoRoomScene:
     if kind == "ring":
         _add_pen(builder, solids, layout.goal)
     _add_furniture(builder, solids, rng, layout, objects)
-    scene = SyntheticScene(
-        seed=seed,
-        vertices=np.concatenate(builder.vertices).astype(np.float32),
-        triangles=np.concatenate(builder.triangles).astype(np.int32),
-        triangle_object_ids=np.concatenate(builder.object_ids),
-        triangle_material_ids=np.concatenate(builder.material_ids),
-        materials=builder.materials,
-        objects=objects,
-        room_min=np.zeros(3),
-        room_max=np.array([layout.length, layout.width, 2.8]),
-        has_ceiling=False,
-    )
+    scene = builder.scene(seed, objects, np.array([layout.length, layout.width, 2.8]), has_ceiling=False)
     extrinsics = np.array([_view(eye, look) for eye, look in zip(layout.eyes, layout.looks, strict=True)])
     return TwoRoomScene(
         scene=scene,

@@ -192,20 +192,23 @@ class AccessMiddleware:
         """401, or 429 once this address has failed too often (each failure spends a token)."""
         wait = self.auth_failures.take(address) if self.auth_failures is not None else 0.0
         if wait > 0:
-            await _too_many(send, wait, "too many failed authentications from this address")
+            # The challenge says this 429 is about the key, not load: a calling service (the agent)
+            # tells its own misconfigured key from being rate-limited.
+            await _too_many(send, wait, "too many failed authentications from this address", CHALLENGE)
             return
         reason = "missing bearer API key" if missing else "invalid API key"
-        await _reply(
-            send,
-            401,
-            f"{reason}: send 'Authorization: Bearer <key>'",
-            {"www-authenticate": 'Bearer realm="pyspatial"'},
-        )
+        await _reply(send, 401, f"{reason}: send 'Authorization: Bearer <key>'", CHALLENGE)
 
 
-async def _too_many(send: Send, wait: float, reason: str) -> None:
+CHALLENGE = {"www-authenticate": 'Bearer realm="pyspatial"'}
+
+
+async def _too_many(
+    send: Send, wait: float, reason: str, extra_headers: dict[str, str] | None = None
+) -> None:
     retry_after = max(1, math.ceil(wait))
-    await _reply(send, 429, f"{reason}; retry in {retry_after} s", {"retry-after": str(retry_after)})
+    headers = {"retry-after": str(retry_after), **(extra_headers or {})}
+    await _reply(send, 429, f"{reason}; retry in {retry_after} s", headers)
 
 
 def _header(scope: Scope, name: bytes) -> str:

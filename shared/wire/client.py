@@ -49,7 +49,8 @@ class ServiceError(RuntimeError):
     """The service answered with an error status; `message` is its explanation.
 
     `service` names which service answered ("agent service", ...); `retry_after` is the seconds
-    a 429 or 503 asked to wait (its Retry-After header), None when it did not say.
+    a 429 or 503 asked to wait (its Retry-After header), None when it did not say; `challenged`:
+    the answer carried an authentication challenge (WWW-Authenticate), as a refused key's does.
     """
 
     def __init__(
@@ -59,12 +60,20 @@ class ServiceError(RuntimeError):
         url: str,
         service: str = "service",
         retry_after: float | None = None,
+        challenged: bool = False,
     ) -> None:
         super().__init__(f"{url} answered {status_code}: {message}")
         self.status_code = status_code
         self.message = message
         self.service = service
         self.retry_after = retry_after
+        self.challenged = challenged
+
+    @property
+    def refused_key(self) -> bool:
+        """The service refused the caller's key: 401, 403 (a key of another tenant), or a 429 that
+        throttles failed authentications (it carries the challenge; a rate limit's does not)."""
+        return self.status_code in (401, 403) or (self.status_code == 429 and self.challenged)
 
 
 def _retry_after(response: httpx.Response) -> float | None:
@@ -141,6 +150,7 @@ class _ServiceClient:
         self._http = client or httpx.Client(base_url=self.base_url, timeout=timeout, headers=headers)
         self.retry = retry
         self._headers: dict[str, str] = {}  # sent with every request of this client (its tenant)
+        self._deadline: float | None = None  # time.monotonic() by which every call must be over
         self._owns_http = True
 
     def for_tenant(self, tenant: str):
@@ -150,6 +160,15 @@ class _ServiceClient:
         calls recon so for each solve. Closing the copy leaves the connections open."""
         view = copy.copy(self)
         view._headers = {**self._headers, TENANT_HEADER: tenant}
+        view._owns_http = False
+        return view
+
+    def until(self, deadline: float):
+        """This client on the same connections, every call over by `deadline` (time.monotonic()):
+        no retry starts that would wait past it, and each try's timeout is what is left of it.
+        The agent bounds a solve's recon calls so; closing the copy leaves the connections open."""
+        view = copy.copy(self)
+        view._deadline = deadline if self._deadline is None else min(deadline, self._deadline)
         view._owns_http = False
         return view
 
@@ -177,11 +196,19 @@ class _ServiceClient:
             delay = self.retry.delay_s(attempt, None)
         else:
             return None
-        return delay if time.monotonic() - started + delay <= self.retry.window_s else None
+        now = time.monotonic()
+        if self._deadline is not None and now + delay >= self._deadline:
+            return None  # the caller's deadline comes first: a try that could not finish in time
+        return delay if now - started + delay <= self.retry.window_s else None
 
     def _attempt(self, method: str, path: str, **kwargs) -> httpx.Response:
         if self._headers:
             kwargs["headers"] = {**self._headers, **kwargs.get("headers", {})}
+        if self._deadline is not None:
+            left = self._deadline - time.monotonic()
+            if left <= 0:
+                raise ServiceTimeout(f"the deadline for calls to the {self.service_name} has passed")
+            kwargs["timeout"] = min(left, kwargs.get("timeout") or self._http.timeout.read or left)
         try:
             response = self._http.request(method, self.base_url + path, **kwargs)
         except httpx.TimeoutException as error:
@@ -206,6 +233,7 @@ class _ServiceClient:
                 f"{method} {path}",
                 service=self.service_name,
                 retry_after=_retry_after(response),
+                challenged="www-authenticate" in response.headers,
             )
 
     def close(self) -> None:

@@ -185,8 +185,10 @@ class CameraMotionRequest(_Model):
         None, description="0-based view pairs; consecutive if unset." + VIEW_NUMBERS
     )
     from_view: int | None = Field(
-        None, ge=1, description="With to_view: the one pair from_view -> to_view, 1-based as the sentences "
-        "and questions count views (any pair, not only consecutive ones). Not together with pairs."
+        None,
+        ge=1,
+        description="With to_view: the one pair from_view -> to_view, 1-based as the sentences "
+        "and questions count views (any pair, not only consecutive ones). Not together with pairs.",
     )
     to_view: int | None = Field(None, ge=1, description="See from_view.")
     backbone: str | None = None
@@ -260,6 +262,23 @@ class BackboneMenu(_Model):
     available: list[str] = Field(..., description="Names a request may use now (auto included).")
 
 
+class QuantityOverFocalItem(_Model):
+    """One quantity of the motion vocabulary over every supported focal hypothesis."""
+
+    words: list[str] = Field(
+        ...,
+        description="The distinct words the hypotheses give, in increasing field of view; 'none' where "
+        "a hypothesis has none of it (below the thresholds).",
+    )
+    range: list[float] | None = Field(
+        None,
+        description="[min, max] over the hypotheses: degrees for turn (+ left), tilt (+ up), roll (+ "
+        "clockwise) and direction (heading, 0 forward, + right); for lateral (+ right), depth (+ "
+        "forward) and vertical (+ up), that component of the unit step; null for still.",
+    )
+    determined: bool = Field(..., description="True when every hypothesis gives the same word.")
+
+
 class MotionOverFocalItem(_Model):
     """A pair's motion at every focal hypothesis the photos support, and what all of them share."""
 
@@ -268,7 +287,7 @@ class MotionOverFocalItem(_Model):
         ..., description="[narrowest, widest] supported horizontal field of view."
     )
     yaw_range_deg: list[float] = Field(
-        ..., description="[min, max] turn about up over the hypotheses; + = left."
+        ..., description="[min, max] turn over the hypotheses, in the first view's image axes; + = left."
     )
     turns: list[str] = Field(..., description="The distinct turn sides: 'left', 'right', 'none'.")
     turn_determined: bool = Field(..., description="True when every hypothesis turns the same way.")
@@ -288,6 +307,14 @@ class MotionOverFocalItem(_Model):
         description="Per hypothesis, the unit step in the first camera's axes (x right, y down, z forward).",
     )
     sentence: str = Field(..., description="What holds at every hypothesis (determined) and what does not.")
+    frame: Literal["image"] = Field(
+        "image", description="The first view's camera axes, in which every word above is read."
+    )
+    quantities: dict[str, QuantityOverFocalItem] = Field(
+        default_factory=dict,
+        description="Every quantity of the vocabulary: turn, tilt, roll, direction (compass step), "
+        "lateral (left/right), depth (forward/backward), vertical (up/down), still.",
+    )
 
 
 class CameraMotionItem(_Model):

@@ -171,6 +171,11 @@ class AgentSettings(ServiceSettings):
     recon_retry_window_s: float = Field(
         20.0, gt=0, description="No retry of a recon call starts later than this after its first try."
     )
+    solve_deadline_s: float = Field(
+        900.0,
+        gt=0,
+        description="A solve's recon calls, retries included, end by this long after the solve started.",
+    )
     code_model: str | None = Field(None, description="Code model name; the offline planner when unset.")
     code_model_base_url: str | None = Field(None, description="OpenAI-compatible endpoint of the code model.")
     code_model_api_key: SecretStr | None = Field(None, description="API key of the code model endpoint.")

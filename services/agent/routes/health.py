@@ -62,6 +62,6 @@ def _check_recon(recon: ReconClient, timeout: float) -> tuple[Readiness, str | N
         try:
             recon.backbones(timeout=timeout)
         except ServiceError as error:
-            if error.status_code in (401, 403):
+            if error.refused_key:
                 return readiness, error.message
     return readiness, None

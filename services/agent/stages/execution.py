@@ -48,6 +48,7 @@ class SandboxRuns:
     python_checks: bool
     gate: SandboxGate | None = None  # the agent's cap on running sandboxes
     cpu_budget: CpuBudget | None = None  # this solve's CPU across its attempts
+    answerer_reads_images: bool = True  # False: no vision answer model, an image-only clue is unread
     attempts_so_far: list[AttemptRecord] = field(default_factory=list)
 
     def execute(self, source: str, written_by_model: bool = True) -> ExecutionOutcome:
@@ -100,9 +101,9 @@ class SandboxRuns:
                 step.ok, step.error_kind = False, "not_evidence"
                 step.error = not_evidence_error(result.clue_text, typed)
         if step.ok:
-            self._check_clue(step)
+            self._check_clue(step, written_by_model)
 
-    def _check_clue(self, step: ExecutionStep) -> None:
+    def _check_clue(self, step: ExecutionStep, written_by_model: bool) -> None:
         """The asked-view check: a clue about other views than the question's is sent back."""
         rendered = [
             np.asarray(self.tools.rendered_poses[png][0], dtype=float)
@@ -110,7 +111,10 @@ class SandboxRuns:
             if png in self.tools.rendered_poses
         ]
         views = [np.asarray(pose, dtype=float) for pose in self.tools.view_extrinsics]
-        problem = clue_problem(self.intent, step.clue_text, rendered, step.clue_images, views)
+        # An image-only clue nothing can read sends the model's program back; the planner's program
+        # is what it is (its answer is null with the reason).
+        reads_images = self.answerer_reads_images or not written_by_model
+        problem = clue_problem(self.intent, step.clue_text, rendered, step.clue_images, views, reads_images)
         if problem is not None:
             step.ok, step.error_kind = False, problem.kind
             step.error = f"{problem.message}; {problem.fix}"

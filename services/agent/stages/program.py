@@ -1,8 +1,9 @@
 """A program for the question, run in the sandbox and repaired when it fails.
 
 With a code model: codegen's repair loop (one ProgramStep per request, one ExecutionStep per run).
-Without one, or when the model cannot be reached even after retries: the offline planner writes the
-program from the intent, and the result says who wrote it and why. A model that refuses our key or
+Without one, or when the model cannot be reached even after retries, or when its attempts run out:
+the offline planner writes the program from the intent, and the result says who wrote it and why.
+Not when the solve's CPU budget stopped the attempts: nothing may run past it. A model that refuses our key or
 our messages is a configuration error (502 to the client): a fallback would hide it.
 """
 
@@ -73,6 +74,10 @@ def write_and_run(
         planned = plan_offline(runs, f"{OFFLINE_PLANNER} (fallback: {name} failed)", attempts, fallback=True)
         planned.fallback = f"{name} failed: {generated.error}"
         return planned
+    if generated.failure == "budget":
+        # The solve's CPU budget is spent: the planner's program would be refused unrun too, and the
+        # failure (the answer's fallback_reason) names the budget that stopped the solve.
+        return WrittenProgram(name, attempts, failure=attempts[-1].error, by_model=True)
     if generated.ok:
         source: ProgramSource = "repaired-model" if len(generated.attempts) > 1 else "model"
         program = _encodable(generated.program)
@@ -116,7 +121,13 @@ def plan_offline(
     outcome = runs.execute(step.program, written_by_model=False)
     run: ExecutionStep = outcome.payload
     attempts.append(
-        AttemptRecord(program=step.program, error=outcome.error, reply=None, latency_ms=run.duration_ms)
+        AttemptRecord(
+            program=step.program,
+            error=outcome.error,
+            reply=None,
+            latency_ms=run.duration_ms,
+            error_kind=outcome.error_kind,
+        )
     )
     if outcome.ok:
         return WrittenProgram(code_model, attempts, step.program, run, source="planner")

@@ -27,7 +27,9 @@ Conventions of the result (docs/ARCHITECTURE.md):
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -99,7 +101,15 @@ class ClassicalBackbone(Backbone):
         given, sources = _given_intrinsics(intrinsics, intrinsics_sources, len(images))
         # Same images, same answer: RANSAC draws from OpenCV's (per-thread) generator.
         cv2.setRNGSeed(0)
-        views = [self._prepare(index, image, fov_deg, given[index]) for index, image in enumerate(images)]
+        # Detection and matching run in OpenCV and BLAS, which release the GIL: one thread per
+        # image or pair keeps every core busy (the results do not depend on the order).
+        with ThreadPoolExecutor(max_workers=_worker_count(len(images))) as pool:
+            views = list(
+                pool.map(
+                    lambda index: self._prepare(index, images[index], fov_deg, given[index]),
+                    range(len(images)),
+                )
+            )
         warnings: list[str] = []
         textured = [index for index, view in enumerate(views) if len(view.features) >= MIN_FEATURES]
         if len(textured) < 2:
@@ -107,11 +117,12 @@ class ClassicalBackbone(Backbone):
                 f"only {len(textured)} of {len(views)} images have enough texture to detect features "
                 f"(at least {MIN_FEATURES} keypoints needed in two images)"
             )
-        matches = {
-            (first, second): match_features(views[first].features, views[second].features)
-            for position, first in enumerate(textured)
-            for second in textured[position + 1 :]
-        }
+        keys = [
+            (first, second) for position, first in enumerate(textured) for second in textured[position + 1 :]
+        ]
+        with ThreadPoolExecutor(max_workers=_worker_count(len(keys))) as pool:
+            found = pool.map(lambda key: match_features(views[key[0]].features, views[key[1]].features), keys)
+            matches = dict(zip(keys, found, strict=True))
         free = [intrinsic is None for intrinsic in given]
         solution = solve_with_self_calibration(
             [view.features.keypoints for view in views],
@@ -231,6 +242,10 @@ class ClassicalBackbone(Backbone):
         )
 
 
+def _worker_count(tasks: int) -> int:
+    return max(1, min(tasks, os.cpu_count() or 1))
+
+
 def _in_reference_frame(extrinsics: dict[int, np.ndarray], reference: int) -> dict[int, np.ndarray]:
     """Re-express poses so the reference camera is the world frame (identity extrinsic)."""
     rotation_ref, translation_ref = extrinsics[reference][:, :3], extrinsics[reference][:, 3]
@@ -337,9 +352,7 @@ def _confidence_in_image_pixels(
     for index in range(len(views)):
         if index not in solution.model.extrinsics and index not in reasons:
             reasons[index] = (
-                "too little texture"
-                if index not in textured
-                else "too few reliable matches to placed views"
+                "too little texture" if index not in textured else "too few reliable matches to placed views"
             )
     for index, reason in sorted(reasons.items()):
         warnings.append(f"view {index + 1} could not be registered ({reason}); its extrinsic is NaN")

@@ -82,8 +82,9 @@ def interpolate_depth(samples: ViewSamples) -> np.ndarray:
     working_side = max(samples.image.shape[:2])
     accepted = (edges < MAX_EDGE_SHARE * working_side) & (ratio < MAX_DEPTH_RATIO)
     owner = np.full((grid_h, grid_w), -1, dtype=np.int32)
-    for index in np.flatnonzero(accepted):
-        cv2.fillConvexPoly(owner, np.round(corners[index] * 16).astype(np.int32), int(index), shift=4)
+    fixed_point = np.round(corners * 16).astype(np.int32)  # 4 fractional bits (shift=4)
+    for index in np.flatnonzero(accepted).tolist():  # in order: a later triangle paints over
+        cv2.fillConvexPoly(owner, fixed_point[index], index, shift=4)
     rows, cols = np.nonzero(owner >= 0)
     ids = owner[rows, cols]
     weights = _barycentric(corners[ids], np.stack([cols, rows], axis=1).astype(np.float64))
@@ -100,17 +101,18 @@ def _delaunay(vertices: np.ndarray, grid_w: int, grid_h: int) -> np.ndarray:
     )
     subdivision = cv2.Subdiv2D((0, 0, grid_w, grid_h))
     lookup: dict[tuple[float, float], int] = {}
-    for index in np.flatnonzero(inside):
-        key = (float(np.float32(vertices[index, 0])), float(np.float32(vertices[index, 1])))
+    # Subdiv2D keeps float32 positions: keys are the float32 values (tolist gives them exactly).
+    inside_indices = np.flatnonzero(inside)
+    keys = vertices[inside_indices].astype(np.float32).tolist()
+    for index, key in zip(inside_indices.tolist(), keys, strict=True):
+        key = tuple(key)
         if key not in lookup:
-            lookup[key] = int(index)
+            lookup[key] = index
             subdivision.insert(key)
     triangles = []
-    for x1, y1, x2, y2, x3, y3 in subdivision.getTriangleList():
-        corner_ids = [
-            lookup.get((float(np.float32(x)), float(np.float32(y))))
-            for x, y in ((x1, y1), (x2, y2), (x3, y3))
-        ]
+    corners = np.asarray(subdivision.getTriangleList(), dtype=np.float32).reshape(-1, 3, 2).tolist()
+    for triangle in corners:
+        corner_ids = [lookup.get(tuple(corner)) for corner in triangle]
         if None not in corner_ids:  # triangles touching Subdiv2D's outer helper vertices are skipped
             triangles.append(corner_ids)
     return np.array(triangles, dtype=np.int64).reshape(-1, 3)

@@ -175,9 +175,10 @@ class IncrementalMapper:
         return world, self.keypoints[view][keypoints]
 
     def _register_next_by_pnp(self) -> int | None:
-        ranked = sorted(self._unplaced(), key=lambda v: len(self._correspondences(v)[0]), reverse=True)
+        found = {view: self._correspondences(view) for view in self._unplaced()}
+        ranked = sorted(found, key=lambda v: len(found[v][0]), reverse=True)
         for view in ranked:
-            world, pixels = self._correspondences(view)
+            world, pixels = found[view]
             if len(world) < MIN_PNP_CORRESPONDENCES:
                 return None
             extrinsic = _solve_pnp(world, pixels, self.intrinsics[view])
@@ -257,9 +258,14 @@ class IncrementalMapper:
     def _extend_tracks(self, first: int, second: int) -> None:
         """Add a placed view's observation to a point its partner already sees, when it fits."""
         relative = self._relative(first, second)
-        if relative is None:
+        if relative is None or not self.points:
             return
-        for keypoint_a, keypoint_b in relative.matches:
+        # Every point projected into both views once (this adds observations, never points).
+        world = np.array(self.points)
+        projected = {
+            view: project(world, self.extrinsics[view], self.intrinsics[view]) for view in (first, second)
+        }
+        for keypoint_a, keypoint_b in relative.matches.tolist():
             for (view_has, key_has), (view_new, key_new) in (
                 ((first, keypoint_a), (second, keypoint_b)),
                 ((second, keypoint_b), (first, keypoint_a)),
@@ -271,12 +277,11 @@ class IncrementalMapper:
                     or view_new in self.tracks[point]
                 ):
                     continue
-                predicted, depth = project(
-                    self.points[point][None], self.extrinsics[view_new], self.intrinsics[view_new]
-                )
+                predicted, depth = projected[view_new]
                 if (
-                    depth[0] > 0
-                    and np.linalg.norm(predicted[0] - self.keypoints[view_new][key_new]) < MAX_REPROJECTION_PX
+                    depth[point] > 0
+                    and np.linalg.norm(predicted[point] - self.keypoints[view_new][key_new])
+                    < MAX_REPROJECTION_PX
                 ):
                     self.tracks[point][view_new] = int(key_new)
                     self.observed[(view_new, int(key_new))] = point
@@ -329,12 +334,17 @@ class IncrementalMapper:
         projections = np.zeros((count, len(views), 3, 4))
         pixels = np.zeros((count, len(views), 2))
         seen = np.zeros((count, len(views)), dtype=bool)
-        matrices = {view: projection_matrix(self.extrinsics[view], self.intrinsics[view]) for view in views}
-        for point, track in enumerate(self.tracks):
-            for view, keypoint in track.items():
-                projections[point, slot[view]] = matrices[view]
-                pixels[point, slot[view]] = self.keypoints[view][keypoint]
-                seen[point, slot[view]] = True
+        matrices = np.array(
+            [projection_matrix(self.extrinsics[view], self.intrinsics[view]) for view in views]
+        )
+        for view in views:  # one fancy-indexed copy per view instead of one per observation
+            observing = [(point, track[view]) for point, track in enumerate(self.tracks) if view in track]
+            if not observing:
+                continue
+            rows, keypoints = np.array(observing, dtype=np.int64).T
+            projections[rows, slot[view]] = matrices[slot[view]]
+            pixels[rows, slot[view]] = self.keypoints[view][keypoints]
+            seen[rows, slot[view]] = True
         solved = triangulate_many_views(projections, pixels, seen)
         fits = seen.copy()
         for view in views:

@@ -18,6 +18,8 @@ MIN_FOV_DEG..MAX_FOV_DEG) also falls back to the prior. Either way the views say
 from __future__ import annotations
 
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -67,14 +69,18 @@ class Solution:
 def relate_pairs(
     keypoints: list[np.ndarray], intrinsics: list[np.ndarray], matches: dict[tuple[int, int], np.ndarray]
 ) -> dict[tuple[int, int], TwoViewGeometry]:
-    pairs = {}
-    for (first, second), pair_matches in matches.items():
-        geometry = estimate_two_view(
-            keypoints[first], keypoints[second], intrinsics[first], intrinsics[second], pair_matches
+    def relate(key: tuple[int, int]) -> TwoViewGeometry | None:
+        first, second = key
+        return estimate_two_view(
+            keypoints[first], keypoints[second], intrinsics[first], intrinsics[second], matches[key]
         )
-        if geometry is not None:
-            pairs[(first, second)] = geometry
-    return pairs
+
+    # OpenCV's RANSAC fits release the GIL and seed their own generator per call, so pairs can
+    # be related side by side with the same result as one after the other.
+    keys = list(matches)
+    with ThreadPoolExecutor(max_workers=max(1, min(len(keys), os.cpu_count() or 1))) as pool:
+        found = list(pool.map(relate, keys))
+    return {key: geometry for key, geometry in zip(keys, found, strict=True) if geometry is not None}
 
 
 # Long on purpose: the alternation of model building and focal refinement reads as one loop.
