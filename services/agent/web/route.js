@@ -74,6 +74,7 @@ function showPlan(plan) {
   $("route-steps").replaceChildren(...plan.sentences.map((sentence) => element("li", { textContent: sentence })));
   $("route-warnings").replaceChildren(...plan.warnings.map((text) => element("li", { textContent: text })));
   $("route-result").hidden = false;
+  $("route-result").dataset.sceneId = plan.scene_id; // the scene the plan is of (its download's name)
 }
 
 async function drawPath(plan) {
