@@ -29,6 +29,7 @@ class AdjustedModel:
     intrinsics: dict[int, np.ndarray]  # view -> 3x3, working-image pixels
     points: np.ndarray  # (P, 3), same order as the input tracks
     usable: bool  # Ceres reports a usable solution
+    converged: bool = True  # Ceres stopped on a tolerance (not on the iteration cap or a failure)
 
 
 def bundle_adjust(
@@ -84,7 +85,11 @@ def bundle_adjust(
     }
     adjusted_points = np.array([reconstruction.point3D(pid).xyz for pid in point_ids]).reshape(-1, 3)
     return AdjustedModel(
-        adjusted_extrinsics, adjusted_intrinsics, adjusted_points, bool(summary.is_solution_usable())
+        adjusted_extrinsics,
+        adjusted_intrinsics,
+        adjusted_points,
+        bool(summary.is_solution_usable()),
+        summary.termination_type == pycolmap.BundleAdjustmentTerminationType.CONVERGENCE,
     )
 
 
