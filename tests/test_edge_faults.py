@@ -10,6 +10,7 @@ import base64
 import contextlib
 import io
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -217,12 +218,20 @@ def _chunked_upload(url: str, total_bytes: int) -> tuple[bytes, int]:
                 break  # the service closed the connection after its answer
         connection.settimeout(10)
         with contextlib.suppress(OSError):
-            while b"\r\n\r\n" not in answer:
+            while not _complete(answer):  # the head and then its body, however the bytes arrive
                 data = connection.recv(65536)
                 if not data:
                     break
                 answer += data
     return answer, sent
+
+
+def _complete(answer: bytes) -> bool:
+    head, found, body = answer.partition(b"\r\n\r\n")
+    if not found:
+        return False
+    length = re.search(rb"(?im)^content-length:\s*(\d+)", head)
+    return length is None or len(body) >= int(length.group(1))
 
 
 def test_a_1_gb_chunked_upload_stops_at_the_limit_with_413(edge_agent):
