@@ -49,6 +49,7 @@ def test_renders_from_another_view_than_the_asked_one() -> None:
 
 def test_empty_clues_and_answers_instead_of_clues() -> None:
     assert clue_problem(ONE_TO_THREE, "", [], 0).kind == "empty_clue"
+    assert clue_problem(ONE_TO_THREE, "None", [], 0).kind == "empty_clue"  # a program with no `return`
     assert clue_problem(ONE_TO_THREE, "B", [], 0).kind == "answer_letter"
     assert clue_problem(ONE_TO_THREE, "Right", [], 0).kind == "answer_letter"
     assert clue_problem(ONE_TO_THREE, "The answer is right.", [], 0).kind == "answer_letter"

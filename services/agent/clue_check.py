@@ -150,6 +150,8 @@ def clue_problem(
     `answerer_reads_images`: whether a vision answer model will see the clue's images.
     """
     text = (clue_text or "").strip()
+    if text == "None" and num_images == 0:  # what a program without a `return` gives
+        text = ""
     if not text and num_images == 0:
         fix = f"return {motion_call(intent)}" if intent.family == "self_movement" else "return rendered views"
         return ClueProblem("empty_clue", "the program returned an empty clue (no text, no image)", fix)
