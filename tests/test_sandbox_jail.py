@@ -10,6 +10,7 @@ from __future__ import annotations
 import collections
 import json
 import os
+import re
 import shutil
 import signal
 import socket
@@ -19,6 +20,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import pyseccomp
 import pytest
 
 from services.agent.sandbox import SandboxLimits, run_program
@@ -366,8 +368,10 @@ ROUTE_PROGRAM = """
 import ctypes, errno, json, mmap, os, stat, threading
 libc = ctypes.CDLL(None, use_errno=True)
 
-def raw(number, *arguments):
-    value = libc.syscall(number, *arguments)
+SYSCALLS = {syscalls}
+
+def raw(name, *arguments):
+    value = libc.syscall(SYSCALLS[name], *arguments)
     if value == -1:
         raise OSError(ctypes.get_errno(), 'refused')
     return value
@@ -411,50 +415,54 @@ def program(input_scene):
     return json.dumps({{name: outcome(action) for name, action in ROUTES.items()}})
 """
 GiB = 1 << 30
-# x86-64 syscall numbers: raw syscalls reach what no Python module wraps
+# Raw syscalls by name (their numbers are this machine's, from libseccomp): they reach what no
+# Python module wraps
 ROUTE_CLASSES = {
     "memory": {  # 512 MB limit: every route to 1 GiB fails, and 64 MB still works (the limit is real)
         "small_allocation": ("lambda: bytearray(64 << 20)", "allowed"),
         "bytearray": (f"lambda: bytearray({GiB})", "MemoryError"),
         "mmap_private": (f"lambda: mmap.mmap(-1, {GiB})", "ENOMEM"),
         "mmap_shared": (f"lambda: mmap.mmap(-1, {GiB}, flags=mmap.MAP_SHARED)", "ENOMEM"),
-        "sysv_shmget": (f"lambda: raw(29, 0, ctypes.c_size_t({GiB}), 0o1600 | 0o1000)", "EPERM"),
-        "sysv_shmget_small": ("lambda: raw(29, 0, ctypes.c_size_t(4096), 0o1600 | 0o1000)", "EPERM"),
-        "sysv_shmat": ("lambda: raw(30, 0, 0, 0)", "EPERM"),
-        "sysv_msgget": ("lambda: raw(68, 0, 0o1600 | 0o1000)", "EPERM"),
-        "sysv_semget": ("lambda: raw(64, 0, 1, 0o1600 | 0o1000)", "EPERM"),
+        "sysv_shmget": (f"lambda: raw('shmget', 0, ctypes.c_size_t({GiB}), 0o1600 | 0o1000)", "EPERM"),
+        "sysv_shmget_small": ("lambda: raw('shmget', 0, ctypes.c_size_t(4096), 0o1600 | 0o1000)", "EPERM"),
+        "sysv_shmat": ("lambda: raw('shmat', 0, 0, 0)", "EPERM"),
+        "sysv_msgget": ("lambda: raw('msgget', 0, 0o1600 | 0o1000)", "EPERM"),
+        "sysv_semget": ("lambda: raw('semget', 0, 1, 0o1600 | 0o1000)", "EPERM"),
         "memfd_create": ("lambda: os.memfd_create('x')", "EPERM"),
-        "memfd_raw": ("lambda: raw(319, ctypes.c_char_p(b'x'), 0)", "EPERM"),
+        "memfd_raw": ("lambda: raw('memfd_create', ctypes.c_char_p(b'x'), 0)", "EPERM"),
         "pipe_buffers": ("lambda: os.pipe()", "EPERM"),
         "eventfd": ("lambda: os.eventfd(0)", "EPERM"),
         "tmpfs_file": ("lambda: open('/tmp/fill', 'wb')", "EPERM"),
         "dev_shm_file": ("lambda: open('/dev/shm/fill', 'wb')", "EPERM"),
         "thread_stacks": ("lambda: many_threads(256, 4)", "RuntimeError"),
-        "userfaultfd": ("lambda: raw(323, 0)", "EPERM"),
-        "io_uring_setup": ("lambda: raw(425, 8, ctypes.create_string_buffer(120))", "EPERM"),
+        "userfaultfd": ("lambda: raw('userfaultfd', 0)", "EPERM"),
+        "io_uring_setup": ("lambda: raw('io_uring_setup', 8, ctypes.create_string_buffer(120))", "EPERM"),
     },
     "kernel_facilities": {
-        "bpf": ("lambda: raw(321, 0, 0, 0)", "EPERM"),
-        "perf_event_open": ("lambda: raw(298, 0, 0, -1, -1, 0)", "EPERM"),
-        "keyctl": ("lambda: raw(250, 0, 0)", "EPERM"),
-        "ptrace": ("lambda: raw(101, 16, 1, 0, 0)", "EPERM"),
-        "process_vm_readv": ("lambda: raw(310, 1, 0, 0, 0, 0, 0)", "EPERM"),
-        "mount": ("lambda: raw(165, 0, 0, 0, 0, 0)", "EPERM"),
-        "unshare": ("lambda: raw(272, 0x10000000)", "EPERM"),
-        "setns": ("lambda: raw(308, 0, 0)", "EPERM"),
-        "personality": ("lambda: raw(135, 0x0040000)", "EPERM"),
-        "socket_raw": ("lambda: raw(41, 2, 1, 0)", "EPERM"),
-        "clone_process": ("lambda: raw(56, 17, 0, 0, 0, 0)", "EPERM"),
-        "clone3": ("lambda: raw(435, 0, 0)", "ENOSYS"),
+        "bpf": ("lambda: raw('bpf', 0, 0, 0)", "EPERM"),
+        "perf_event_open": ("lambda: raw('perf_event_open', 0, 0, -1, -1, 0)", "EPERM"),
+        "keyctl": ("lambda: raw('keyctl', 0, 0)", "EPERM"),
+        "ptrace": ("lambda: raw('ptrace', 16, 1, 0, 0)", "EPERM"),
+        "process_vm_readv": ("lambda: raw('process_vm_readv', 1, 0, 0, 0, 0, 0)", "EPERM"),
+        "mount": ("lambda: raw('mount', 0, 0, 0, 0, 0)", "EPERM"),
+        "unshare": ("lambda: raw('unshare', 0x10000000)", "EPERM"),
+        "setns": ("lambda: raw('setns', 0, 0)", "EPERM"),
+        "personality": ("lambda: raw('personality', 0x0040000)", "EPERM"),
+        "socket_raw": ("lambda: raw('socket', 2, 1, 0)", "EPERM"),
+        "clone_process": ("lambda: raw('clone', 17, 0, 0, 0, 0)", "EPERM"),
+        "clone3": ("lambda: raw('clone3', 0, 0)", "ENOSYS"),
     },
     "signals_to_the_parent": {
         "kill_parent": ("lambda: os.kill(os.getppid(), 9)", "EPERM"),
         "kill_group": ("lambda: os.kill(0, 9)", "EPERM"),
-        "tgkill_parent": ("lambda: raw(234, os.getppid(), os.getppid(), 9)", "EPERM"),
-        "rt_sigqueueinfo": ("lambda: raw(129, os.getppid(), 9, ctypes.create_string_buffer(128))", "EPERM"),
-        "pidfd_open": ("lambda: raw(434, os.getppid(), 0)", "EPERM"),
-        "pdeathsig_off": ("lambda: raw(157, 1, 0)", "EPERM"),
-        "own_signal_ok": ("lambda: raw(234, os.getpid(), os.getpid(), 0)", "allowed"),
+        "tgkill_parent": ("lambda: raw('tgkill', os.getppid(), os.getppid(), 9)", "EPERM"),
+        "rt_sigqueueinfo": (
+            "lambda: raw('rt_sigqueueinfo', os.getppid(), 9, ctypes.create_string_buffer(128))",
+            "EPERM",
+        ),
+        "pidfd_open": ("lambda: raw('pidfd_open', os.getppid(), 0)", "EPERM"),
+        "pdeathsig_off": ("lambda: raw('prctl', 1, 0)", "EPERM"),
+        "own_signal_ok": ("lambda: raw('tgkill', os.getpid(), os.getpid(), 0)", "allowed"),
     },
     "proc": {
         "write_own_mem": ("lambda: open('/proc/self/mem', 'r+b')", "EPERM"),
@@ -467,21 +475,25 @@ ROUTE_CLASSES = {
 }
 
 
+def route_program(routes: str) -> str:
+    """The route program with this machine's numbers for the syscalls it calls by name."""
+    named = sorted(set(re.findall(r"raw\('(\w+)'", routes)))
+    arch = pyseccomp.system_arch()
+    numbers = {name: pyseccomp.resolve_syscall(arch, name) for name in named}
+    return ROUTE_PROGRAM.format(routes=routes, syscalls=repr(numbers))
+
+
 @pytest.mark.parametrize("route_class", list(ROUTE_CLASSES))
 def test_the_jail_alone_closes_every_route_of_a_class(route_class: str) -> None:
-    if os.uname().machine != "x86_64":
-        pytest.skip("raw syscall numbers are x86-64's")
     routes = ROUTE_CLASSES[route_class]
     table = "{" + ", ".join(f"{name!r}: {action}" for name, (action, _) in routes.items()) + "}"
-    result = run_unchecked(ROUTE_PROGRAM.format(routes=table))
+    result = run_unchecked(route_program(table))
     assert result.ok, result.error
     assert json.loads(result.clue_text) == {name: expected for name, (_, expected) in routes.items()}
 
 
 def test_the_jail_alone_inherits_only_its_protocol_descriptors() -> None:
-    source = ROUTE_PROGRAM.format(routes="{}").replace(
-        "return json.dumps({name", "return json.dumps(fds()) or ({name"
-    )
+    source = route_program("{}").replace("return json.dumps({name", "return json.dumps(fds()) or ({name")
     result = run_unchecked(source)
     assert result.ok, result.error
     # 0 and 1 are /dev/null, 2 the stderr pipe, 3 and 4 the protocol pipes: nothing else of the
