@@ -72,12 +72,20 @@ class Row:
     outcomes: dict[str, list[Outcome]] = field(default_factory=lambda: {"none": [], "true": []})
 
 
-def run_subset(
-    backbone: ClassicalBackbone, cameras: list[TempleView], root: Path, images: list[int], given: bool
-) -> Outcome:
+def subset_inputs(
+    cameras: list[TempleView], root: Path, images: list[int], given: bool
+) -> tuple[list[np.ndarray], np.ndarray, list[np.ndarray] | None]:
+    """A subset's photos (1-based numbers), true extrinsics, and its true intrinsics when given."""
     pictures = [load_image(root, cameras[number - 1].name) for number in images]
     truth = np.array([cameras[number - 1].extrinsic for number in images])
     intrinsics = [cameras[number - 1].intrinsic for number in images] if given else None
+    return pictures, truth, intrinsics
+
+
+def run_subset(
+    backbone: ClassicalBackbone, cameras: list[TempleView], root: Path, images: list[int], given: bool
+) -> Outcome:
+    pictures, truth, intrinsics = subset_inputs(cameras, root, images, given)
     start = time.perf_counter()
     try:
         result = backbone.reconstruct(pictures, intrinsics=intrinsics)

@@ -30,8 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from bench.templering import SPACINGS, ring, subset
-from bench.templering_data import TempleView, load_cameras, load_image, pair_errors, realdata_dir
+from bench.templering import SPACINGS, ring, subset, subset_inputs
+from bench.templering_data import TempleView, load_cameras, pair_errors, realdata_dir
 from services.recon.backbones.base import BackboneError
 from services.recon.backbones.classical import ClassicalBackbone
 from services.recon.backbones.classical.colmap_import import pycolmap
@@ -50,9 +50,7 @@ class Run:
 def run_classical(
     backbone: ClassicalBackbone, cameras: list[TempleView], root: Path, images: list[int], given: bool
 ) -> Run:
-    pictures = [load_image(root, cameras[number - 1].name) for number in images]
-    truth = np.array([cameras[number - 1].extrinsic for number in images])
-    intrinsics = [cameras[number - 1].intrinsic for number in images] if given else None
+    pictures, truth, intrinsics = subset_inputs(cameras, root, images, given)
     start = time.perf_counter()
     try:
         result = backbone.reconstruct(pictures, intrinsics=intrinsics)
