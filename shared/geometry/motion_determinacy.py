@@ -77,6 +77,8 @@ class FocalHypotheses:
     tested_fov_deg: list[float]  # the grid that was tried
     central_fov_deg: float  # the hypothesis the stored poses (and renders) use
     pairs: list[PairHypotheses] = field(default_factory=list)
+    # Set when an assumption about the scene (not the matches) dropped some hypotheses: its words.
+    narrowed_by: str | None = None
 
     def for_pair(self, first: int, second: int) -> PairHypotheses | None:
         for pair in self.pairs:
@@ -92,7 +94,9 @@ class FocalHypotheses:
     @classmethod
     def from_dict(cls, data: dict) -> FocalHypotheses:
         pairs = [PairHypotheses(**pair) for pair in data.get("pairs", [])]
-        return cls(list(data["tested_fov_deg"]), float(data["central_fov_deg"]), pairs)
+        return cls(
+            list(data["tested_fov_deg"]), float(data["central_fov_deg"]), pairs, data.get("narrowed_by")
+        )
 
 
 @dataclass(frozen=True)
@@ -141,6 +145,7 @@ class MotionOverFocal:
     heading_range_deg: tuple[float, float] | None = None  # of the steps, 0 forward, + right (angle_deg)
     frame: str = IMAGE_FRAME
     quantities: dict[str, QuantityOverFocal] = field(default_factory=dict)
+    fov_assumption: str | None = None  # what ruled out the narrower fields of view, if a scene prior did
 
     def to_dict(self) -> dict[str, object]:
         result = asdict(self)
@@ -268,8 +273,11 @@ def motion_over_focal(
     threshold: float = 0.05,
     rotation_threshold_deg: float = 10.0,
     tilt_threshold_deg: float = 5.0,
+    fov_assumption: str | None = None,
 ) -> MotionOverFocal:
     """The pair's motion at every hypothesis and what they all agree on (see the module docstring).
+    `fov_assumption`: what ruled out the fields of view missing from the hypotheses, when an
+    assumption about the scene did (FocalHypotheses.narrowed_by); the sentence says it.
 
     The step is a unit vector (or zero), so `threshold` is a share of the baseline: a step is
     "no significant movement" only for a pure-rotation hypothesis."""
@@ -298,7 +306,10 @@ def motion_over_focal(
         vertical_directions=vertical.words,
         vertical_determined=vertical.determined,
         translation_directions=steps,
-        sentence=determinacy_sentence(hypotheses.first, hypotheses.second, quantities, fov_range),
+        sentence=determinacy_sentence(
+            hypotheses.first, hypotheses.second, quantities, fov_range, fov_assumption
+        ),
+        fov_assumption=fov_assumption,
         heading_range_deg=direction.range,
         quantities=quantities,
     )
@@ -331,7 +342,11 @@ def _vertical_clause(vertical: QuantityOverFocal) -> str:
 
 
 def determinacy_sentence(
-    first: int, second: int, quantities: dict[str, QuantityOverFocal], fov_range_deg: tuple[float, float]
+    first: int,
+    second: int,
+    quantities: dict[str, QuantityOverFocal],
+    fov_range_deg: tuple[float, float],
+    fov_assumption: str | None = None,
 ) -> str:
     """One sentence (1-based view numbers, view `first`'s image axes) that the agent's offline
     answerer reads back (services/agent/motion_clue.py): each quantity with its range and its mark.
@@ -340,6 +355,8 @@ def determinacy_sentence(
     assert turn.range is not None and tilt.range is not None and roll.range is not None
     low, high = fov_range_deg
     fovs = f"{round(low)} to {round(high)} degrees" if round(high) != round(low) else f"{round(low)} degrees"
+    if fov_assumption is not None:
+        fovs += f", narrower ones ruled out by assuming that {fov_assumption}"
     turned = turn_words(turn.words, turn.range)
     tilted = _angle_clause("tilted", tilt.words, tilt.range, ("up", "down"), NO_TILT_WORDS)
     rolled = _angle_clause("rolled", roll.words, roll.range, ("clockwise", "counterclockwise"), NO_ROLL_WORDS)
@@ -365,7 +382,7 @@ def with_motion_over_focal(
             "the focal length is unknown and this pair was not solved over its range (too few shared matches)"
         )
         return unknown_motion(motion.from_view, motion.to_view, reason)
-    over = motion_over_focal(pair)
+    over = motion_over_focal(pair, fov_assumption=hypotheses.narrowed_by)
     fields = {k: v for k, v in over.to_dict().items() if k not in ("from_view", "to_view")}
     return replace(motion, over_focal=fields, sentence=over.sentence)
 

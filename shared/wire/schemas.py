@@ -315,6 +315,11 @@ class MotionOverFocalItem(_Model):
         description="Every quantity of the vocabulary: turn, tilt, roll, direction (compass step), "
         "lateral (left/right), depth (forward/backward), vertical (up/down), still.",
     )
+    fov_assumption: str | None = Field(
+        None,
+        description="Set when an assumption about the scene, not the matches, ruled out the narrower "
+        "fields of view (fov_range_deg starts above the grid's): what was assumed.",
+    )
 
 
 class CameraMotionItem(_Model):

@@ -35,7 +35,7 @@ def horizontal_fov_deg(focal: float, width: int) -> float:
     return math.degrees(2 * math.atan(width / 2 / focal))
 
 
-def _at_fov(intrinsic: np.ndarray | None, size: tuple[int, int], fov: float) -> np.ndarray:
+def at_fov(intrinsic: np.ndarray | None, size: tuple[int, int], fov: float) -> np.ndarray:
     return guess_intrinsics(size[0], size[1], fov) if intrinsic is None else intrinsic
 
 
@@ -53,8 +53,8 @@ def pair_hypotheses(
     `given` intrinsics keeps them at every hypothesis."""
     solved = []
     for fov in grid:
-        first_k = _at_fov(given[0], first_size, fov)
-        second_k = _at_fov(given[1], second_size, fov)
+        first_k = at_fov(given[0], first_size, fov)
+        second_k = at_fov(given[1], second_size, fov)
         geometry = estimate_two_view(first_pixels, second_pixels, first_k, second_k, matches)
         if geometry is not None:
             solved.append((fov, geometry))
@@ -82,8 +82,7 @@ def solve_over_focal(
     """Hypotheses of every pair of placed views that shares matches; None when no pair has one.
     `given`: per view its known intrinsics (kept), or None (the focal is the hypothesis).
 
-    The central hypothesis (the one the stored poses use) is the middle of the fields of view every
-    pair supports, else of those any pair supports."""
+    The central hypothesis (the one the stored poses use) is central_fov's."""
     grid = tuple(FOV_GRID_DEG if grid is None else grid)  # read now, so a bench can try another grid
     placed = set(placed)
     pairs = []
@@ -108,10 +107,14 @@ def solve_over_focal(
             pairs.append(hypotheses)
     if not pairs:
         return None
+    return FocalHypotheses(tested_fov_deg=list(grid), central_fov_deg=central_fov(pairs), pairs=pairs)
+
+
+def central_fov(pairs: list[PairHypotheses]) -> float:
+    """The middle of the fields of view every pair supports, else of those any pair supports."""
     common = set(pairs[0].fov_deg).intersection(*(pair.fov_deg for pair in pairs[1:]))
     candidates = sorted(common or {fov for pair in pairs for fov in pair.fov_deg})
-    central = candidates[len(candidates) // 2]
-    return FocalHypotheses(tested_fov_deg=list(grid), central_fov_deg=central, pairs=pairs)
+    return candidates[len(candidates) // 2]
 
 
 def flag_hypothesis_views(

@@ -35,6 +35,7 @@ from .focal_hypotheses import flag_hypothesis_views, horizontal_fov_deg, solve_o
 from .incremental import IncrementalMapper, SparseModel
 from .intrinsics import guess_intrinsics
 from .pair_uncertainty import assess_pairs
+from .plane_prior import narrow_by_orthogonal_planes
 from .rotation_verification import rotation_model_reasons
 from .two_view import TwoViewGeometry, estimate_two_view
 from .verification import (
@@ -186,6 +187,7 @@ def _over_focal_hypotheses(
     if hypotheses is None:
         _refuse_unobservable_focal(solution, free)
         return solution
+    hypotheses = narrow_by_orthogonal_planes(hypotheses, keypoints, image_sizes, matches, given)
     prior_view = next(v for v in solution.model.extrinsics if free[v])
     prior_fov = horizontal_fov_deg(
         intrinsics[prior_view][0, 0], image_sizes[prior_view][0]
@@ -220,6 +222,11 @@ def _over_focal_hypotheses(
         "prior when the matches support it, else the middle of the supported range), and camera "
         "motion says which of its words hold at every hypothesis (determined) and which do not"
     )
+    if hypotheses.narrowed_by is not None:
+        warning += (
+            f"; narrower fields of view were ruled out by assuming that {hypotheses.narrowed_by} "
+            "(at those the reconstruction bends that angle well away from 90 degrees)"
+        )
     confidence = flag_hypothesis_views(rebuilt.view_confidence, hypotheses, used)
     return replace(
         rebuilt,
