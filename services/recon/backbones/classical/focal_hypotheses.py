@@ -5,8 +5,10 @@ equally well, and the relative rotation turns with the focal. Rather than refuse
 placed pair is solved again on the same matches at every horizontal field of view of a grid from
 telephoto to wide angle (FOV_GRID_DEG), with the same two-view estimator (essential matrix, or
 pure rotation). A hypothesis is kept when it explains nearly as many matches as the best one
-(SUPPORT_SHARE) and at least MIN_INLIERS: the data narrow the grid where they can. What the kept
-hypotheses agree on is then determined (shared/geometry/motion_determinacy.py).
+(SUPPORT_SHARE) and at least MIN_INLIERS: the data narrow the grid where they can. The matches
+cannot rule out a narrow field of view when the optical axes meet; a right angle between the
+scene's two largest planes can, as a stated assumption (plane_prior.py). What the kept hypotheses
+agree on is then determined (shared/geometry/motion_determinacy.py).
 
 Only scenes whose focal is neither given nor self-calibrated come here; the others pay nothing.
 """

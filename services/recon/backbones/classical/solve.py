@@ -181,7 +181,8 @@ def _over_focal_hypotheses(
     solution: Solution,
 ) -> Solution:
     """The solution with every placed pair solved over the field-of-view grid (focal_hypotheses.py),
-    its poses rebuilt at the central hypothesis; two views without a supported one are refused."""
+    narrowed where the scene's planes allow (plane_prior.py), its poses rebuilt at the central
+    hypothesis; two views without a supported one are refused."""
     given = [None if free[v] else k for v, k in enumerate(intrinsics)]
     hypotheses = solve_over_focal(keypoints, image_sizes, matches, solution.model.extrinsics, given)
     if hypotheses is None:
