@@ -22,7 +22,7 @@ import numpy as np
 from services.agent.answering import UNDETERMINED, answer_offline
 from services.recon.backbones.base import BackboneError
 from services.recon.backbones.classical import ClassicalBackbone, focal_hypotheses
-from services.recon.motion_inputs import motion_scene_scale, view_pose_problems
+from services.recon.motion_inputs import motion_scene_scale, view_pose_problems, without_uncertain_pairs
 from shared.geometry.camera_motion import CameraMotion, UnknownMotion, describe_pairs
 from shared.geometry.motion_determinacy import with_motion_over_focal
 from shared.geometry.poses import estimate_up_axis
@@ -41,7 +41,8 @@ def pair_motion(recon, pair: tuple[int, int]) -> CameraMotion | UnknownMotion:
     usable = [index for index, problem in enumerate(problems) if problem is None]
     up = estimate_up_axis(recon.extrinsics[usable]) if usable else None
     scale = motion_scene_scale(recon, usable)
-    (motion,) = describe_pairs(recon.extrinsics, problems, pairs=[pair], up=up, scene_scale=scale)
+    described = describe_pairs(recon.extrinsics, problems, pairs=[pair], up=up, scene_scale=scale)
+    (motion,) = without_uncertain_pairs(described, recon)  # as the service: no flagged pair's motion
     return with_motion_over_focal(motion, recon.focal_hypotheses)
 
 

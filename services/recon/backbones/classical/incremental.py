@@ -50,6 +50,8 @@ class SparseModel:
     tracks: list[dict[int, int]]  # per point: view -> keypoint index
     pure_rotation: bool  # every placed view shares one centre; depth is undefined
     warnings: list[str] = field(default_factory=list)
+    # Views placed at a guessed distance from an anchor view (no shared 3D points): view -> anchor.
+    guessed_distance: dict[int, int] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -76,6 +78,7 @@ class IncrementalMapper:
         self.tracks: list[dict[int, int]] = []
         self.observed: dict[tuple[int, int], int] = {}  # (view, keypoint) -> point id
         self.warnings: list[str] = []
+        self.guessed_distance: dict[int, int] = {}
 
     # ---- public ---------------------------------------------------------------------------
 
@@ -88,7 +91,14 @@ class IncrementalMapper:
             self._register_rotations_only()
             pure_rotation = True
         points = np.array(self.points, dtype=np.float64).reshape(-1, 3)
-        return SparseModel(dict(self.extrinsics), points, list(self.tracks), pure_rotation, self.warnings)
+        return SparseModel(
+            dict(self.extrinsics),
+            points,
+            list(self.tracks),
+            pure_rotation,
+            self.warnings,
+            dict(self.guessed_distance),
+        )
 
     # ---- pairs ----------------------------------------------------------------------------
 
@@ -213,6 +223,7 @@ class IncrementalMapper:
             if not guess_baseline:
                 return None
             baseline = self._typical_baseline()
+            self.guessed_distance[view] = anchor
             self.warnings.append(
                 f"view {view + 1}: its distance from view {anchor + 1} is a guess (no shared 3D points); "
                 "its direction and rotation are estimated"

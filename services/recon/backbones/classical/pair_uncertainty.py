@@ -244,3 +244,38 @@ def _exp(rotation_vector: np.ndarray) -> np.ndarray:
         return np.eye(3) + _cross(rotation_vector)
     axis = _cross(rotation_vector / angle)
     return np.eye(3) + math.sin(angle) * axis + (1 - math.cos(angle)) * axis @ axis
+
+
+MIN_MEASURED_POINTS = 15  # shared points with which a pair measures its own direction
+
+
+def flag_guessed_distances(
+    pairs: list[PairConfidence], tracks: list[dict[int, int]], guessed: dict[int, int]
+) -> list[PairConfidence]:
+    """The pairs, with those whose relative direction may rest on a guessed distance flagged.
+
+    A view the mapper placed at a guessed distance from its anchor (it shares no 3D points with the
+    views placed before it) has a measured direction from the anchor, but its position against any
+    other view is built on the guess, unless a point seen by it and two other views ties its
+    distance to theirs. Later views registered on its points inherit the guess too. So while such a
+    view stays untied, a pair that does not measure its own direction (fewer than
+    MIN_MEASURED_POINTS shared points) is flagged: its direction came through the model, and the
+    model's distances are partly guessed (synthetic "among" rig, seed 3, 80 degree lens: views 2
+    and 4 share no point and their direction came out 33 degrees off)."""
+    untied = sorted(
+        view for view in guessed if not any(view in track and len(track) >= 3 for track in tracks)
+    )
+    if not untied:
+        return pairs
+    names = ", ".join(f"view {view + 1} (from view {guessed[view] + 1})" for view in untied)
+    flagged = []
+    for pair in pairs:
+        if pair.inliers < MIN_MEASURED_POINTS:
+            reason = (
+                f"their direction is not measured ({pair.inliers} shared points) and the model places "
+                f"{names} at a guessed distance, so it may rest on the guess"
+            )
+            given = pair.uncertain_reason
+            pair = replace(pair, uncertain_reason=f"{given}; {reason}" if given else reason)
+        flagged.append(pair)
+    return flagged

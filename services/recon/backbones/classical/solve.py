@@ -34,7 +34,7 @@ from .bundle_adjustment import bundle_adjust, robust_cost
 from .focal_hypotheses import flag_hypothesis_views, horizontal_fov_deg, solve_over_focal
 from .incremental import IncrementalMapper, SparseModel
 from .intrinsics import guess_intrinsics
-from .pair_uncertainty import assess_pairs
+from .pair_uncertainty import assess_pairs, flag_guessed_distances
 from .plane_prior import narrow_by_orthogonal_planes
 from .rotation_verification import rotation_model_reasons
 from .two_view import TwoViewGeometry, estimate_two_view
@@ -344,6 +344,7 @@ def _adjusted_model(model: SparseModel, adjusted) -> SparseModel:
         list(model.tracks),
         model.pure_rotation,
         list(model.warnings),
+        dict(model.guessed_distance),
     )
 
 
@@ -398,6 +399,7 @@ def _verified(
         pairs,
         pair_confidences(seen, model.extrinsics, model.points, [1.0] * len(keypoints)),
     )
+    pair_confidence = flag_guessed_distances(pair_confidence, model.tracks, model.guessed_distance)
     for view in sorted(model.extrinsics):
         angles = [
             p.triangulation_angle_deg for p in pair_confidence if view in (p.first, p.second) and p.inliers
@@ -451,4 +453,5 @@ def _without_views(model: SparseModel, removed: set[int]) -> SparseModel:
             kept_points.append(point)
             kept_tracks.append(remaining)
     points = np.array(kept_points, dtype=np.float64).reshape(-1, 3)
-    return SparseModel(extrinsics, points, kept_tracks, model.pure_rotation, list(model.warnings))
+    guessed = {v: a for v, a in model.guessed_distance.items() if v in extrinsics and a in extrinsics}
+    return SparseModel(extrinsics, points, kept_tracks, model.pure_rotation, list(model.warnings), guessed)
