@@ -41,6 +41,7 @@ def bundle_adjust(
     points: np.ndarray,
     tracks: list[dict[int, int]],
     refine_focal: bool = True,
+    max_iterations: int = MAX_ITERATIONS,
 ) -> AdjustedModel:
     """Adjust poses, points and (where `free_focal[view]` and `refine_focal`) the shared focal.
 
@@ -71,7 +72,7 @@ def bundle_adjust(
         if not free_focal[view]:
             config.set_constant_cam_intrinsics(camera_id)
     config.fix_gauge(pycolmap.BundleAdjustmentGauge.TWO_CAMS_FROM_WORLD)
-    options = _adjuster_options(refine_focal)
+    options = _adjuster_options(refine_focal, max_iterations)
     adjuster = pycolmap.create_default_bundle_adjuster(options, config, reconstruction)
     summary = adjuster.solve()
 
@@ -127,7 +128,7 @@ def _add_cameras(
     return camera_of_view
 
 
-def _adjuster_options(refine_focal: bool) -> pycolmap.BundleAdjustmentOptions:
+def _adjuster_options(refine_focal: bool, max_iterations: int) -> pycolmap.BundleAdjustmentOptions:
     options = pycolmap.BundleAdjustmentOptions()
     options.refine_focal_length = refine_focal
     options.refine_principal_point = False
@@ -135,7 +136,7 @@ def _adjuster_options(refine_focal: bool) -> pycolmap.BundleAdjustmentOptions:
     options.print_summary = False
     options.ceres.loss_function_type = pycolmap.LossFunctionType.CAUCHY
     options.ceres.loss_function_scale = LOSS_SCALE_PX
-    options.ceres.solver_options.max_num_iterations = MAX_ITERATIONS
+    options.ceres.solver_options.max_num_iterations = max_iterations
     options.ceres.solver_options.num_threads = 1
     # Stop once a step improves the cost by less than a millionth: sub-pixel poses are long
     # settled by then, and the default (0) keeps iterating to the cap.

@@ -90,7 +90,10 @@ def triangulate_many_views(projections: np.ndarray, pixels: np.ndarray, seen: np
     system = np.concatenate([rows_u, rows_v], axis=1) * np.concatenate([seen, seen], axis=1)[..., None]
     # Balance each point's rows so a far point's tiny numbers do not lose to rounding.
     scale = np.maximum(np.linalg.norm(system, axis=2, keepdims=True), 1e-12)
-    _, _, vt = np.linalg.svd(system / scale)
-    homogeneous = vt[:, -1, :]
+    balanced = system / scale
+    # The null vector is the eigenvector of the smallest eigenvalue of the 4x4 normal matrix: the
+    # same solution as the SVD's last right singular vector, at under half the cost.
+    _, vectors = np.linalg.eigh(np.einsum("nki,nkj->nij", balanced, balanced))
+    homogeneous = vectors[:, :, 0]
     w = homogeneous[:, 3:4]
     return homogeneous[:, :3] / np.where(np.abs(w) > 1e-12, w, np.nan)
