@@ -14,6 +14,8 @@ bins are taken from in turn, so the sample covers every view and the whole image
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from .incremental import SparseModel
@@ -52,13 +54,8 @@ def calibration_sample(
 def sampled(model: SparseModel, sample: list[int] | None) -> SparseModel:
     if sample is None:
         return model
-    return SparseModel(
-        dict(model.extrinsics),
-        np.asarray(model.points)[sample],
-        [model.tracks[i] for i in sample],
-        model.pure_rotation,
-        list(model.warnings),
-    )
+    # replace() keeps every other field (warnings, guessed distances) with the model
+    return replace(model, points=np.asarray(model.points)[sample], tracks=[model.tracks[i] for i in sample])
 
 
 def with_sample_adjusted(
@@ -90,6 +87,4 @@ def with_sample_adjusted(
     usable = np.all(np.isfinite(solved), axis=1) & (seen.sum(axis=1) >= 2)
     points[usable] = solved[usable]
     points[sample] = adjusted.points
-    return SparseModel(
-        dict(adjusted.extrinsics), points, list(model.tracks), model.pure_rotation, list(model.warnings)
-    )
+    return replace(model, extrinsics=dict(adjusted.extrinsics), points=points, tracks=list(model.tracks))
