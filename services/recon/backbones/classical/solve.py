@@ -254,6 +254,19 @@ def _over_focal_hypotheses(
             rebuilt = solution  # the prior's model stands; the hypotheses still say what holds
     used = hypotheses.central_fov_deg if rebuilt is not solution else prior_fov
     hypotheses.central_fov_deg = float(used)
+    confidence = flag_hypothesis_views(rebuilt.view_confidence, hypotheses, used)
+    warning = _hypotheses_warning(hypotheses, used)
+    return replace(
+        rebuilt,
+        focal_hypotheses=hypotheses,
+        view_confidence=confidence,
+        warnings=list(dict.fromkeys([*rebuilt.warnings, warning])),  # a rebuild repeats the model's
+    )
+
+
+def _hypotheses_warning(hypotheses: FocalHypotheses, used: float) -> str:
+    """What a scene solved over focal hypotheses says: the range, the hypothesis the poses use,
+    and the assumption about the scene that narrowed the range, if one did."""
     fovs = [fov for pair in hypotheses.pairs for fov in pair.fov_deg]
     warning = (
         f"the focal length is unknown and these views cannot fix it: each pair was solved at every "
@@ -262,17 +275,11 @@ def _over_focal_hypotheses(
         "prior when the matches support it, else the middle of the supported range), and camera "
         "motion says which of its words hold at every hypothesis (determined) and which do not"
     )
-    if hypotheses.narrowed_by is not None:
-        warning += (
-            f"; narrower fields of view were ruled out by assuming that {hypotheses.narrowed_by} "
-            "(at those the reconstruction bends that angle well away from 90 degrees)"
-        )
-    confidence = flag_hypothesis_views(rebuilt.view_confidence, hypotheses, used)
-    return replace(
-        rebuilt,
-        focal_hypotheses=hypotheses,
-        view_confidence=confidence,
-        warnings=list(dict.fromkeys([*rebuilt.warnings, warning])),  # a rebuild repeats the model's
+    if hypotheses.narrowed_by is None:
+        return warning
+    return warning + (
+        f"; narrower fields of view were ruled out by assuming that {hypotheses.narrowed_by} "
+        "(at those the reconstruction bends that angle well away from 90 degrees)"
     )
 
 
