@@ -19,7 +19,7 @@ from dataclasses import replace
 import numpy as np
 
 from .incremental import SparseModel
-from .triangulation import projection_matrix, triangulate_many_views
+from .triangulation import projection_matrix, stacked_observations, triangulate_many_views
 
 CALIBRATION_TRACKS = 500
 GRID_CELLS = 6  # per image side
@@ -69,19 +69,8 @@ def with_sample_adjusted(
     others re-triangulated (linear, from all their views) with those poses and `intrinsics`; a
     point that does not triangulate keeps its old position."""
     views = sorted(adjusted.extrinsics)
-    slot = {view: index for index, view in enumerate(views)}
-    count = len(model.tracks)
-    projections = np.zeros((count, len(views), 3, 4))
-    pixels = np.zeros((count, len(views), 2))
-    seen = np.zeros((count, len(views)), dtype=bool)
-    for view in views:
-        observing = [(point, track[view]) for point, track in enumerate(model.tracks) if view in track]
-        if not observing:
-            continue
-        rows, indices = np.array(observing, dtype=np.int64).T
-        projections[rows, slot[view]] = projection_matrix(adjusted.extrinsics[view], intrinsics[view])
-        pixels[rows, slot[view]] = keypoints[view][indices]
-        seen[rows, slot[view]] = True
+    matrices = {view: projection_matrix(adjusted.extrinsics[view], intrinsics[view]) for view in views}
+    projections, pixels, seen = stacked_observations(model.tracks, views, keypoints, matrices)
     points = np.array(model.points, dtype=np.float64).reshape(-1, 3).copy()
     solved = triangulate_many_views(projections, pixels, seen)
     usable = np.all(np.isfinite(solved), axis=1) & (seen.sum(axis=1) >= 2)

@@ -28,6 +28,7 @@ from .triangulation import (
     MIN_RAY_ANGLE_DEG,
     max_ray_angle_deg,
     projection_matrix,
+    stacked_observations,
     triangulate_many_views,
     triangulate_pair,
 )
@@ -341,21 +342,8 @@ class IncrementalMapper:
             return
         views = sorted(self.extrinsics)
         slot = {view: index for index, view in enumerate(views)}
-        count = len(self.points)
-        projections = np.zeros((count, len(views), 3, 4))
-        pixels = np.zeros((count, len(views), 2))
-        seen = np.zeros((count, len(views)), dtype=bool)
-        matrices = np.array(
-            [projection_matrix(self.extrinsics[view], self.intrinsics[view]) for view in views]
-        )
-        for view in views:  # one fancy-indexed copy per view instead of one per observation
-            observing = [(point, track[view]) for point, track in enumerate(self.tracks) if view in track]
-            if not observing:
-                continue
-            rows, keypoints = np.array(observing, dtype=np.int64).T
-            projections[rows, slot[view]] = matrices[slot[view]]
-            pixels[rows, slot[view]] = self.keypoints[view][keypoints]
-            seen[rows, slot[view]] = True
+        matrices = {view: projection_matrix(self.extrinsics[view], self.intrinsics[view]) for view in views}
+        projections, pixels, seen = stacked_observations(self.tracks, views, self.keypoints, matrices)
         solved = triangulate_many_views(projections, pixels, seen)
         fits = seen.copy()
         for view in views:

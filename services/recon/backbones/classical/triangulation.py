@@ -79,6 +79,30 @@ def max_ray_angle_deg(points: np.ndarray, extrinsics: list[np.ndarray]) -> np.nd
     return widest
 
 
+def stacked_observations(
+    tracks: list[dict[int, int]],
+    views: list[int],
+    keypoints: list[np.ndarray],
+    matrices: dict[int, np.ndarray],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The tracks' observations in `views` as triangulate_many_views takes them: projections
+    (N, K, 3, 4) from `matrices` (view -> 3x4), pixels (N, K, 2) and seen (N, K), with K the views
+    in the given order. One fancy-indexed copy per view, not one per observation."""
+    count = len(tracks)
+    projections = np.zeros((count, len(views), 3, 4))
+    pixels = np.zeros((count, len(views), 2))
+    seen = np.zeros((count, len(views)), dtype=bool)
+    for slot, view in enumerate(views):
+        observing = [(point, track[view]) for point, track in enumerate(tracks) if view in track]
+        if not observing:
+            continue
+        rows, indices = np.array(observing, dtype=np.int64).T
+        projections[rows, slot] = matrices[view]
+        pixels[rows, slot] = keypoints[view][indices]
+        seen[rows, slot] = True
+    return projections, pixels, seen
+
+
 def triangulate_many_views(projections: np.ndarray, pixels: np.ndarray, seen: np.ndarray) -> np.ndarray:
     """Linear (DLT) triangulation of N points, each from up to K views, in one batched SVD.
 
