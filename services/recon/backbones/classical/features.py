@@ -111,17 +111,20 @@ def match_features(first: ViewFeatures, second: ViewFeatures) -> np.ndarray:
     """(M, 2) keypoint index pairs (into first, into second) of mutual, ratio-tested nearest neighbours."""
     if len(first) < 2 or len(second) < 2:
         return np.zeros((0, 2), dtype=np.int64)
-    forward = _best_keypoint_matches(first, second)
-    backward = _best_keypoint_matches(second, first)
+    towards_second, towards_first = nearest_descriptors(first, second, NEIGHBOURS)
+    forward = _best_keypoint_matches(first, second, *towards_second)
+    backward = _best_keypoint_matches(second, first, *towards_first)
     # forward[i] = j and backward[j] = i
     mutual = np.flatnonzero(forward >= 0)
     mutual = mutual[backward[forward[mutual]] == mutual]
     return np.stack([mutual, forward[mutual]], axis=1).astype(np.int64)
 
 
-def _best_keypoint_matches(query: ViewFeatures, train: ViewFeatures) -> np.ndarray:
-    """Per query keypoint: the train keypoint of its closest ratio-tested descriptor match, or -1."""
-    indices, distances = nearest_descriptors(query, train, NEIGHBOURS)
+def _best_keypoint_matches(
+    query: ViewFeatures, train: ViewFeatures, indices: np.ndarray, distances: np.ndarray
+) -> np.ndarray:
+    """Per query keypoint: the train keypoint of its closest ratio-tested descriptor match, or -1.
+    `indices` and `distances`: the query descriptors' nearest train descriptors, nearest first."""
     best = np.full(len(query), -1, dtype=np.int64)
     if indices.shape[1] < 2:
         return best
@@ -142,38 +145,66 @@ def _best_keypoint_matches(query: ViewFeatures, train: ViewFeatures) -> np.ndarr
 
 
 CANDIDATES = 6  # nearest descriptors kept from the fast single-precision pass
-BLOCK_ENTRIES = 1 << 22  # distance-matrix entries computed at once (16 MB in float32)
+BLOCK_ENTRIES = 1 << 22  # distance-matrix entries held at once, both directions (16 MB in float32)
+GROUPS = 64  # a column's entries are split into this many groups to bound its smallest ones
+
+Neighbours = tuple[np.ndarray, np.ndarray]  # (N, k) indices and distances, nearest first
 
 
 def nearest_descriptors(
-    query: ViewFeatures, train: ViewFeatures, count: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """The `count` nearest train descriptors of every query descriptor: (N, k) indices and distances,
-    nearest first (the lower index first on a tie), k = min(count, train descriptors).
+    first: ViewFeatures, second: ViewFeatures, count: int
+) -> tuple[Neighbours, Neighbours]:
+    """The `count` nearest second descriptors of every first descriptor, and the other way round:
+    (N, k) indices and distances each, nearest first (the lower index first on a tie),
+    k = min(count, descriptors searched).
 
     Exhaustive like OpenCV's brute-force matcher, but as one matrix product per block (BLAS) instead
-    of one distance at a time, which is several times faster. The product in single precision only
-    picks candidates; their distances are recomputed in double precision and sorted, so the order
-    is that of the true distances (the same matches as OpenCV's matcher on templeRing)."""
-    a, b = query.descriptors, train.descriptors
-    count = min(count, len(b))
-    if query.kind != "sift":
-        return _nearest_hamming(a, b, count)
-    a64, b64 = a.astype(np.float64), b.astype(np.float64)
-    b_norms = np.einsum("ij,ij->i", b, b)
-    rows = max(1, BLOCK_ENTRIES // max(len(b), 1))
-    indices = np.empty((len(a), count), dtype=np.int64)
-    distances = np.empty((len(a), count), dtype=np.float64)
+    of one distance at a time, which is several times faster; the product serves both directions
+    (rows: first to second, columns: second to first). The product in single precision only picks
+    candidates; their distances are recomputed in double precision and sorted, so the order is that
+    of the true distances (the same matches as OpenCV's matcher on templeRing)."""
+    a, b = first.descriptors, second.descriptors
+    if first.kind != "sift":
+        return _nearest_hamming(a, b, min(count, len(b))), _nearest_hamming(b, a, min(count, len(a)))
+    if len(a) == 0 or len(b) == 0:
+        return _no_neighbours(len(a), min(count, len(b))), _no_neighbours(len(b), min(count, len(a)))
+    towards_second, towards_first = _candidates(a, b)
+    return _exact_order(a, b, towards_second, count), _exact_order(b, a, towards_first, count)
+
+
+def _no_neighbours(rows: int, count: int) -> Neighbours:
+    return np.zeros((rows, count), dtype=np.int64), np.zeros((rows, count), dtype=np.float64)
+
+
+def _candidates(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The CANDIDATES nearest b rows of every a row and nearest a rows of every b row, in single
+    precision: (len(a), k) and (len(b), k) indices, in no particular order."""
+    a_norms, b_norms = np.einsum("ij,ij->i", a, a), np.einsum("ij,ij->i", b, b)
+    # -2 a.b computed as (-2 a).b: scaling by 2 is exact, so the same single-precision values as
+    # scaling the product, without a pass over the matrix.
+    doubled = a * np.float32(-2.0)
+    # Two matrices of a block's size (one per direction); equal blocks, not a sliver at the end.
+    rows = _even_block_rows(len(a), max(1, BLOCK_ENTRIES // (2 * len(b))))
+    product = np.empty((rows, len(b)), dtype=np.float32)
+    along_rows = np.empty((rows, len(b)), dtype=np.float32)
+    towards_second = np.empty((len(a), min(CANDIDATES, len(b))), dtype=np.int64)
+    blocks = []
     for start in range(0, len(a), rows):
-        squared = a[start : start + rows] @ b.T
-        squared *= -2.0
-        squared += b_norms  # + |a|^2, the same along a row, changes no order
-        near = _smallest(squared, min(CANDIDATES, len(b)))
-        exact = np.sqrt(np.sum((a64[start : start + rows, None, :] - b64[near]) ** 2, axis=2))
-        order = np.lexsort((near, exact), axis=1)[:, :count]
-        indices[start : start + rows] = np.take_along_axis(near, order, axis=1)
-        distances[start : start + rows] = np.take_along_axis(exact, order, axis=1)
-    return indices, distances
+        stop = min(start + rows, len(a))
+        block = np.matmul(doubled[start:stop], b.T, out=product[: stop - start])
+        # Along a row |a|^2 is the same and changes no order, as |b|^2 along a column.
+        np.add(block, b_norms, out=along_rows[: stop - start])
+        towards_second[start:stop] = _smallest(along_rows[: stop - start], towards_second.shape[1])
+        block += a_norms[start:stop, None]
+        found, values = _smallest_in_columns(block, min(CANDIDATES, stop - start))
+        blocks.append((found + start, values))
+    return towards_second, _merge_blocks(blocks, min(CANDIDATES, len(a)))
+
+
+def _even_block_rows(total: int, most: int) -> int:
+    """Rows per block: at most `most`, in as few blocks of (nearly) equal size as that allows."""
+    blocks = max(1, -(-total // most))
+    return max(1, -(-total // blocks))
 
 
 def _smallest(values: np.ndarray, count: int) -> np.ndarray:
@@ -186,6 +217,67 @@ def _smallest(values: np.ndarray, count: int) -> np.ndarray:
         chosen[:, position] = values.argmin(axis=1)
         values[rows, chosen[:, position]] = np.inf
     return chosen
+
+
+def _smallest_in_columns(values: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """Row indices and values of the `count` smallest entries of every column, the lower row first
+    on a tie: (columns, count) each, ordered by value.
+
+    argmin down columns is slow on a row-major matrix (numpy transposes it). Instead: a column's
+    entries in GROUPS groups of rows give GROUPS minima; each is the minimum of different entries,
+    so at least `count` entries are at most the count-th smallest minimum, and few more."""
+    rows, columns = values.shape
+    groups = min(rows, GROUPS)
+    stacked = rows // groups
+    minima = values[: stacked * groups].reshape(stacked, groups, columns).min(axis=0)
+    bounds = np.concatenate([minima, values[stacked * groups :]])
+    threshold = np.partition(bounds, count - 1, axis=0)[count - 1]
+    flat = np.flatnonzero(values <= threshold)
+    found_rows, found_columns = np.divmod(flat, columns)
+    # Grouped by column (a stable sort keeps the rows ascending; on 16-bit keys it is a radix
+    # sort), then padded to a table with infinity.
+    key = found_columns.astype(np.uint16) if columns <= 1 << 16 else found_columns
+    by_column = np.argsort(key, kind="stable")
+    per_column = np.bincount(found_columns, minlength=columns)
+    starts = np.zeros(columns, dtype=np.int64)
+    np.cumsum(per_column[:-1], out=starts[1:])
+    sorted_columns = found_columns[by_column]
+    table = np.full((columns, per_column.max()), np.inf, dtype=np.float32)
+    table[sorted_columns, np.arange(len(flat)) - starts[sorted_columns]] = values.ravel()[flat[by_column]]
+    nearest = np.argsort(table, axis=1, kind="stable")[:, :count]
+    return found_rows[by_column][starts[:, None] + nearest], np.take_along_axis(table, nearest, axis=1)
+
+
+def _merge_blocks(blocks: list[tuple[np.ndarray, np.ndarray]], count: int) -> np.ndarray:
+    """The `count` smallest of every column over all blocks' candidates (the lower row first on a tie)."""
+    found = np.concatenate([block_found for block_found, _ in blocks], axis=1)
+    values = np.concatenate([block_values for _, block_values in blocks], axis=1)
+    if len(blocks) == 1:
+        return found
+    order = np.lexsort((found, values), axis=1)[:, :count]
+    return np.take_along_axis(found, order, axis=1)
+
+
+def _exact_order(query: np.ndarray, train: np.ndarray, near: np.ndarray, count: int) -> Neighbours:
+    """The `count` nearest of every query row's candidate train rows `near`, by their distance in
+    double precision (the lower index first on a tie)."""
+    count = min(count, near.shape[1])
+    indices = np.empty((len(query), count), dtype=np.int64)
+    distances = np.empty((len(query), count), dtype=np.float64)
+    query = query.astype(np.float64)
+    # Differences in chunks that stay in cache (about 1.5 MB each).
+    rows = _even_block_rows(len(query), 256)
+    differences = np.empty((rows, near.shape[1], query.shape[1]), dtype=np.float64)
+    for start in range(0, len(query), rows):
+        stop = min(start + rows, len(query))
+        chunk = np.subtract(
+            query[start:stop, None, :], train[near[start:stop]], out=differences[: stop - start]
+        )
+        exact = np.sqrt(np.square(chunk, out=chunk).sum(axis=2))
+        order = np.lexsort((near[start:stop], exact), axis=1)[:, :count]
+        indices[start:stop] = np.take_along_axis(near[start:stop], order, axis=1)
+        distances[start:stop] = np.take_along_axis(exact, order, axis=1)
+    return indices, distances
 
 
 def _nearest_hamming(a: np.ndarray, b: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
