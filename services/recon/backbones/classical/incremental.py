@@ -335,6 +335,12 @@ class IncrementalMapper:
                 if view != reference:
                     self._refine_pose(view)
         self._retriangulate()
+        # Registration is over, so the keypoint -> point index is rebuilt once, not per round.
+        self.observed = {
+            (view, keypoint): point
+            for point, track in enumerate(self.tracks)
+            for view, keypoint in track.items()
+        }
 
     def _retriangulate(self) -> None:
         """Re-solve every point from all its observations; drop observations that do not fit."""
@@ -369,11 +375,6 @@ class IncrementalMapper:
     def _keep_points(self, points: np.ndarray, keep: np.ndarray) -> None:
         self.points = [points[i] for i in np.flatnonzero(keep)]
         self.tracks = [self.tracks[i] for i in np.flatnonzero(keep)]
-        self.observed = {
-            (view, keypoint): point
-            for point, track in enumerate(self.tracks)
-            for view, keypoint in track.items()
-        }
 
     def _refine_pose(self, view: int) -> None:
         point_ids = [(point, track[view]) for point, track in enumerate(self.tracks) if view in track]
