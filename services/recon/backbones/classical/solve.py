@@ -13,10 +13,11 @@ and a rebuild would only confirm it. Given intrinsics stay fixed throughout.
 The rounds adjust a spread subsample of at most 500 tracks (calibration_sample.py), up to 300
 iterations each: the focal is what they are for, and a few hundred tracks fix it about as well as
 all of them at a quarter of the cost, so the first round can run to convergence rather than creep
-from the prior at an iteration cap. The calibrated model then gets one adjustment over every
-track, its other points re-triangulated on the sample's poses first; the focal is refined in it
-once more (about 1%: templeRing [24..27] 1541 -> 1519 px). The prior-fits-as-well test compares
-the samples' costs per observation.
+from the prior at an iteration cap; round one, far from the focal, goes coarse to fine (100 of
+the sample's tracks first, see calibration_sample.py), which halves its cost. The calibrated model
+then gets one adjustment over every track, its other points re-triangulated on the sample's poses
+first; the focal is refined in it once more (about 1%: templeRing [24..27] 1541 -> 1519 px). The
+prior-fits-as-well test compares the samples' costs per observation.
 
 The estimate must earn its place: the prior is kept when it explains the matches (adjusted, robust
 cost) within 5% as well. That is the case when the focal is not observable (two views, views
