@@ -6,6 +6,7 @@ import numpy as np
 
 from services.recon.backbones.classical.calibration_sample import (
     CALIBRATION_TRACKS,
+    adjusted_coarse_to_fine,
     calibration_sample,
     sampled,
     with_sample_adjusted,
@@ -78,3 +79,23 @@ def test_other_tracks_are_retriangulated_on_the_sample_poses():
     assert len(merged.tracks) == len(model.tracks)
     np.testing.assert_allclose(merged.points, model.points, atol=1e-6)
     assert set(merged.extrinsics) == set(adjusted.extrinsics)
+
+
+def test_coarse_to_fine_reaches_the_focal_from_a_far_prior():
+    """From a focal 1.6x too short the staged adjustment ends where one adjustment does: the focal
+    the projections were made with, and the result is for every track, in order."""
+    model, keypoints = _scene(800)
+    noisy = [
+        pixels + np.random.default_rng(view).normal(0, 0.3, pixels.shape)
+        for view, pixels in enumerate(keypoints)
+    ]
+    short = K.copy()
+    short[0, 0] = short[1, 1] = 500.0 / 1.6
+    free = [True] * 3
+    staged = adjusted_coarse_to_fine(noisy, [SIZE] * 3, [short] * 3, free, model, True, 300)
+    single = adjusted_coarse_to_fine(noisy, [SIZE] * 3, [short] * 3, free, model, True, 300, staged=False)
+    assert staged.usable and staged.points.shape == model.points.shape
+    assert abs(staged.intrinsics[0][0, 0] - 500.0) < 10.0
+    assert abs(staged.intrinsics[0][0, 0] - single.intrinsics[0][0, 0]) < 2.0
+    fixed = adjusted_coarse_to_fine(noisy, [SIZE] * 3, [short] * 3, free, model, False)
+    assert fixed.intrinsics[0][0, 0] == short[0, 0]  # the focal stays put when not refined

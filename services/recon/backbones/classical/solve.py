@@ -13,10 +13,11 @@ and a rebuild would only confirm it. Given intrinsics stay fixed throughout.
 The rounds adjust a spread subsample of at most 500 tracks (calibration_sample.py), up to 300
 iterations each: the focal is what they are for, and a few hundred tracks fix it about as well as
 all of them at a quarter of the cost, so the first round can run to convergence rather than creep
-from the prior at an iteration cap. The calibrated model then gets one adjustment over every
-track, its other points re-triangulated on the sample's poses first; the focal is refined in it
-once more (about 1%: templeRing [24..27] 1541 -> 1519 px). The prior-fits-as-well test compares
-the samples' costs per observation.
+from the prior at an iteration cap; round one, far from the focal, goes coarse to fine (100 of
+the sample's tracks first, see calibration_sample.py), which halves its cost. The calibrated model
+then gets one adjustment over every track, its other points re-triangulated on the sample's poses
+first; the focal is refined in it once more (about 1%: templeRing [24..27] 1541 -> 1519 px). The
+prior-fits-as-well test compares the samples' costs per observation.
 
 The estimate must earn its place: the prior is kept when it explains the matches (adjusted, robust
 cost) within 5% as well. That is the case when the focal is not observable (two views, views
@@ -39,7 +40,14 @@ from shared.geometry.reconstruction import PairConfidence, ViewConfidence
 
 from ..base import BackboneError
 from .bundle_adjustment import bundle_adjust, robust_cost
-from .calibration_sample import calibration_sample, sampled, with_sample_adjusted
+from .calibration_sample import (
+    adjusted_coarse_to_fine,
+    adjusted_model,
+    calibration_sample,
+    sampled,
+    with_focal,
+    with_sample_adjusted,
+)
 from .focal_hypotheses import flag_hypothesis_views, horizontal_fov_deg, solve_over_focal
 from .incremental import IncrementalMapper, SparseModel
 from .intrinsics import guess_intrinsics
@@ -129,21 +137,16 @@ def solve_with_self_calibration(
             adjusted = bundle_adjust(
                 keypoints, image_sizes, current, free, model.extrinsics, model.points, model.tracks, False
             )
-            model, adjusted_last = _adjusted_model(model, adjusted), True
+            model, adjusted_last = adjusted_model(model, adjusted), True
             break
         sample = calibration_sample(model, keypoints, image_sizes)
         prior_sample = prior_sample if round_index else sample  # the prior's build is round one's
         subset = sampled(model, sample)
-        adjusted = bundle_adjust(
-            keypoints,
-            image_sizes,
-            current,
-            free,
-            subset.extrinsics,
-            subset.points,
-            subset.tracks,
-            True,
-            CALIBRATION_ITERATIONS,
+        # Round one starts at the prior, far from the focal: coarse to fine. A rebuilt model is near
+        # its focal already, where one adjustment is quicker (and a coarse stage can overshoot).
+        staged = round_index == 0
+        adjusted = adjusted_coarse_to_fine(
+            keypoints, image_sizes, current, free, subset, True, CALIBRATION_ITERATIONS, staged
         )
         focal_before = {v: current[v][0, 0] for v in adjusted.intrinsics if free[v]}
         focal_after = {v: adjusted.intrinsics[v][0, 0] for v in focal_before}
@@ -157,8 +160,8 @@ def solve_with_self_calibration(
             current, source = prior, "prior"
             pairs, model = _build(keypoints, current, matches)
             break
-        current = _with_focal(current, free, focal_after, image_sizes)
-        subset, source = _adjusted_model(subset, adjusted), "self-calibrated"
+        current = with_focal(current, free, focal_after, image_sizes)
+        subset, source = adjusted_model(subset, adjusted), "self-calibrated"
         change = max(abs(focal_after[v] - focal_before[v]) / focal_before[v] for v in focal_after)
         settled = change < CONVERGED_CHANGE or (adjusted.converged and change < SETTLED_IF_CONVERGED_CHANGE)
         # Two views usually cannot fix the focal: ask at once rather than after every round has
@@ -191,10 +194,10 @@ def solve_with_self_calibration(
         adjusted = bundle_adjust(
             keypoints, image_sizes, current, free, model.extrinsics, model.points, model.tracks, refine
         )
-        model = _adjusted_model(model, adjusted)
+        model = adjusted_model(model, adjusted)
         if refine:
             focal = {v: adjusted.intrinsics[v][0, 0] for v in adjusted.intrinsics if free[v]}
-            current = _with_focal(current, free, focal, image_sizes)
+            current = with_focal(current, free, focal, image_sizes)
     solution = _verified(keypoints, image_sizes, current, free, pairs, model, source, warnings)
     if _focal_unobservable(solution, free):
         return _over_focal_hypotheses(keypoints, image_sizes, current, free, matches, solution)
@@ -246,7 +249,7 @@ def _over_focal_hypotheses(
             adjusted = bundle_adjust(
                 keypoints, image_sizes, central, free, model.extrinsics, model.points, model.tracks, False
             )
-            model = _adjusted_model(model, adjusted)
+            model = adjusted_model(model, adjusted)
             rebuilt = _verified(
                 keypoints, image_sizes, central, free, pairs, model, "prior", solution.warnings
             )
@@ -343,10 +346,11 @@ def _prior_fits_as_well(
     by_view = {view: calibrated[view] for view in model.extrinsics}
     best = robust_cost(keypoints, by_view, model.extrinsics, model.points, model.tracks)
     # The model built with the prior first: it is the cheaper adjustment (already near its minimum),
-    # and when it fits, the other one need not be adjusted at all.
+    # and when it fits, the other one need not be adjusted at all. The calibrated model has far to
+    # go to the prior focal: coarse to fine.
     for start in (prior_model, model):
-        adjusted = bundle_adjust(
-            keypoints, image_sizes, prior, free, start.extrinsics, start.points, start.tracks, False
+        adjusted = adjusted_coarse_to_fine(
+            keypoints, image_sizes, prior, free, start, False, staged=start is model
         )
         cost = robust_cost(keypoints, adjusted.intrinsics, adjusted.extrinsics, adjusted.points, start.tracks)
         # Compare like with like: cost per observation (the two models may hold different points).
@@ -364,34 +368,6 @@ def _observation_count(model: SparseModel) -> int:
 def _plausible(focal: float, width: int) -> bool:
     fov = math.degrees(2 * math.atan(width / 2 / focal)) if focal > 0 else 180.0
     return MIN_FOV_DEG <= fov <= MAX_FOV_DEG
-
-
-def _with_focal(
-    intrinsics: list[np.ndarray],
-    free: list[bool],
-    focal: dict[int, float],
-    image_sizes: list[tuple[int, int]],
-) -> list[np.ndarray]:
-    """Free views take the estimated focal of a placed free view of the same size."""
-    by_size = {image_sizes[v]: f for v, f in focal.items()}
-    result = []
-    for view, intrinsic in enumerate(intrinsics):
-        updated = intrinsic.copy()
-        if free[view] and image_sizes[view] in by_size:
-            updated[0, 0] = updated[1, 1] = by_size[image_sizes[view]]
-        result.append(updated)
-    return result
-
-
-def _adjusted_model(model: SparseModel, adjusted) -> SparseModel:
-    return SparseModel(
-        dict(adjusted.extrinsics),
-        adjusted.points,
-        list(model.tracks),
-        model.pure_rotation,
-        list(model.warnings),
-        dict(model.guessed_distance),
-    )
 
 
 # Long on purpose: the verification steps in their order, each with its reason for a refusal.
@@ -436,7 +412,7 @@ def _verified(
         adjusted = bundle_adjust(
             keypoints, image_sizes, intrinsics, free, model.extrinsics, model.points, model.tracks, False
         )
-        model = _adjusted_model(model, adjusted)
+        model = adjusted_model(model, adjusted)
     pair_confidence = assess_pairs(
         keypoints,
         intrinsics,
