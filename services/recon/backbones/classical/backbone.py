@@ -35,6 +35,7 @@ from typing import Any
 
 import cv2
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from shared.geometry.reconstruction import PairConfidence, Reconstruction, ViewConfidence
 
@@ -120,7 +121,13 @@ class ClassicalBackbone(Backbone):
         keys = [
             (first, second) for position, first in enumerate(textured) for second in textured[position + 1 :]
         ]
-        with ThreadPoolExecutor(max_workers=_worker_count(len(keys))) as pool:
+        # One pair per core: BLAS's own threads would compete for the same cores (templeRing's six
+        # pairs: 0.29 s with OpenBLAS's two threads, 0.24 s with one; the same matches). The limit
+        # is process-wide while the pairs are matched, so other work's BLAS runs on one thread then.
+        with (
+            threadpool_limits(limits=1, user_api="blas"),
+            ThreadPoolExecutor(max_workers=_worker_count(len(keys))) as pool,
+        ):
             found = pool.map(lambda key: match_features(views[key[0]].features, views[key[1]].features), keys)
             matches = dict(zip(keys, found, strict=True))
         free = [intrinsic is None for intrinsic in given]
