@@ -106,37 +106,29 @@ def adjusted_coarse_to_fine(
     its tracks, then all of them from the poses (and focal) that gave, the other points
     re-triangulated on those. The result is for `model`'s tracks, in their order; `converged` is
     the final stage's. Not `staged`: one adjustment of all of them."""
+
+    def adjust(part: SparseModel, intrinsics: list[np.ndarray]) -> AdjustedModel:
+        return bundle_adjust(
+            keypoints,
+            image_sizes,
+            intrinsics,
+            free,
+            part.extrinsics,
+            part.points,
+            part.tracks,
+            refine_focal,
+            max_iterations,
+        )
+
     coarse = calibration_sample(model, keypoints, image_sizes, COARSE_TRACKS) if staged else None
     if coarse is not None:
         few = sampled(model, coarse)
-        adjusted = _adjusted(keypoints, image_sizes, intrinsics, free, few, refine_focal, max_iterations)
+        adjusted = adjust(few, intrinsics)
         if adjusted.usable:
             focal = {view: adjusted.intrinsics[view][0, 0] for view in adjusted.intrinsics if free[view]}
             intrinsics = with_focal(intrinsics, free, focal, image_sizes) if refine_focal else intrinsics
             model = with_sample_adjusted(model, coarse, adjusted_model(few, adjusted), keypoints, intrinsics)
-    return _adjusted(keypoints, image_sizes, intrinsics, free, model, refine_focal, max_iterations)
-
-
-def _adjusted(
-    keypoints: list[np.ndarray],
-    image_sizes: list[tuple[int, int]],
-    intrinsics: list[np.ndarray],
-    free: list[bool],
-    model: SparseModel,
-    refine_focal: bool,
-    max_iterations: int,
-) -> AdjustedModel:
-    return bundle_adjust(
-        keypoints,
-        image_sizes,
-        intrinsics,
-        free,
-        model.extrinsics,
-        model.points,
-        model.tracks,
-        refine_focal,
-        max_iterations,
-    )
+    return adjust(model, intrinsics)
 
 
 def adjusted_model(model: SparseModel, adjusted: AdjustedModel) -> SparseModel:
