@@ -22,10 +22,8 @@ import numpy as np
 from services.agent.answering import UNDETERMINED, answer_offline
 from services.recon.backbones.base import BackboneError
 from services.recon.backbones.classical import ClassicalBackbone, focal_hypotheses
-from services.recon.motion_inputs import motion_scene_scale, view_pose_problems, without_uncertain_pairs
-from shared.geometry.camera_motion import CameraMotion, UnknownMotion, describe_pairs
-from shared.geometry.motion_determinacy import with_motion_over_focal
-from shared.geometry.poses import estimate_up_axis
+from services.recon.scene_motion import describe_scene_motion
+from shared.geometry.camera_motion import CameraMotion, UnknownMotion
 from shared.questions.intent import parse_question
 from shared.synthetic.cameras import SETTINGS
 from shared.synthetic.dataset import _scene_and_rig
@@ -36,14 +34,9 @@ FAMILIES = ("motion", "turn")  # what the offline answerer reads from a motion s
 
 
 def pair_motion(recon, pair: tuple[int, int]) -> CameraMotion | UnknownMotion:
-    """The motion /v1/camera-motion gives for one pair (the service's functions, in process)."""
-    problems = view_pose_problems(recon)
-    usable = [index for index, problem in enumerate(problems) if problem is None]
-    up = estimate_up_axis(recon.extrinsics[usable]) if usable else None
-    scale = motion_scene_scale(recon, usable)
-    described = describe_pairs(recon.extrinsics, problems, pairs=[pair], up=up, scene_scale=scale)
-    (motion,) = without_uncertain_pairs(described, recon)  # as the service: no flagged pair's motion
-    return with_motion_over_focal(motion, recon.focal_hypotheses)
+    """The motion /v1/camera-motion gives for one pair (the service's function, in process)."""
+    (motion,), _ = describe_scene_motion(recon, [pair])
+    return motion
 
 
 def pair_sentence(recon, pair: tuple[int, int]) -> tuple[str, bool]:

@@ -20,14 +20,8 @@ from services.recon.checkpoints import CATALOGUE, WEIGHTS_ABSENT, locate
 from services.recon.durable import DurableStore
 from services.recon.errors import BackboneNotInstalled, BackboneUnavailable, InvalidInput, SceneNotFound
 from services.recon.jobs import ReconstructionJobs
-from services.recon.motion_inputs import (
-    motion_scene_scale,
-    pixel_point,
-    scene_centre,
-    view_pose_problems,
-    without_uncertain_pairs,
-)
 from services.recon.offload import run_cpu, run_in_daemon_thread
+from services.recon.scene_motion import describe_scene_motion
 from services.recon.scene_store import (
     SceneInput,
     SceneStore,
@@ -38,9 +32,8 @@ from services.recon.scene_store import (
 from services.recon.shared_scenes import SharedScenes
 from services.recon.store_gc import StoreCollector
 from services.recon.tenants import SceneIds, load_or_create_secret
-from shared.geometry.camera_motion import CameraMotion, UnknownMotion, default_pairs, describe_pairs
-from shared.geometry.motion_determinacy import with_motion_over_focal
-from shared.geometry.poses import estimate_up_axis, up_is_reliable, validate_extrinsic
+from shared.geometry.camera_motion import CameraMotion, UnknownMotion
+from shared.geometry.poses import validate_extrinsic
 from shared.geometry.reconstruction import Reconstruction, ReconstructionFormatError
 from shared.geometry.rendering import synthesize_novel_view
 from shared.imaging.codecs import decode_image, encode_image
@@ -363,39 +356,7 @@ class ReconService:
     def _describe_motion(
         self, recon: Reconstruction, pairs: list[tuple[int, int]] | None, target: MotionTarget | None = None
     ) -> tuple[list[CameraMotion | UnknownMotion], float]:
-        views = recon.num_views
-        if views < 2:
-            raise InvalidInput("camera motion needs at least two views; this scene has one")
-        for pair in pairs or []:
-            for view in pair:
-                if not 0 <= view < views:
-                    raise InvalidInput(
-                        f"view index {view} is out of range: the scene has {views} views, at indices "
-                        f"0..{views - 1} (0-based: view 1 is index 0)"
-                    )
-        problems = view_pose_problems(recon)
-        usable = [index for index, problem in enumerate(problems) if problem is None]
-        up = estimate_up_axis(recon.extrinsics[usable]) if usable else None
-        scale = motion_scene_scale(recon, usable)
-        aim = _target_point(recon, target, usable, problems)
-        if pairs is None and recon.focal_hypotheses is not None:
-            # Unknown focal: every pair that has hypotheses gets its sentence of what they all share,
-            # since the poses alone (the central hypothesis) cannot say it for any other pair.
-            solved = [(p.first, p.second) for p in recon.focal_hypotheses.pairs]
-            pairs = sorted({*default_pairs(views, [p is None for p in problems]), *solved})
-        motions = describe_pairs(
-            recon.extrinsics,
-            problems,
-            pairs=pairs,
-            up=up,
-            scene_scale=scale,
-            units=recon.units or "relative",
-            # The up above is estimated: the gravity frame is said only when the headings fix it.
-            up_reliable=bool(usable) and up_is_reliable(recon.extrinsics[usable]),
-            **aim,
-        )
-        motions = without_uncertain_pairs(motions, recon)
-        return [with_motion_over_focal(motion, recon.focal_hypotheses) for motion in motions], scale
+        return describe_scene_motion(recon, pairs, target)
 
 
 def _durable_store(settings: ReconSettings) -> tuple[DurableStore | None, str | None]:
@@ -406,36 +367,6 @@ def _durable_store(settings: ReconSettings) -> tuple[DurableStore | None, str | 
         return DurableStore(settings.store_dir), None
     except OSError as error:
         return None, storage_error("create the durable store", error).message
-
-
-def _target_point(
-    recon: Reconstruction, target: MotionTarget | None, usable: list[int], problems: list[str | None]
-) -> dict[str, object]:
-    """The request's target as describe_pairs' `target` and `target_name` ({} without one)."""
-    if target is None:
-        return {}
-    chosen = [target.point is not None, target.pixel is not None, target.scene_centre]
-    if sum(chosen) != 1:
-        raise InvalidInput("a camera-motion target is exactly one of point, pixel or scene_centre")
-    if target.point is not None:
-        return {
-            "target": np.asarray(target.point, dtype=np.float64),
-            "target_name": target.name or "the target point",
-        }
-    if target.scene_centre:
-        return {"target": scene_centre(recon, usable), "target_name": target.name or "the scene's centre"}
-    pixel = target.pixel
-    assert pixel is not None
-    if pixel.view >= recon.num_views or problems[pixel.view] is not None:
-        why = problems[pixel.view] if pixel.view < recon.num_views else "it is out of range"
-        raise InvalidInput(f"the target pixel's view {pixel.view} has no usable pose: {why}")
-    point = pixel_point(recon, pixel.view, pixel.u, pixel.v)
-    if point is None:
-        raise InvalidInput(
-            f"no reconstructed point lies at pixel ({pixel.u:g}, {pixel.v:g}) of view {pixel.view}"
-        )
-    name = target.name or f"the object at pixel ({pixel.u:g}, {pixel.v:g}) of view {pixel.view + 1}"
-    return {"target": point, "target_name": name}
 
 
 def _readable(payload: bytes, key: str) -> Reconstruction | None:
