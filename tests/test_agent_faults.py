@@ -131,6 +131,34 @@ def test_unhandled_error_is_a_json_500_and_the_connection_survives():
         assert "Traceback" in app.log() and "secret internal state" in app.log()  # logged, not sent
 
 
+def test_a_solve_past_its_deadline_is_a_504_at_the_deadline_not_the_recon_timeout(
+    tmp_path_factory, redis_url, views
+):
+    """Recon hangs; each recon call may take 60 s, but the solve's deadline is 3 s: the solve ends
+    as a 504 at about 3 s that says it timed out, and the agent's next solve is answered."""
+    with running_service(RECON_APP, recon_env(tmp_path_factory, redis_url)) as recon:
+        scene_id = upload(recon.url, views)
+        env = {
+            "PYSPATIAL_RECON_URL": recon.url,
+            "PYSPATIAL_RECON_TIMEOUT_S": "60",
+            "PYSPATIAL_SOLVE_DEADLINE_S": "3",
+        }
+        with running_service(AGENT_APP, env) as agent:
+            body = {"question": motion_question(views)[0], "scene_id": scene_id}
+            os.kill(recon.process.pid, signal.SIGSTOP)  # accepts connections, answers nothing
+            try:
+                started = time.monotonic()
+                solve = httpx.post(agent.url + "/v1/solve", json=body, timeout=60)
+                took = time.monotonic() - started
+            finally:
+                os.kill(recon.process.pid, signal.SIGCONT)
+            assert solve.status_code == 504, solve.text
+            assert "timed out" in solve.json()["detail"], solve.json()
+            assert 2.5 < took < 3 + 5, took  # the deadline, not the 60 s recon timeout
+            answered = httpx.post(agent.url + "/v1/solve", json=body, timeout=60)
+            assert answered.status_code == 200, answered.text
+
+
 def test_readyz_and_solve_when_recon_hangs_then_dies(tmp_path_factory, redis_url, views):
     with running_service(RECON_APP, recon_env(tmp_path_factory, redis_url)) as recon:
         scene_id = upload(recon.url, views)

@@ -118,18 +118,7 @@ class ClassicalBackbone(Backbone):
                 f"only {len(textured)} of {len(views)} images have enough texture to detect features "
                 f"(at least {MIN_FEATURES} keypoints needed in two images)"
             )
-        keys = [
-            (first, second) for position, first in enumerate(textured) for second in textured[position + 1 :]
-        ]
-        # One pair per core: BLAS's own threads would compete for the same cores (templeRing's six
-        # pairs: 0.29 s with OpenBLAS's two threads, 0.24 s with one; the same matches). The limit
-        # is process-wide while the pairs are matched, so other work's BLAS runs on one thread then.
-        with (
-            threadpool_limits(limits=1, user_api="blas"),
-            ThreadPoolExecutor(max_workers=_worker_count(len(keys))) as pool,
-        ):
-            found = pool.map(lambda key: match_features(views[key[0]].features, views[key[1]].features), keys)
-            matches = dict(zip(keys, found, strict=True))
+        matches = _match_pairs([view.features for view in views], textured)
         free = [intrinsic is None for intrinsic in given]
         solution = solve_with_self_calibration(
             [view.features.keypoints for view in views],
@@ -247,6 +236,20 @@ class ClassicalBackbone(Backbone):
             warnings=warnings,
             point_confidence=support,
         )
+
+
+def _match_pairs(features: list[ViewFeatures], textured: list[int]) -> dict[tuple[int, int], np.ndarray]:
+    """Matches of every pair of textured views, keyed (first, second) with first < second."""
+    keys = [(first, second) for position, first in enumerate(textured) for second in textured[position + 1 :]]
+    # One pair per core: BLAS's own threads would compete for the same cores (templeRing's six
+    # pairs: 0.29 s with OpenBLAS's two threads, 0.24 s with one; the same matches). The limit
+    # is process-wide while the pairs are matched, so other work's BLAS runs on one thread then.
+    with (
+        threadpool_limits(limits=1, user_api="blas"),
+        ThreadPoolExecutor(max_workers=_worker_count(len(keys))) as pool,
+    ):
+        found = pool.map(lambda key: match_features(features[key[0]], features[key[1]]), keys)
+        return dict(zip(keys, found, strict=True))
 
 
 def _worker_count(tasks: int) -> int:
