@@ -3,13 +3,23 @@
 
 from __future__ import annotations
 
+from itertools import combinations
+
+import numpy as np
+
 from bench.determinacy_synthetic import pair_motion
 from services.recon.backbones.classical import ClassicalBackbone
 from services.recon.backbones.classical.intrinsics import guess_intrinsics
 from services.recon.backbones.classical.pair_uncertainty import flag_guessed_distances
 from shared.geometry.reconstruction import PairConfidence
-from shared.synthetic.dataset import _scene_and_rig
-from shared.synthetic.render import render_view
+from tests.support.scenes import rig_photos
+from tests.support.stack import classical_recon, upload_photos
+
+
+def _among_photos() -> list[np.ndarray]:
+    """The synthetic "among" rig that answered wrong before: views 2 and 4 face each other and
+    share no feature; view 4 is placed at a guessed distance from view 1."""
+    return rig_photos(3, 17, "among", guess_intrinsics(320, 240, 80.0))[2]
 
 
 def _pair(first: int, second: int, inliers: int, reason: str | None = None) -> PairConfidence:
@@ -30,13 +40,9 @@ def test_only_pairs_that_do_not_measure_their_direction_are_flagged_while_a_gues
 
 
 def test_two_views_that_share_no_point_get_no_motion_when_the_model_guessed_a_distance():
-    """The synthetic "among" rig that answered wrong before: views 2 and 4 face each other and
-    share no feature; view 4 was placed at a guessed distance from view 1, and the direction from
-    view 2 to view 4 came out 33 degrees off, unflagged."""
-    scene, rig, _ = _scene_and_rig(3, 17, "among")
-    intrinsic = guess_intrinsics(320, 240, 80.0)
-    images = [render_view(scene, extrinsic, intrinsic, 320, 240).rgb for extrinsic in rig.extrinsics]
-    result = ClassicalBackbone(densify=False).reconstruct(images)
+    """Before the flag, the direction from view 2 to view 4 of _among_photos came out 33 degrees
+    off, unflagged."""
+    result = ClassicalBackbone(densify=False).reconstruct(_among_photos())
     assert any("is a guess" in warning for warning in result.warnings)
     by_pair = {(p.first, p.second): p for p in result.pair_confidence}
     assert "guessed distance" in by_pair[(1, 3)].uncertain_reason
@@ -45,3 +51,27 @@ def test_two_views_that_share_no_point_get_no_motion_when_the_model_guessed_a_di
     # Pairs that measure their own direction still get their motion.
     measured = [p for p in result.pair_confidence if p.inliers >= 15 and p.uncertain_reason is None]
     assert measured and all(pair_motion(result, (p.first, p.second)).described for p in measured)
+
+
+def test_camera_motion_over_http_gives_no_motion_for_a_pair_resting_on_a_guessed_distance(
+    tmp_path, redis_url
+):
+    with classical_recon(tmp_path, redis_url) as client:
+        photos = _among_photos()
+        scene_id = upload_photos(client, photos)
+        pairs = client.reconstruct(scene_id).pairs
+        response = client.camera_motion(scene_id, pairs=list(combinations(range(len(photos)), 2)))
+    by_pair = {(m.from_view, m.to_view): m for m in response.motions}
+    guessed = by_pair[(1, 3)]
+    assert not guessed.described and "guessed distance" in guessed.reason
+    assert guessed.direction is None and guessed.turn is None and guessed.over_focal is None
+    assert guessed.sentence == f"From view 2 to view 4 the camera motion is unknown: {guessed.reason}."
+    flagged = {(p.first, p.second): p.uncertain_reason for p in pairs}
+    assert "guessed distance" in flagged[(1, 3)]
+    # A pair that measures its own direction, in the same scene, still gets its sentence.
+    measured = [(p.first, p.second) for p in pairs if p.inliers >= 15 and p.uncertain_reason is None]
+    assert measured
+    for pair in measured:
+        assert by_pair[pair].described and by_pair[pair].reason is None
+        assert by_pair[pair].sentence.startswith(f"From view {pair[0] + 1} to view {pair[1] + 1}")
+        assert "unknown" not in by_pair[pair].sentence

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from bench.determinacy_synthetic import pair_motion
+from bench.templering_data import load_cameras, load_image, realdata_dir
 from services.agent.answering import answer_offline
 from services.recon.backbones.classical import ClassicalBackbone
 from services.recon.backbones.classical.focal_hypotheses import FOV_GRID_DEG, pair_hypotheses
@@ -22,10 +23,11 @@ from services.recon.backbones.classical.plane_prior import (
 from shared.geometry.motion_determinacy import FocalHypotheses
 from shared.geometry.reconstruction import Reconstruction
 from shared.questions.intent import parse_question
-from shared.synthetic.dataset import _scene_and_rig
 from shared.synthetic.questions import questions_for_rig
-from shared.synthetic.render import default_intrinsic, render_view
+from shared.synthetic.render import default_intrinsic
 from shared.wire.schemas import CameraMotionItem
+from tests.support.scenes import rig_photos
+from tests.support.stack import classical_recon, upload_photos
 from tests.test_reconstruction import sample
 
 SIZE = (640, 480)
@@ -123,9 +125,7 @@ def test_the_narrowing_is_stored_with_the_reconstruction():
 
 @pytest.mark.parametrize("index", [1, 4])  # the synthetic generator's "around" scenes of seed 0
 def test_two_photos_walking_around_a_chair_get_a_range_that_holds_the_true_field_of_view(index):
-    scene, rig, _ = _scene_and_rig(0, index, "around")
-    intrinsic = default_intrinsic(320, 240)  # 60 degrees; the backbone is not told
-    images = [render_view(scene, extrinsic, intrinsic, 320, 240).rgb for extrinsic in rig.extrinsics]
+    scene, rig, images = rig_photos(0, index, "around", default_intrinsic(320, 240))  # 60 degrees, untold
     result = ClassicalBackbone(densify=False).reconstruct(images)
     hypotheses = result.focal_hypotheses
     assert hypotheses is not None and hypotheses.narrowed_by == ASSUMPTION
@@ -144,3 +144,33 @@ def test_two_photos_walking_around_a_chair_get_a_range_that_holds_the_true_field
         CameraMotionItem.model_validate(motion.to_dict())  # the wire type takes it
         answer = answer_offline(parse_question(question.text, len(images)), motion.sentence, [])
         assert answer.answer == question.answer_letter, answer.reason
+
+
+def _templering_sideways(numbers: tuple[int, ...]) -> list[np.ndarray]:
+    """templeRing photos turned sideways, no EXIF (as tests/test_classical_templering.py): pairs
+    that cannot fix their focal, and whose planes rule out none of its hypotheses."""
+    root = realdata_dir()
+    assert root is not None, "templeRing not found: set PYSPATIAL_REALDATA_DIR to the realdata folder"
+    names = [load_cameras(root)[n - 1].name for n in numbers]
+    return [np.ascontiguousarray(np.rot90(load_image(root, name), -1)) for name in names]
+
+
+def test_camera_motion_over_http_says_when_the_right_angle_narrowed_the_field_of_view(tmp_path, redis_url):
+    _, _, around = rig_photos(0, 1, "around", default_intrinsic(320, 240))  # 60 degrees, untold
+    with classical_recon(tmp_path, redis_url) as client:
+        narrowed = client.camera_motion(upload_photos(client, around))
+        plain = client.camera_motion(upload_photos(client, _templering_sideways((1, 4))))
+    [motion] = narrowed.motions
+    over = motion.over_focal
+    assert over is not None and over.fov_assumption == ASSUMPTION and "right angle" in over.fov_assumption
+    low, high = over.fov_range_deg
+    assert 10.0 < low <= 60.0 <= high  # the narrow ones ruled out, the true one kept
+    assert motion.sentence == over.sentence
+    assert f"{low:.0f} to {high:.0f} degrees, narrower ones ruled out by assuming that {ASSUMPTION}" in (
+        motion.sentence
+    )
+    assert any("ruled out by assuming that" in warning for warning in narrowed.warnings)
+    # Solved over the focal too, but nothing about the scene narrowed it: no assumption named.
+    [unnarrowed] = plain.motions
+    assert unnarrowed.over_focal is not None and unnarrowed.over_focal.fov_assumption is None
+    assert "ruled out" not in unnarrowed.sentence

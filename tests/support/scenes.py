@@ -7,7 +7,15 @@ from functools import lru_cache
 
 import numpy as np
 
-from shared.synthetic import default_intrinsic, generate_scene, look_at, render_view
+from shared.synthetic import (
+    CameraRig,
+    SyntheticScene,
+    default_intrinsic,
+    generate_scene,
+    look_at,
+    render_view,
+)
+from shared.synthetic.dataset import _scene_and_rig
 from shared.synthetic.photo import photo_bytes
 
 
@@ -51,6 +59,15 @@ def orbit_views(
         intrinsics=np.stack([v.intrinsic for v in views]),
         object_names=scene.object_names,
     )
+
+
+def rig_photos(
+    seed: int, index: int, setting: str, intrinsic: np.ndarray, size: tuple[int, int] = (320, 240)
+) -> tuple[SyntheticScene, CameraRig, list[np.ndarray]]:
+    """A MindCube-style rig of the synthetic dataset ("around", "among", ...) and its photos,
+    rendered with `intrinsic` (bare pixels: whoever reconstructs them is not told the focal)."""
+    scene, rig, _ = _scene_and_rig(seed, index, setting)
+    return scene, rig, [render_view(scene, extrinsic, intrinsic, *size).rgb for extrinsic in rig.extrinsics]
 
 
 def psnr(a: np.ndarray, b: np.ndarray, mask: np.ndarray | None = None) -> float:
