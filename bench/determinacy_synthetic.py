@@ -22,8 +22,8 @@ import numpy as np
 from services.agent.answering import UNDETERMINED, answer_offline
 from services.recon.backbones.base import BackboneError
 from services.recon.backbones.classical import ClassicalBackbone, focal_hypotheses
-from services.recon.scene_motion import describe_scene_motion
-from shared.geometry.camera_motion import CameraMotion, UnknownMotion
+from services.recon.scene_motion import pair_motion
+from shared.geometry.camera_motion import CameraMotion
 from shared.questions.intent import parse_question
 from shared.synthetic.cameras import SETTINGS
 from shared.synthetic.dataset import _scene_and_rig
@@ -31,12 +31,6 @@ from shared.synthetic.questions import questions_for_rig
 from shared.synthetic.render import default_intrinsic, render_view
 
 FAMILIES = ("motion", "turn")  # what the offline answerer reads from a motion sentence
-
-
-def pair_motion(recon, pair: tuple[int, int]) -> CameraMotion | UnknownMotion:
-    """The motion /v1/camera-motion gives for one pair (the service's function, in process)."""
-    (motion,), _ = describe_scene_motion(recon, [pair])
-    return motion
 
 
 def pair_sentence(recon, pair: tuple[int, int]) -> tuple[str, bool]:

@@ -18,11 +18,11 @@ import time
 
 import numpy as np
 
-from bench.determinacy_synthetic import pair_motion
 from bench.templering import STEP_DEG, ring, subset
 from bench.templering_data import load_cameras, load_image, realdata_dir, relative_pose
 from services.recon.backbones.base import BackboneError
 from services.recon.backbones.classical import ClassicalBackbone, focal_hypotheses
+from services.recon.scene_motion import pair_motion
 from shared.geometry.camera_motion import CameraMotion
 from shared.geometry.motion_determinacy import PairHypotheses, motion_over_focal
 

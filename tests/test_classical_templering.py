@@ -93,7 +93,7 @@ def test_two_views_without_a_focal_are_solved_over_focal_hypotheses(backbone):
     assert not motion.turn_determined and set(motion.turns) == {"right", "none"}
     assert any("central hypothesis" in warning for warning in result.warnings)
     # What /v1/camera-motion makes of it (its functions, in process): the sentence of what holds.
-    from bench.determinacy_synthetic import pair_motion
+    from services.recon.scene_motion import pair_motion
 
     described = pair_motion(result, (0, 1))
     assert described.over_focal["directions"] == ["left"] and described.sentence == motion.sentence

@@ -7,10 +7,10 @@ from itertools import combinations
 
 import numpy as np
 
-from bench.determinacy_synthetic import pair_motion
 from services.recon.backbones.classical import ClassicalBackbone
 from services.recon.backbones.classical.intrinsics import guess_intrinsics
 from services.recon.backbones.classical.pair_uncertainty import flag_guessed_distances
+from services.recon.scene_motion import pair_motion
 from shared.geometry.reconstruction import PairConfidence
 from tests.support.scenes import rig_photos
 from tests.support.stack import classical_recon, upload_photos

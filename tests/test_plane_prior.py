@@ -8,7 +8,6 @@ import math
 import numpy as np
 import pytest
 
-from bench.determinacy_synthetic import pair_motion
 from bench.templering_data import load_cameras, load_image, realdata_dir
 from services.agent.answering import answer_offline
 from services.recon.backbones.classical import ClassicalBackbone
@@ -20,6 +19,7 @@ from services.recon.backbones.classical.plane_prior import (
     narrow_by_orthogonal_planes,
     narrowest_fov,
 )
+from services.recon.scene_motion import pair_motion
 from shared.geometry.motion_determinacy import FocalHypotheses
 from shared.geometry.reconstruction import Reconstruction
 from shared.questions.intent import parse_question

@@ -64,6 +64,12 @@ def describe_scene_motion(
     return [with_motion_over_focal(motion, recon.focal_hypotheses) for motion in motions], scale
 
 
+def pair_motion(recon: Reconstruction, pair: tuple[int, int]) -> CameraMotion | UnknownMotion:
+    """One pair's motion (0-based view indices), as /v1/camera-motion gives it."""
+    (motion,), _ = describe_scene_motion(recon, [pair])
+    return motion
+
+
 def target_point(
     recon: Reconstruction, target: MotionTarget | None, usable: list[int], problems: list[str | None]
 ) -> dict[str, object]:
