@@ -7,6 +7,7 @@ answer; after any error the client's next pooled request works.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -52,6 +53,25 @@ def agent(recon):
     env = {"PYSPATIAL_RECON_URL": recon.url, "PYSPATIAL_MAX_REQUEST_BYTES": "2000000"}
     with running_service(AGENT_APP, env) as service:
         yield service
+
+
+@contextlib.contextmanager
+def agent_over_a_scene(tmp_path_factory, redis_url, views, settings: dict[str, str]):
+    """A recon holding the views' scene and an agent on it with `settings`: (recon, agent, scene id)."""
+    with running_service(RECON_APP, recon_env(tmp_path_factory, redis_url)) as recon:
+        scene_id = upload(recon.url, views)
+        with running_service(AGENT_APP, {"PYSPATIAL_RECON_URL": recon.url, **settings}) as agent:
+            yield recon, agent, scene_id
+
+
+@contextlib.contextmanager
+def hung(process):
+    """`process` stopped for the block: it accepts connections and answers nothing."""
+    os.kill(process.pid, signal.SIGSTOP)
+    try:
+        yield
+    finally:
+        os.kill(process.pid, signal.SIGCONT)
 
 
 def upload(recon_url: str, views) -> str:
@@ -136,59 +156,39 @@ def test_a_solve_past_its_deadline_is_a_504_at_the_deadline_not_the_recon_timeou
 ):
     """Recon hangs; each recon call may take 60 s, but the solve's deadline is 3 s: the solve ends
     as a 504 at about 3 s that says it timed out, and the agent's next solve is answered."""
-    with running_service(RECON_APP, recon_env(tmp_path_factory, redis_url)) as recon:
-        scene_id = upload(recon.url, views)
-        env = {
-            "PYSPATIAL_RECON_URL": recon.url,
-            "PYSPATIAL_RECON_TIMEOUT_S": "60",
-            "PYSPATIAL_SOLVE_DEADLINE_S": "3",
-        }
-        with running_service(AGENT_APP, env) as agent:
-            body = {"question": motion_question(views)[0], "scene_id": scene_id}
-            os.kill(recon.process.pid, signal.SIGSTOP)  # accepts connections, answers nothing
-            try:
-                started = time.monotonic()
-                solve = httpx.post(agent.url + "/v1/solve", json=body, timeout=60)
-                took = time.monotonic() - started
-            finally:
-                os.kill(recon.process.pid, signal.SIGCONT)
-            assert solve.status_code == 504, solve.text
-            assert "timed out" in solve.json()["detail"], solve.json()
-            assert 2.5 < took < 3 + 5, took  # the deadline, not the 60 s recon timeout
-            answered = httpx.post(agent.url + "/v1/solve", json=body, timeout=60)
-            assert answered.status_code == 200, answered.text
+    settings = {"PYSPATIAL_RECON_TIMEOUT_S": "60", "PYSPATIAL_SOLVE_DEADLINE_S": "3"}
+    with agent_over_a_scene(tmp_path_factory, redis_url, views, settings) as (recon, agent, scene_id):
+        body = {"question": motion_question(views)[0], "scene_id": scene_id}
+        with hung(recon.process):
+            started = time.monotonic()
+            solve = httpx.post(agent.url + "/v1/solve", json=body, timeout=60)
+            took = time.monotonic() - started
+        assert solve.status_code == 504, solve.text
+        assert "timed out" in solve.json()["detail"], solve.json()
+        assert 2.5 < took < 3 + 5, took  # the deadline, not the 60 s recon timeout
+        answered = httpx.post(agent.url + "/v1/solve", json=body, timeout=60)
+        assert answered.status_code == 200, answered.text
 
 
 def test_readyz_and_solve_when_recon_hangs_then_dies(tmp_path_factory, redis_url, views):
-    with running_service(RECON_APP, recon_env(tmp_path_factory, redis_url)) as recon:
-        scene_id = upload(recon.url, views)
-        env = {
-            "PYSPATIAL_RECON_URL": recon.url,
-            "PYSPATIAL_READINESS_TIMEOUT_S": "1",
-            "PYSPATIAL_RECON_TIMEOUT_S": "2",
-        }
-        with running_service(AGENT_APP, env) as agent:
-            os.kill(recon.process.pid, signal.SIGSTOP)  # accepts connections, answers nothing
-            try:
-                ready = httpx.get(agent.url + "/readyz", timeout=20)  # a hang would raise here
-                solve = httpx.post(
-                    agent.url + "/v1/solve", json={"question": "q?", "scene_id": scene_id}, timeout=30
-                )
-            finally:
-                os.kill(recon.process.pid, signal.SIGCONT)
-            assert ready.status_code == 503 and "did not answer /readyz in 1" in ready.json()["reason"]
-            assert solve.status_code == 504 and "timed out" in solve.json()["detail"]
-            assert httpx.get(agent.url + "/readyz", timeout=20).status_code == 200  # recovers
-            recon.stop()
-            down = httpx.get(agent.url + "/readyz", timeout=20)
-            assert down.status_code == 503 and down.json()["ready"] is False
-            assert "cannot reach the reconstruction service" in down.json()["reason"]
+    settings = {"PYSPATIAL_READINESS_TIMEOUT_S": "1", "PYSPATIAL_RECON_TIMEOUT_S": "2"}
+    with agent_over_a_scene(tmp_path_factory, redis_url, views, settings) as (recon, agent, scene_id):
+        with hung(recon.process):
+            ready = httpx.get(agent.url + "/readyz", timeout=20)  # a hang would raise here
             solve = httpx.post(
                 agent.url + "/v1/solve", json={"question": "q?", "scene_id": scene_id}, timeout=30
             )
-            assert solve.status_code == 503 and "cannot reach" in solve.json()["detail"]
-            for unavailable in (ready, down, solve):  # every 503 says when to come back
-                assert int(unavailable.headers["retry-after"]) >= 1, unavailable.headers
+        assert ready.status_code == 503 and "did not answer /readyz in 1" in ready.json()["reason"]
+        assert solve.status_code == 504 and "timed out" in solve.json()["detail"]
+        assert httpx.get(agent.url + "/readyz", timeout=20).status_code == 200  # recovers
+        recon.stop()
+        down = httpx.get(agent.url + "/readyz", timeout=20)
+        assert down.status_code == 503 and down.json()["ready"] is False
+        assert "cannot reach the reconstruction service" in down.json()["reason"]
+        solve = httpx.post(agent.url + "/v1/solve", json={"question": "q?", "scene_id": scene_id}, timeout=30)
+        assert solve.status_code == 503 and "cannot reach" in solve.json()["detail"]
+        for unavailable in (ready, down, solve):  # every 503 says when to come back
+            assert int(unavailable.headers["retry-after"]) >= 1, unavailable.headers
 
 
 @pytest.mark.parametrize("accept", ["application/json", "text/event-stream"])
