@@ -35,11 +35,11 @@ from typing import Any
 
 import cv2
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from shared.geometry.reconstruction import PairConfidence, Reconstruction, ViewConfidence
 
 from ..base import Backbone, BackboneError
+from .blas_threads import use_one_blas_thread
 from .densify import ViewSamples, densify, grid_size, unit_sphere_cloud
 from .features import ViewFeatures, detect_features, match_features
 from .geometry import project
@@ -100,6 +100,7 @@ class ClassicalBackbone(Backbone):
         if len(images) < 2:
             raise BackboneError(f"the classical backbone needs at least 2 images, got {len(images)}")
         given, sources = _given_intrinsics(intrinsics, intrinsics_sources, len(images))
+        use_one_blas_thread()  # the threads below parallelize instead (blas_threads.py)
         # Same images, same answer: RANSAC draws from OpenCV's (per-thread) generator.
         cv2.setRNGSeed(0)
         # Detection and matching run in OpenCV and BLAS, which release the GIL: one thread per
@@ -241,13 +242,8 @@ class ClassicalBackbone(Backbone):
 def _match_pairs(features: list[ViewFeatures], textured: list[int]) -> dict[tuple[int, int], np.ndarray]:
     """Matches of every pair of textured views, keyed (first, second) with first < second."""
     keys = [(first, second) for position, first in enumerate(textured) for second in textured[position + 1 :]]
-    # One pair per core: BLAS's own threads would compete for the same cores (templeRing's six
-    # pairs: 0.29 s with OpenBLAS's two threads, 0.24 s with one; the same matches). The limit
-    # is process-wide while the pairs are matched, so other work's BLAS runs on one thread then.
-    with (
-        threadpool_limits(limits=1, user_api="blas"),
-        ThreadPoolExecutor(max_workers=_worker_count(len(keys))) as pool,
-    ):
+    # One pair per core (BLAS is on one thread, see blas_threads.py).
+    with ThreadPoolExecutor(max_workers=_worker_count(len(keys))) as pool:
         found = pool.map(lambda key: match_features(features[key[0]], features[key[1]]), keys)
         return dict(zip(keys, found, strict=True))
 
