@@ -43,7 +43,7 @@ def describe_scene_motion(
     usable = [index for index, problem in enumerate(problems) if problem is None]
     up = estimate_up_axis(recon.extrinsics[usable]) if usable else None
     scale = motion_scene_scale(recon, usable)
-    aim = target_point(recon, target, usable, problems)
+    aim = _target_point(recon, target, usable, problems)
     if pairs is None and recon.focal_hypotheses is not None:
         # Unknown focal: every pair that has hypotheses gets its sentence of what they all share,
         # since the poses alone (the central hypothesis) cannot say it for any other pair.
@@ -70,7 +70,7 @@ def pair_motion(recon: Reconstruction, pair: tuple[int, int]) -> CameraMotion | 
     return motion
 
 
-def target_point(
+def _target_point(
     recon: Reconstruction, target: MotionTarget | None, usable: list[int], problems: list[str | None]
 ) -> dict[str, object]:
     """The request's target as describe_pairs' `target` and `target_name` ({} without one)."""

@@ -350,13 +350,8 @@ class ReconService:
             raise InvalidInput(f"{len(pairs)} view pairs; one camera-motion request takes at most {limit}")
         outcome = await self.reconstruct(scene_id, backbone, tenant)
         recon = outcome.reconstruction
-        motions, scale = await run_cpu(self._describe_motion, recon, pairs, target)
+        motions, scale = await run_cpu(describe_scene_motion, recon, pairs, target)
         return recon, motions, scale
-
-    def _describe_motion(
-        self, recon: Reconstruction, pairs: list[tuple[int, int]] | None, target: MotionTarget | None = None
-    ) -> tuple[list[CameraMotion | UnknownMotion], float]:
-        return describe_scene_motion(recon, pairs, target)
 
 
 def _durable_store(settings: ReconSettings) -> tuple[DurableStore | None, str | None]:

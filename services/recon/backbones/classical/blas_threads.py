@@ -3,12 +3,12 @@
 The backbone parallelizes itself: one thread per image for detection and one per pair for
 matching and the two-view fits. BLAS's own threads would fight those for the same cores
 (templeRing's six pairs: 0.29 s matched with OpenBLAS's two threads, 0.24 s with one; the same
-matches), and then spin on after each call. So the first backbone sets BLAS to one thread for the
-process, once, and leaves it so. A limit set and restored around each matching was tried first:
-threadpoolctl's limit is process-wide, two reconstructions overlapping in the service's worker
-threads restore it out of order, and OpenBLAS did not reliably take a restore made from another
-thread (40 of 40 interleaved runs here ended on one thread). torch's own thread pool (VGGT, Pi3)
-is not a BLAS that threadpoolctl limits, so the learned backbones keep their threads.
+matches). So the first reconstruction sets BLAS to one thread for the process, once, and leaves
+it so. A limit set and restored around each matching was tried first: threadpoolctl's limit is
+process-wide, so two reconstructions overlapping in the service's worker threads restore it out of
+order; even counted (the last one out restores), 40 of 40 interleaved runs here ended with BLAS
+on one thread (the cause was not found). torch's own thread pool (VGGT, Pi3) is not a BLAS that
+threadpoolctl limits, so the learned backbones keep their threads.
 """
 
 from __future__ import annotations

@@ -11,8 +11,8 @@
 3. After each new view, extend tracks and triangulate the new matches with every placed view.
 4. Re-triangulate every point from all its observations and drop the observations that do not
    fit. Poses and points are then refined together by the bundle adjustment that follows every
-   build (solve.py); alternating per-camera pose refinement with re-triangulation here first (four
-   rounds, once) only repeated its work: templeRing's accuracy tables came out the same without it.
+   build (solve.py). Four rounds of per-camera pose refinement here used to come first; they only
+   repeated the adjustment's work (templeRing's accuracy tables are the same without them).
 
 When no pair has parallax, the set is treated as rotations about one centre and chained along
 the strongest rotation pairs, then refined on all matched rays. Views that nothing connects stay unplaced.
