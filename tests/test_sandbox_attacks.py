@@ -349,19 +349,9 @@ MEMORY_ATTACKS = [
         "array_dtype_object", wrap("return np.array([1, 2], dtype=object)"), R, "'object' is not available"
     ),
     Attack("array_dtype_O", wrap("return np.array([1, 2], dtype='O')"), E, OBJECT_DTYPE),
-    Attack(
-        "array_dtype_positional",
-        wrap("return np.array([1, 2], 'O')"),
-        E,
-        "TypeError: np.array would make a numpy array of dtype object",
-    ),
+    Attack("array_dtype_positional", wrap("return np.array([1, 2], 'O')"), E, OBJECT_DTYPE),
     Attack("zeros_object", wrap("return np.zeros(3, dtype='O')"), E, OBJECT_DTYPE),
-    Attack(
-        "ones_object",
-        wrap("return np.ones(3, 'O')"),
-        E,
-        "TypeError: np.ones would make a numpy array of dtype object",
-    ),
+    Attack("ones_object", wrap("return np.ones(3, 'O')"), E, OBJECT_DTYPE),
     Attack(
         "asarray_scene",
         wrap("return np.asarray([input_scene, 1])"),
@@ -801,6 +791,222 @@ NUMPY_SURFACE_ATTACKS = [
     ),
 ]
 ATTACKS += NUMPY_SURFACE_ATTACKS
+
+
+# --- issue 38: numpy callables take only the arguments they list; only numeric dtypes, in and out ---
+def keyword(label: str, name: str) -> str:
+    return f"TypeError: {label}({name}=...) is not available in the sandbox"
+
+
+def positional(label: str) -> str:
+    return f"TypeError: {label}() takes "
+
+
+def made(label: str, dtype: str = "object") -> str:
+    return f"TypeError: {label} would make a numpy array of dtype {dtype}; only numbers"
+
+
+def dtype_refused(dtype: str) -> str:
+    return f"TypeError: numpy arrays of dtype {dtype} are not available in the sandbox"
+
+
+INTS = "np.zeros(4096, dtype=np.int64)"
+OUT = wrap("o = np.zeros(3)")
+STRINGS = "np.array(['ab', 'c'], dtype='T')"
+ARGUMENT_AND_DTYPE_ATTACKS = [
+    # uninitialised memory: `where=False` returns an output buffer numpy never wrote
+    Attack(
+        "ufunc_where", wrap(f"return np.abs({INTS}, where=False).tolist()"), E, keyword("np.abs", "where")
+    ),
+    Attack(
+        "binary_ufunc_where",
+        wrap("return np.maximum(np.zeros(64), 1, where=False).tolist()"),
+        E,
+        keyword("np.maximum", "where"),
+    ),
+    Attack(
+        "clip_where", wrap("return np.clip(np.zeros(64), 0, 1, where=False)"), E, keyword("np.clip", "where")
+    ),
+    Attack(
+        "method_clip_where",
+        wrap("return np.zeros(64).clip(0, 1, where=False)"),
+        E,
+        keyword("array.clip", "where"),
+    ),
+    Attack(
+        "scalar_clip_where",
+        wrap("return np.float64(1).clip(0, 1, where=False)"),
+        E,
+        keyword("numpy scalar.clip", "where"),
+    ),
+    Attack("sqrt_where", wrap("return np.sqrt(np.ones(64), where=False)"), E, keyword("np.sqrt", "where")),
+    Attack(
+        "sum_where",
+        wrap("return np.sum(np.ones(3), where=[True, False, True])"),
+        E,
+        keyword("np.sum", "where"),
+    ),
+    Attack(
+        "max_initial_where",
+        wrap("return np.zeros(3).max(initial=5, where=False)"),
+        E,
+        keyword("array.max", "initial"),
+    ),
+    Attack("mean_where", wrap("return np.ones(3).mean(where=False)"), E, keyword("array.mean", "where")),
+    # out= by keyword and by position: writes into (and returns) a buffer of the caller's choosing
+    Attack("ufunc_out", OUT + wrap("return np.sqrt(np.ones(3), out=o)"), E, keyword("np.sqrt", "out")),
+    Attack("ufunc_positional_out", OUT + wrap("np.abs(np.ones(3), o)", "return o"), E, positional("np.abs")),
+    Attack("binary_positional_out", OUT + wrap("return np.maximum(o, o, o)"), E, positional("np.maximum")),
+    Attack(
+        "sum_out", wrap("o = np.zeros(())", "return np.sum(np.ones(3), out=o)"), E, keyword("np.sum", "out")
+    ),
+    Attack("method_sum_positional_out", OUT + wrap("return o.sum(0, None, o)"), E, positional("array.sum")),
+    Attack("take_out", OUT + wrap("return o.take([0], 0, o)"), E, positional("array.take")),
+    Attack("take_out_keyword", OUT + wrap("return o.take([0], out=o)"), E, keyword("array.take", "out")),
+    Attack("round_out", OUT + wrap("return o.round(2, o)"), E, positional("array.round")),
+    Attack(
+        "cumsum_positional_out", OUT + wrap("return np.cumsum(o, 0, None, o)"), E, positional("np.cumsum")
+    ),
+    Attack("dot_out", wrap("o = np.zeros(())", "return np.dot(o, o, o)"), E, positional("np.dot")),
+    Attack(
+        "matmul_out", wrap("o = np.eye(2)", "return np.matmul(o, o, out=o)"), E, keyword("np.matmul", "out")
+    ),
+    Attack(
+        "concatenate_out",
+        OUT + wrap("return np.concatenate([o[:1], o[1:]], out=o)"),
+        E,
+        keyword("np.concatenate", "out"),
+    ),
+    Attack(
+        "median_overwrite", OUT + wrap("return np.median(o, overwrite_input=True)"), E, "overwrite_input=...)"
+    ),
+    # casting, order, subok, like, signature: other routes to other dtypes or other array types
+    Attack("signature_object", wrap("return np.maximum([1], [2], signature='OO->O')"), E, "(signature=...)"),
+    Attack("ufunc_dtype_object", wrap("return np.sin([1.0], dtype='O')"), E, keyword("np.sin", "dtype")),
+    Attack(
+        "astype_casting",
+        wrap("return np.zeros(2).astype(int, casting='unsafe')"),
+        E,
+        keyword("array.astype", "casting"),
+    ),
+    Attack("array_order", wrap("return np.array([1], order='F')"), E, keyword("np.array", "order")),
+    Attack("array_like", wrap("return np.array([1], like=np.zeros(1))"), E, keyword("np.array", "like")),
+    Attack("zeros_like_subok", wrap("return np.zeros_like(np.ones(2), subok=False)"), E, "(subok=...)"),
+    # ufunc methods, each with out= and where= of its own: the np functions offer no attribute
+    Attack("ufunc_reduce", wrap("return np.maximum.reduce([1, 2])"), E, refused("np.maximum", "reduce")),
+    Attack("ufunc_accumulate", wrap("return np.maximum.accumulate"), E, refused("np.maximum", "accumulate")),
+    Attack("ufunc_outer", wrap("return np.minimum.outer"), E, refused("np.minimum", "outer")),
+    Attack("ufunc_at", wrap("return np.minimum.at"), E, refused("np.minimum", "at")),
+    Attack("ufunc_reduceat", wrap("return np.arctan2.reduceat"), E, refused("np.arctan2", "reduceat")),
+    Attack(
+        "clip_signature",
+        wrap("return str(np.ones(2).clip(0, 1, signature='OOO->O').dtype)"),
+        E,
+        keyword("array.clip", "signature"),
+    ),
+    Attack(
+        "clip_dtype",
+        wrap("return str(np.ones(2).clip(0, 1, dtype='O').dtype)"),
+        E,
+        keyword("array.clip", "dtype"),
+    ),
+    Attack("method_attribute", wrap("return np.zeros(2).sum.reduce"), E, refused("array.sum", "reduce")),
+    Attack("np_empty_like", wrap("return np.empty_like(np.zeros(2))"), E, refused("np", "empty_like")),
+    # StringDType 'T': np.maximum(t, t, out=t) on two of them crashed the worker with SIGSEGV
+    Attack("string_dtype", wrap(f"return str(({STRINGS}).dtype)"), E, dtype_refused("StringDType()")),
+    Attack(
+        "string_dtype_maximum_out",
+        wrap(f"t = {STRINGS}", "np.maximum(t, t, out=t)", "return 1"),
+        E,
+        dtype_refused("StringDType()"),
+    ),
+    Attack(
+        "string_dtype_positional",
+        wrap("return str((np.array(['a'], 'T')).dtype)"),
+        E,
+        dtype_refused("StringDType()"),
+    ),
+    Attack(
+        "astype_string_dtype",
+        wrap("return np.zeros(2).astype('T')"),
+        E,
+        "astype(StringDType()) is not available",
+    ),
+    # other non-numeric dtypes, made from values rather than asked for
+    Attack("unicode_array", wrap("return str((np.array(['a', 'b'])).dtype)"), E, made("np.array", "<U1")),
+    Attack("unique_strings", wrap("return str((np.unique(['b', 'a'])).dtype)"), E, made("np.unique", "<U1")),
+    Attack("sort_strings", wrap("return str((np.sort(['b', 'a'])).dtype)"), E, made("np.sort", "<U1")),
+    Attack("bytes_array", wrap("return str((np.asarray(b'abc')).dtype)"), E, made("np.asarray", "|S3")),
+    Attack(
+        "where_strings",
+        wrap("return str((np.where([True], ['a'], ['b'])).dtype)"),
+        E,
+        made("np.where", "<U1"),
+    ),
+    Attack("generator_array", wrap("return str((np.array(i for i in range(3))).dtype)"), E, made("np.array")),
+    # object arrays through operators: a Python int beyond 64 bits turns the list into objects
+    Attack("object_by_addition", wrap("return str((np.arange(3) + [0, 0, 10**30]).dtype)"), E, made("'+'")),
+    Attack("object_by_reflected", wrap("return str(([10**30] - np.arange(1)).dtype)"), E, made("'-'")),
+    Attack("object_by_scalar", wrap("return str((np.int64(1) + [10**30]).dtype)"), E, made("'+'")),
+    Attack("object_by_matmul", wrap("return str((np.ones(2) @ [[10**30], [1]]).dtype)"), E, made("'@'")),
+    Attack("object_by_power", wrap("return str((np.arange(2) ** [10**30, 1]).dtype)"), E, made("'**'")),
+    Attack("object_by_or", wrap("return str((np.arange(1) | [10**30]).dtype)"), E, made("'|'")),
+    Attack("object_by_modulo", wrap("return str((np.arange(2) % [10**30, 1]).dtype)"), E, made("'%'")),
+    Attack(
+        "object_in_place_name",
+        wrap("s = np.int64(1)", "s += [10**30]", "return str(s.dtype)"),
+        E,
+        made("'+='"),
+    ),
+    Attack(
+        "object_in_place_item",
+        wrap("box = [np.int64(1)]", "box[0] += [10**30]", "return str(box[0].dtype)"),
+        E,
+        made("'+='"),
+    ),
+    Attack(
+        "object_in_place_dict",
+        wrap("d = {'k': np.float64(1)}", "d['k'] += [10**30]", "return str(d['k'].dtype)"),
+        E,
+        made("'+='"),
+    ),
+    # ... through the builtins and math functions that do arithmetic in C
+    Attack("object_by_sum", wrap("return str((sum([np.zeros(2), [10**30, 1]])).dtype)"), E, made("sum()")),
+    Attack("object_by_pow", wrap("return str((pow(np.arange(2), [10**30, 1])).dtype)"), E, made("pow()")),
+    Attack(
+        "object_by_math_prod",
+        wrap("return str((math.prod([np.arange(2), [10**30, 1]])).dtype)"),
+        E,
+        made("math.prod"),
+    ),
+    # ... through numpy functions and methods, by keyword, by position and by value
+    Attack("cumsum_dtype_object", wrap("return np.cumsum([1, 2], dtype='O')"), E, OBJECT_DTYPE),
+    Attack("cumsum_positional_object", wrap("return np.cumsum([1, 2], 0, 'O')"), E, OBJECT_DTYPE),
+    Attack("method_cumsum_object", wrap("return str((np.ones(2).cumsum(dtype='O')).dtype)"), E, OBJECT_DTYPE),
+    Attack("method_sum_object", wrap("return np.ones(2).sum(0, 'O')"), E, OBJECT_DTYPE),
+    Attack("method_mean_object", wrap("return np.ones(2).mean(dtype='O')"), E, OBJECT_DTYPE),
+    Attack("arange_object", wrap("return np.arange(3, dtype='O')"), E, OBJECT_DTYPE),
+    Attack("linspace_object", wrap("return np.linspace(0, 1, 3, dtype='O')"), E, OBJECT_DTYPE),
+    Attack("eye_object", wrap("return np.eye(2, dtype='O')"), E, OBJECT_DTYPE),
+    Attack("zeros_like_object", wrap("return np.zeros_like(np.ones(2), 'O')"), E, OBJECT_DTYPE),
+    Attack("subarray_dtype", wrap("return np.zeros(2, dtype='(2,)f8')"), E, "'(2,)f8' is not a numpy dtype"),
+    Attack(
+        "fields_dtype", wrap("return np.ones(2, dtype='i4,f8')"), E, "numpy arrays of dtype [('f0', '<i4')"
+    ),
+    Attack(
+        "method_dot_object",
+        wrap("return str((np.ones((1, 2)).dot([[10**30], [1]])).dtype)"),
+        E,
+        made("array.dot"),
+    ),
+    Attack("maximum_object", wrap("return np.maximum(np.arange(2), [10**30, 1])"), E, made("np.maximum")),
+    Attack("unknown_dtype", wrap("return np.zeros(2, dtype='no such')"), E, "'no such' is not a numpy dtype"),
+    # `%=` on an item formats text too: it hides addresses like every other route
+    Attack(
+        "address_percent_item", F + wrap("text = ['%r']", "text[0] %= (f,)", "return text[0]"), OK, HIDDEN
+    ),
+]
+ATTACKS += ARGUMENT_AND_DTYPE_ATTACKS
 
 
 def outcome_problem(attack: Attack, result) -> str | None:

@@ -7,31 +7,36 @@ name and attribute starting with `_`), never the numpy module itself.
 
 from __future__ import annotations
 
-import functools
 import math
-import re
 import string
 from collections.abc import Callable
 from typing import Any
 
 import numpy
 
-from services.agent.sandbox import numpy_surface
+from services.agent.sandbox import numpy_surface, operators
+from services.agent.sandbox.text import hide_addresses
 from services.agent.sandbox.validation import (
     ATTRIBUTE_FUNCTION_NAME,
     FSTRING_FUNCTION_NAME,
+    IN_PLACE_FUNCTION_NAME,
+    IN_PLACE_ITEM_FUNCTION_NAME,
     PERCENT_FUNCTION_NAME,
+    RESULT_FUNCTION_NAME,
+    SLICE_FUNCTION_NAME,
 )
 
-__all__ = ["FORMAT_FUNCTION_NAME", "FSTRING_FUNCTION_NAME", "PERCENT_FUNCTION_NAME", "program_globals"]
+__all__ = [
+    "FORMAT_FUNCTION_NAME",
+    "FSTRING_FUNCTION_NAME",
+    "PERCENT_FUNCTION_NAME",
+    "hide_addresses",
+    "program_globals",
+]
 
 MAX_RANGE_ITEMS = 10_000_000
 # Injected by the rewriter (validation.prepare_for_execution); programs cannot spell these names.
 FORMAT_FUNCTION_NAME = "__sandbox_format__"  # x.format(...)
-# CPython's default repr names an object's heap address ("<function f at 0x7f...>"); addresses
-# are the first step of every memory attack, so text a program builds never shows them.
-_ADDRESS = re.compile(r" at 0x[0-9a-fA-F]+")
-ADDRESS_HIDDEN = " at (address hidden)"
 
 _SAFE_FUNCTIONS: tuple[Callable[..., Any] | type, ...] = (
     abs, all, any, bin, bool, callable, chr, dict, divmod, enumerate, filter, float, frozenset, hex,
@@ -45,22 +50,12 @@ _SAFE_EXCEPTIONS: tuple[type[BaseException], ...] = (
     ZeroDivisionError,
 )  # fmt: skip
 
-# Functions that build new arrays from values (never from buffers, strides or offsets). Each is
-# wrapped so that no object-dtype array can come out of it (see _guarded).
-NUMPY_FUNCTIONS = (
-    "abs", "all", "allclose", "any", "arange", "arccos", "arcsin", "arctan", "arctan2", "argmax",
-    "argmin", "argsort", "array", "array_equal", "asarray", "ceil", "clip", "column_stack",
-    "concatenate", "cos", "cross", "cumsum", "deg2rad", "degrees", "diag", "dot", "exp", "eye",
-    "floor", "hstack", "isclose", "isfinite", "isnan", "linspace", "log", "matmul", "max", "maximum",
-    "mean", "median", "min", "minimum", "ones", "outer", "rad2deg", "radians", "round", "sign", "sin",
-    "sort", "sqrt", "square", "stack", "std", "sum", "tan", "trace", "transpose", "unique", "vstack",
-    "where", "zeros", "zeros_like", "ones_like",
-)  # fmt: skip
-# Plain values and scalar types (scalar constructors take a number, not a buffer).
+# Plain values and scalar types (scalar constructors take a number, not a buffer). The functions,
+# with the arguments each accepts, are numpy_surface.FUNCTIONS and LINALG_FUNCTIONS.
 NUMPY_VALUES = ("e", "float32", "float64", "inf", "int32", "int64", "nan", "newaxis", "pi", "uint8")
-NUMPY_LINALG_FUNCTIONS = ("det", "inv", "norm", "pinv", "solve", "svd")
-NUMPY_NAMES = NUMPY_FUNCTIONS + NUMPY_VALUES + ("ndarray",)
-_REFUSED_DTYPE_KINDS = numpy_surface.REFUSED_DTYPE_KINDS  # object, raw records, datetimes
+# Builtins that compute a new value from two operands, as the operators do (`sum([a, [10**30]])`
+# adds a list to an array in C, where the rewriter cannot see it): their results are checked.
+_ARITHMETIC_BUILTINS = ("divmod", "pow", "sum")
 
 
 class ReadOnlyNamespace:
@@ -126,35 +121,17 @@ def _refuse_ndarray_constructor(*arguments: Any, **keywords: Any) -> Any:
     raise TypeError("np.ndarray(...) is not available in the sandbox; use np.array, np.zeros or np.ones")
 
 
-def _check_dtype(dtype: Any) -> None:
-    if dtype is not None and numpy.dtype(dtype).kind in _REFUSED_DTYPE_KINDS:
-        raise TypeError(f"numpy arrays of dtype {numpy.dtype(dtype)} are not available in the sandbox")
-
-
-def _guarded(label: str, function: Callable[..., Any]) -> Callable[..., Any]:
-    """`function`, refusing object / raw dtypes asked for or produced."""
-
-    @functools.wraps(function, assigned=("__name__", "__qualname__", "__doc__"))
-    def call(*arguments: Any, **keywords: Any) -> Any:
-        _check_dtype(keywords.get("dtype"))
-        result = function(*arguments, **keywords)
-        for item in result if isinstance(result, tuple) else (result,):
-            if isinstance(item, numpy.ndarray) and item.dtype.kind in _REFUSED_DTYPE_KINDS:
-                raise TypeError(
-                    f"{label} would make a numpy array of dtype {item.dtype}; only numbers are available "
-                    "in the sandbox"
-                )
-        return result
-
-    return call
+def _numpy_functions(prefix: str, module: Any, table: dict[str, numpy_surface.Signature]) -> dict[str, Any]:
+    return {
+        name: numpy_surface.CheckedCallable(f"{prefix}.{name}", getattr(module, name), accepted)
+        for name, accepted in table.items()
+    }
 
 
 def restricted_numpy() -> ReadOnlyNamespace:
-    linalg_members: dict[str, Any] = {
-        name: _guarded(f"np.linalg.{name}", getattr(numpy.linalg, name)) for name in NUMPY_LINALG_FUNCTIONS
-    }
+    linalg_members = _numpy_functions("np.linalg", numpy.linalg, numpy_surface.LINALG_FUNCTIONS)
     linalg_members["LinAlgError"] = numpy.linalg.LinAlgError  # an exception class programs catch
-    members: dict[str, Any] = {name: _guarded(f"np.{name}", getattr(numpy, name)) for name in NUMPY_FUNCTIONS}
+    members = _numpy_functions("np", numpy, numpy_surface.FUNCTIONS)
     members.update({name: getattr(numpy, name) for name in NUMPY_VALUES})
     members["ndarray"] = type_stand_in(numpy.ndarray, "np.ndarray", _refuse_ndarray_constructor)
     members["linalg"] = ReadOnlyNamespace("np.linalg", linalg_members)
@@ -162,9 +139,15 @@ def restricted_numpy() -> ReadOnlyNamespace:
 
 
 def restricted_math() -> ReadOnlyNamespace:
-    # math is pure C arithmetic; only its public functions and constants are copied.
+    # math is pure C arithmetic; only its public functions and constants are copied. math.prod
+    # multiplies whatever it is given (an array by a list, too), so every result is checked.
+    members = {name: getattr(math, name) for name in dir(math) if not name.startswith("_")}
     return ReadOnlyNamespace(
-        "math", {name: getattr(math, name) for name in dir(math) if not name.startswith("_")}
+        "math",
+        {
+            name: numpy_surface.checked_results(f"math.{name}", value) if callable(value) else value
+            for name, value in members.items()
+        },
     )
 
 
@@ -235,10 +218,6 @@ class _FieldCheckingFormatter(string.Formatter):
         return super().get_field(field_name, args, kwargs)
 
 
-def hide_addresses(text: str) -> str:
-    return _ADDRESS.sub(ADDRESS_HIDDEN, text)
-
-
 def safe_str(value: object = "", *arguments: Any) -> str:
     if isinstance(value, str) and not arguments:
         return value
@@ -265,12 +244,6 @@ def fstring_value(value: object, conversion: int, spec: str) -> str:
     if conversion in _CONVERSIONS:
         value = _CONVERSIONS[conversion](value)
     return hide_addresses(format(value, spec))
-
-
-def percent(left: Any, right: Any) -> Any:
-    """`left % right`; for text formatting, the result hides addresses."""
-    result = left % right
-    return hide_addresses(result) if isinstance(result, str) else result
 
 
 def safe_hasattr(value: object, name: str) -> bool:
@@ -305,6 +278,8 @@ def safe_builtins(capture: OutputCapture) -> dict[str, Any]:
     names["ascii"] = safe_ascii
     names["format"] = safe_format_value
     names["hasattr"] = safe_hasattr
+    for name in _ARITHMETIC_BUILTINS:
+        names[name] = numpy_surface.checked_results(f"{name}()", names[name])
     names["True"], names["False"], names["None"] = True, False, None
     return names
 
@@ -317,7 +292,11 @@ def program_globals(capture: OutputCapture, extra: dict[str, Any]) -> dict[str, 
         "__name__": "program",
         FORMAT_FUNCTION_NAME: safe_format,
         FSTRING_FUNCTION_NAME: fstring_value,
-        PERCENT_FUNCTION_NAME: percent,
+        PERCENT_FUNCTION_NAME: operators.percent,
+        RESULT_FUNCTION_NAME: operators.result,
+        IN_PLACE_FUNCTION_NAME: operators.in_place,
+        IN_PLACE_ITEM_FUNCTION_NAME: operators.in_place_item,
+        SLICE_FUNCTION_NAME: slice,
         ATTRIBUTE_FUNCTION_NAME: numpy_surface.attribute,
         "np": numpy_stand_in,
         "numpy": numpy_stand_in,

@@ -16,6 +16,11 @@ PROGRAM_NAME = "program"
 # Helpers the rewriter calls (bound in the program's globals by builtins.program_globals).
 FSTRING_FUNCTION_NAME = "__sandbox_fstring__"
 PERCENT_FUNCTION_NAME = "__sandbox_percent__"
+# Two-operand operators (operators.py): results pass the numpy dtype check.
+RESULT_FUNCTION_NAME = "__sandbox_result__"
+IN_PLACE_FUNCTION_NAME = "__sandbox_in_place__"
+IN_PLACE_ITEM_FUNCTION_NAME = "__sandbox_in_place_item__"
+SLICE_FUNCTION_NAME = "__sandbox_slice__"  # the builtin slice, which a program may shadow
 # Every attribute a program reads goes through this (numpy_surface.attribute: the numpy allow-list).
 ATTRIBUTE_FUNCTION_NAME = "__sandbox_attribute__"
 MAX_PROGRAM_CHARS = 20_000
@@ -249,8 +254,9 @@ def _attribute_problem(node: ast.Attribute, format_calls: set[int]) -> str | Non
 class _ExecutionRewriter(ast.NodeTransformer):
     """Drop the allowed no-op imports, turn `from math import x` into `x = math.x`, route
     `x.format(...)`, f-string fields and `a % b` through the sandbox's formatters (which refuse
-    attribute lookups in fields and hide heap addresses), and every attribute read through the
-    sandbox's attribute check (numpy's allow-list)."""
+    attribute lookups in fields and hide heap addresses), every attribute read through the
+    sandbox's attribute check (numpy's allow-list), and every two-operand operator and augmented
+    assignment through the numpy dtype check of its result (operators.py)."""
 
     def __init__(self, format_function_name: str) -> None:
         self.format_function_name = format_function_name
@@ -293,24 +299,26 @@ class _ExecutionRewriter(ast.NodeTransformer):
         return ast.copy_location(ast.FormattedValue(value=call, conversion=-1, format_spec=None), node)
 
     def visit_AugAssign(self, node: ast.AugAssign) -> ast.AST:
+        """`x op= v` -> `x = in_place(x, v, 'op=')`; `c[k] op= v` -> `in_place_item(c, k, v, 'op=')`."""
         self.generic_visit(node)
-        if not isinstance(node.op, ast.Mod) or not isinstance(node.target, ast.Name):
-            return node  # `x[i] %= y` stays arithmetic on containers; only names can hold text
-        call = ast.Call(
-            func=ast.Name(id=PERCENT_FUNCTION_NAME, ctx=ast.Load()),
-            args=[ast.Name(id=node.target.id, ctx=ast.Load()), node.value],
-            keywords=[],
-        )
-        return ast.copy_location(ast.Assign(targets=[node.target], value=call), node)
+        symbol = ast.Constant(value=_OPERATOR_SYMBOLS[type(node.op)] + "=")
+        target = node.target
+        if isinstance(target, ast.Name):
+            current = ast.Name(id=target.id, ctx=ast.Load())
+            call = _call(IN_PLACE_FUNCTION_NAME, current, node.value, symbol)
+            return ast.copy_location(ast.Assign(targets=[target], value=call), node)
+        if isinstance(target, ast.Subscript):
+            key = _slices_as_calls(target.slice)
+            call = _call(IN_PLACE_ITEM_FUNCTION_NAME, target.value, key, node.value, symbol)
+            return ast.copy_location(ast.Expr(value=call), node)
+        return node  # attribute targets were rejected by the checker
 
     def visit_BinOp(self, node: ast.BinOp) -> ast.AST:
         self.generic_visit(node)
-        if not isinstance(node.op, ast.Mod):
-            return node
-        call = ast.Call(
-            func=ast.Name(id=PERCENT_FUNCTION_NAME, ctx=ast.Load()), args=[node.left, node.right], keywords=[]
-        )
-        return ast.copy_location(call, node)
+        if isinstance(node.op, ast.Mod):
+            return ast.copy_location(_call(PERCENT_FUNCTION_NAME, node.left, node.right), node)
+        symbol = ast.Constant(value=_OPERATOR_SYMBOLS[type(node.op)])
+        return ast.copy_location(_call(RESULT_FUNCTION_NAME, node, symbol), node)
 
     def visit_Call(self, node: ast.Call) -> ast.AST:
         self.generic_visit(node)
@@ -320,6 +328,30 @@ class _ExecutionRewriter(ast.NodeTransformer):
                 ast.Call(func=target, args=[node.func.value, *node.args], keywords=node.keywords), node
             )
         return node
+
+
+_OPERATOR_SYMBOLS: dict[type, str] = {
+    ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.MatMult: "@", ast.Div: "/", ast.FloorDiv: "//",
+    ast.Mod: "%", ast.Pow: "**", ast.LShift: "<<", ast.RShift: ">>", ast.BitOr: "|", ast.BitXor: "^",
+    ast.BitAnd: "&",
+}  # fmt: skip
+
+
+def _call(function_name: str, *arguments: ast.expr) -> ast.Call:
+    return ast.Call(func=ast.Name(id=function_name, ctx=ast.Load()), args=list(arguments), keywords=[])
+
+
+def _slices_as_calls(key: ast.expr) -> ast.expr:
+    """A subscript's key as a value: `1:3` becomes `slice(1, 3, None)` (also inside a tuple)."""
+    if isinstance(key, ast.Slice):
+        bounds = [
+            part if part is not None else ast.Constant(value=None)
+            for part in (key.lower, key.upper, key.step)
+        ]
+        return _call(SLICE_FUNCTION_NAME, *bounds)
+    if isinstance(key, ast.Tuple):
+        return ast.Tuple(elts=[_slices_as_calls(element) for element in key.elts], ctx=ast.Load())
+    return key
 
 
 def prepare_for_execution(tree: ast.Module, format_function_name: str) -> ast.Module:

@@ -132,6 +132,14 @@ def die_with_parent() -> None:
     ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
 
 
+# Tasks (processes and threads) the worker's user may hold: the kernel counts them at every clone,
+# whatever the Python layer allows. The jailed worker is never root (host uid 65534 when the agent is
+# root; the service user in its own user namespace otherwise), so the kernel enforces it; it cannot
+# raise it back (no CAP_SYS_RESOURCE, and seccomp lets prlimit64 only read). As host uid 65534 the
+# count is shared by every sandbox running at that moment; in a user namespace it is the worker's own.
+MAX_TASKS = 32
+
+
 def apply_resource_limits(cpu_seconds: int, memory_mb: int, limit_descriptors: bool = True) -> None:
     used = resource.getrusage(resource.RUSAGE_SELF)
     cpu_soft = int(used.ru_utime + used.ru_stime) + max(int(cpu_seconds), 1)
@@ -140,13 +148,12 @@ def apply_resource_limits(cpu_seconds: int, memory_mb: int, limit_descriptors: b
     resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
     resource.setrlimit(resource.RLIMIT_FSIZE, (0, 0))
     resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
-    if not limit_descriptors:  # test-only unchecked mode: leave files and processes to the OS jail
-        return
-    resource.setrlimit(resource.RLIMIT_NOFILE, (0, 0))  # open fds stay usable; no new ones
-    try:
-        resource.setrlimit(resource.RLIMIT_NPROC, (0, 0))  # no effect for root, hence the audit hook
-    except (ValueError, OSError):
-        pass
+    # An OS wall: set in the test-only unchecked mode too (a thread bomb there meets it alone).
+    hard = resource.getrlimit(resource.RLIMIT_NPROC)[1]
+    tasks = MAX_TASKS if hard == resource.RLIM_INFINITY else min(MAX_TASKS, hard)
+    resource.setrlimit(resource.RLIMIT_NPROC, (tasks, tasks))  # no effect for root (opt-out mode)
+    if limit_descriptors:  # the test-only unchecked mode leaves files to the OS jail alone
+        resource.setrlimit(resource.RLIMIT_NOFILE, (0, 0))  # open fds stay usable; no new ones
 
 
 def arm_audit_hook(program_code: CodeType) -> None:
@@ -182,6 +189,9 @@ def describe_exception(error: BaseException) -> str:
     if isinstance(error, KeyError) and error.args == ("__import__",):
         # numpy's C code tried to import a module on the program's behalf; programs have no __import__
         return f"program used a numpy feature that is not available in the sandbox{where}"
+    if isinstance(error, RuntimeError) and error.args == ("can't start new thread",):
+        limit = f"the sandbox allows at most {MAX_TASKS} threads and processes"
+        return f"program raised RuntimeError: can't start new thread ({limit}){where}"
     try:
         message = hide_addresses(str(error))
     except Exception:  # a message that cannot even be printed
