@@ -7,6 +7,7 @@ describes the motion between views from the poses. Programs run in the real sand
 
 from __future__ import annotations
 
+import ast
 import io
 import json
 import time
@@ -16,7 +17,13 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from services.agent.sandbox import ProgramRejected, SandboxLimits, run_program, validate_program
+from services.agent.sandbox import (
+    ProgramRejected,
+    SandboxLimits,
+    numpy_surface,
+    run_program,
+    validate_program,
+)
 from shared.geometry import poses
 
 LIMITS = SandboxLimits(cpu_seconds=10, wall_seconds=20, memory_mb=1024)
@@ -316,6 +323,169 @@ def test_every_numpy_stand_in_call_works_inside_the_sandbox() -> None:
     for call, value in zip(calls, values, strict=True):
         expected = NUMPY_CALLS[call]
         assert value == expected or str(value) == str(expected), f"{call}: {value!r} != {expected!r}"
+
+
+# Every keyword argument the numpy surface lists, used as a program would (issue 38: everything else
+# is refused). Each call runs in the sandbox and with the real numpy here; the two must agree.
+KEYWORD_CALLS = [
+    "np.all(a > 1, axis=0, keepdims=True)",
+    "np.any(a > 2, axis=1, keepdims=True)",
+    "np.max(a, axis=1, keepdims=True)",
+    "np.min(a, axis=0, keepdims=True)",
+    "np.argmax(a, axis=1, keepdims=True)",
+    "np.argmin(a, axis=0, keepdims=True)",
+    "np.median(a, axis=0, keepdims=True)",
+    "np.sum(a, axis=0, dtype=np.float32, keepdims=True)",
+    "np.sum(a, 1, np.int64)",
+    "np.mean(a, axis=1, dtype=np.float64, keepdims=True)",
+    "np.std(a, axis=0, dtype=np.float64, ddof=1, keepdims=True)",
+    "np.cumsum(a, axis=1, dtype=np.int64)",
+    "np.allclose(a, a + 1e-3, rtol=0, atol=1e-2, equal_nan=True)",
+    "np.isclose(a, a + 1e-3, rtol=1e-2, atol=0, equal_nan=False)",
+    "np.array_equal(a, a, equal_nan=True)",
+    "np.sort(v, axis=0, kind='stable')",
+    "np.argsort(v, axis=-1, stable=True)",
+    "np.argsort(v, kind='stable')",
+    "np.sort(v, stable=True)",
+    "np.unique([3, 1, 3], return_index=True, return_inverse=True, return_counts=True)",
+    "np.unique([[1, 1], [1, 1]], axis=0)",
+    "np.array([1, 2], dtype=np.float32, copy=True, ndmin=2)",
+    "np.array([1.5, 2.5], int)",
+    "np.asarray([1.5, 2.5], dtype=np.int64)",
+    "np.arange(1, stop=7, step=2, dtype=np.float64)",
+    "np.linspace(0, 1, num=4, endpoint=False, retstep=True, dtype=np.float32, axis=0)",
+    "np.zeros((2, 2), dtype=np.int32)",
+    "np.ones(3, dtype=bool)",
+    "np.zeros_like(a, dtype=np.int64)",
+    "np.ones_like(a, dtype=np.uint8)",
+    "np.eye(2, M=3, k=1, dtype=np.int64)",
+    "np.diag(a, k=1)",
+    "np.clip(a, a_min=1.5, a_max=2.5)",
+    "np.clip(a, min=1.5, max=2.5)",
+    "np.round(a / 3, decimals=2)",
+    "np.transpose(a, axes=(1, 0))",
+    "np.trace(a, offset=0, axis1=0, axis2=1)",
+    "np.cross([[1, 0, 0]], [[0, 1, 0]], axisa=1, axisb=1, axisc=1)",
+    "np.cross([1, 0, 0], [0, 1, 0], axis=0)",
+    "np.concatenate([a, a], axis=1)",
+    "np.stack([a, a], axis=2)",
+    "np.linalg.norm(a, ord=1, axis=1, keepdims=True)",
+    "np.linalg.pinv(a, rcond=1e-10, hermitian=True)",
+    "np.linalg.pinv(a, rtol=1e-10)",
+    "np.linalg.svd(a, full_matrices=False, compute_uv=False, hermitian=False)",
+    "a.astype(dtype=np.int32)",
+    "a.astype(np.float32)",
+    "a[None].squeeze(axis=0)",
+    "a.diagonal(offset=0, axis1=1, axis2=0)",
+    "a.trace(offset=1, axis1=0, axis2=1)",
+    "a.repeat(repeats=2, axis=0)",
+    "a.take(indices=[1], axis=1)",
+    "a.sum(axis=0, dtype=np.float32, keepdims=True)",
+    "a.mean(axis=1, dtype=np.float64, keepdims=True)",
+    "a.prod(axis=0, dtype=np.float64, keepdims=True)",
+    "a.std(axis=0, dtype=np.float64, ddof=1, keepdims=True)",
+    "a.var(axis=1, dtype=np.float64, ddof=0, keepdims=True)",
+    "a.cumsum(axis=1, dtype=np.float64)",
+    "a.cumprod(axis=0, dtype=np.float64)",
+    "a.min(axis=0, keepdims=True)",
+    "a.max(axis=1, keepdims=True)",
+    "a.argmin(axis=1, keepdims=True)",
+    "a.argmax(axis=0, keepdims=True)",
+    "(a > 2).any(axis=0, keepdims=True)",
+    "(a > 0).all(axis=1, keepdims=True)",
+    "v.argsort(axis=0, kind='stable')",
+    "v.argsort(stable=True)",
+    "a.clip(min=1.5, max=2.5)",
+    "(a / 3).round(decimals=2)",
+    "np.float64(2.5).round(decimals=0)",
+    "a.reshape(4, 1).transpose(1, 0).item(0, 2)",
+]
+KEYWORD_PROGRAM_PREFIX = "a = np.array([[2.0, 1.0], [1.0, 3.0]])\nv = np.array([3.0, -1.0, 2.0])\n"
+
+
+def _called_keywords(call: str) -> set[tuple[str, str, str]]:
+    """(table, function, keyword) for each keyword argument in `call`: FUNCTIONS, LINALG or METHODS."""
+    found = set()
+    for node in ast.walk(ast.parse(call)):
+        if not isinstance(node, ast.Call) or not isinstance(node.func, ast.Attribute):
+            continue
+        owner = ast.unparse(node.func.value)
+        table = {"np": "FUNCTIONS", "np.linalg": "LINALG_FUNCTIONS"}.get(owner, "METHODS")
+        found |= {(table, node.func.attr, keyword.arg) for keyword in node.keywords}
+    return found
+
+
+def test_every_listed_keyword_argument_works_as_with_numpy() -> None:
+    listed = {
+        (table, name, keyword)
+        for table in ("FUNCTIONS", "LINALG_FUNCTIONS", "METHODS")
+        for name, accepted in getattr(numpy_surface, table).items()
+        for keyword in accepted.keywords
+    }
+    used = set().union(*map(_called_keywords, KEYWORD_CALLS))
+    assert listed - used == set(), "listed keywords no call below exercises"
+    body = "".join(f"        ' '.join(repr({call}).split()),\n" for call in KEYWORD_CALLS)
+    source = f"def program(input_scene):\n    {KEYWORD_PROGRAM_PREFIX.replace(chr(10), chr(10) + '    ')}"
+    source += f"return [\n{body}    ]\n"
+    result = run(
+        source, limits=SandboxLimits(cpu_seconds=10, wall_seconds=20, memory_mb=1024, max_output_chars=50_000)
+    )
+    assert result.ok, result.error
+    names = {"np": np}
+    exec(KEYWORD_PROGRAM_PREFIX, names)
+    expected = [" ".join(repr(eval(call, names)).split()) for call in KEYWORD_CALLS]
+    for call, got, want in zip(KEYWORD_CALLS, result.clue_text.splitlines(), expected, strict=True):
+        assert got == want, call
+
+
+OPERATOR_PROGRAM = """
+def program(input_scene):
+    a = np.zeros(3)
+    alias = a
+    alias += 1                      # in place: `a` sees it
+    alias[1:] *= 2
+    alias[::2] -= np.array([0.5, 0.5])
+    grid = np.ones((2, 3))
+    grid[:, 0] *= 2
+    grid[1, 1:] += 5
+    calls = []
+    counts = {'k': 1}
+    key = lambda: calls.append(1) or 'k'
+    counts[key()] += 1              # the key is evaluated once
+    nested = [[1]]
+    inner = nested[0]
+    nested[0] += [2]                # lists extend in place
+    text, pair, n, bits = 'x', (1,), 7, 6
+    text += 'y'
+    pair += (2,)
+    n //= 2
+    n **= 3
+    n %= 5
+    n -= 10
+    n /= 4
+    bits &= 3
+    bits |= 8
+    bits ^= 1
+    bits <<= 2
+    bits >>= 1
+    label = ['%d-%s']
+    label[0] %= (4, 'b')
+    matrix = np.eye(2)
+    matrix @= np.array([[1.0, 2.0], [3.0, 4.0]])
+    scalar = np.float64(2)
+    scalar *= 3
+    plain = 7 // 2 + 2 ** 3 - (5 % 3) * 1.5 / 2, 6 & 3 | 8 ^ 1 << 2 >> 1
+    return repr([a.tolist(), grid.tolist(), counts, len(calls), inner, text, pair, n, bits, label,
+                 matrix.tolist(), float(scalar), plain])
+"""
+
+
+def test_operators_keep_python_semantics_behind_the_dtype_check() -> None:
+    result = run(OPERATOR_PROGRAM)
+    assert result.ok, result.error
+    names = {"np": np}
+    exec(OPERATOR_PROGRAM, names)
+    assert result.clue_text == names["program"](None)
 
 
 def test_numpy_lookups_that_import_lazily_work_through_the_attribute_check() -> None:

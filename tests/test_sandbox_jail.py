@@ -33,6 +33,7 @@ from services.agent.sandbox.jail import (
     python_path,
     remove_stale_workdirs,
 )
+from services.agent.sandbox.worker import MAX_TASKS
 from services.agent.sandbox.worker_process import REPO_ROOT
 from tests.test_sandbox_attacks import TinyTools
 
@@ -161,6 +162,44 @@ def test_the_jail_is_what_the_docs_say() -> None:
     } | {Path(part).parts[1] for part in (sys.base_prefix, str(REPO_ROOT), json.__file__)}
 
 
+THREAD_BOMB = """
+import threading
+def program(input_scene):
+    threading.stack_size(64 * 1024)  # small stacks: the memory limit is not what stops it
+    gate = threading.Event()
+    started = 0
+    try:
+        for _ in range(3000):
+            threading.Thread(target=gate.wait).start()
+            started += 1
+        outcome = 'all started'
+    except RuntimeError as error:
+        outcome = f'{type(error).__name__}: {error}'
+    finally:
+        gate.set()
+    return f'{started} {outcome}'
+"""
+
+
+def test_a_thread_bomb_stops_at_the_task_limit_with_the_python_checks_off() -> None:
+    # RLIMIT_NPROC, counted by the kernel for the worker's (never root) user: the worker itself is
+    # one of those tasks, and as host uid 65534 so is every other sandbox running right now.
+    result = run_unchecked(THREAD_BOMB)
+    assert result.ok, result.error
+    started, outcome = result.clue_text.split(" ", 1)
+    assert outcome == "RuntimeError: can't start new thread"
+    assert int(started) < MAX_TASKS
+    uncaught = run_unchecked(THREAD_BOMB.replace("except RuntimeError", "except ZeroDivisionError"))
+    assert not uncaught.ok and uncaught.error_kind == "exception"
+    assert uncaught.error == (
+        "program raised RuntimeError: can't start new thread (the sandbox allows at most "
+        f"{MAX_TASKS} threads and processes) (line 9)"
+    )
+    # the host is unaffected: the next program starts threads again (the bomb's worker is gone)
+    after = run_unchecked(attempt("t = threading.Thread(target=print)", "t.start()", "t.join()"))
+    assert after.ok and after.clue_text == "allowed", after.error
+
+
 def test_a_crash_is_reported_as_what_it_was() -> None:
     result = run_unchecked("import ctypes\ndef program(input_scene):\n    return ctypes.string_at(0)\n")
     assert not result.ok and result.error_kind == "crash"
@@ -184,6 +223,9 @@ FORGERIES = {
     # content: strict ASCII JSON objects
     "deep_line": (frame("b'[' * 400000"), "malformed message: nested more than 64 levels"),
     "deep_object": (frame("b'{\"a\":' * 5000 + b'1' + b'}' * 5000"), "nested more than 64 levels"),
+    # a string that never closes: 160 KB of it held the parent (and its GIL) for 112 s before the
+    # depth check became linear (issue 38)
+    "unterminated_string": (frame("b'\"' + b'\\\\\"' * 80_000"), "malformed message: Unterminated string"),
     "not_json": (frame("b'{not json}'"), "malformed message: Expecting property name"),
     "not_an_object": (frame("b'[1, 2]'"), "a message must be a JSON object with a 'type'"),
     "bad_utf8": (frame('b\'{"type": "result", "ok": true, "text": "\\xff"}\''), "must be ASCII JSON"),
