@@ -24,6 +24,11 @@ from PIL import Image
 from services.agent.sandbox import SandboxLimits, run_program
 from services.agent.sandbox.builtins import OutputCapture, program_globals
 from services.agent.sandbox.jail import JailMode, JailStatus
+from services.agent.sandbox.validation import (
+    ATTRIBUTE_FUNCTION_NAME,
+    IN_PLACE_ITEM_FUNCTION_NAME,
+    RESULT_FUNCTION_NAME,
+)
 from services.agent.sandbox.worker_process import REPO_ROOT
 
 # The agent's own output, image and tool-call limits, so that the corpus ends the same way through
@@ -1121,6 +1126,36 @@ def test_program_globals_alone_offer_no_import_open_or_numpy_files() -> None:
     for code, message in refusals.items():
         with pytest.raises((NameError, AttributeError, ValueError), match=re.escape(message)):
             exec(code, dict(names))
+
+
+def test_the_numpy_stand_ins_alone_refuse_unlisted_arguments_and_non_numeric_dtypes() -> None:
+    """Without the validator's checks: the callables and operator helpers a program's names hold."""
+    names = program_globals(OutputCapture(100), {})
+    stand_in, attribute = names["np"], names[ATTRIBUTE_FUNCTION_NAME]
+    big = [10**30, 1]
+    refusals = {
+        "np.abs(where=...)": lambda: stand_in.abs(np.zeros(64), where=False),
+        "np.maximum() takes x1, x2 by position": lambda: stand_in.maximum(np.ones(2), 1, np.zeros(2)),
+        "array.clip(where=...)": lambda: attribute(np.zeros(64), "clip")(0, 1, where=False),
+        "array.take() takes indices, axis by position": lambda: attribute(np.ones(2), "take")(
+            [0], 0, np.ones(1)
+        ),
+        "np.maximum.reduce is not available": lambda: attribute(stand_in.maximum, "reduce"),
+        "numpy arrays of dtype object": lambda: stand_in.cumsum([1, 2], dtype="O"),
+        "numpy arrays of dtype StringDType()": lambda: stand_in.array(["a"], "T"),
+        "np.unique would make a numpy array of dtype <U1": lambda: stand_in.unique(["b", "a"]),
+        "'+' would make a numpy array of dtype object": lambda: names[RESULT_FUNCTION_NAME](
+            np.arange(2) + big, "+"
+        ),
+        "'+=' would make a numpy array": lambda: names[IN_PLACE_ITEM_FUNCTION_NAME](
+            [np.int64(1)], 0, big, "+="
+        ),
+        "sum() would make a numpy array": lambda: names["__builtins__"]["sum"]([np.zeros(2), big]),
+        "math.prod would make a numpy array": lambda: names["math"].prod([np.arange(2), big]),
+    }
+    for message, action in refusals.items():
+        with pytest.raises((TypeError, AttributeError), match=re.escape(message)):
+            action()
 
 
 PROCESS_WALL_SCRIPT = """
