@@ -1,6 +1,7 @@
 """The OS jail on its own: programs run with every Python-level check switched off (test-only mode:
-real builtins, the real numpy and os modules, no validator, no audit hook, no descriptor or process
-rlimits) and still cannot kill, fork, connect, read the host's files, write, or start a session.
+real builtins, the real numpy and os modules, no validator, no audit hook, no descriptor rlimit)
+and still cannot kill, fork, connect, read the host's files, write, start a session, or start more
+than a few threads (RLIMIT_NPROC, part of the OS layer).
 
 Through the runner here; through /v1/solve of a real agent in tests/test_sandbox_http.py.
 """

@@ -20,12 +20,14 @@ hold each of them to account):
    attribute writes. `x.format(...)`, f-string fields and `%` are rewritten to formatters that
    refuse `{0.attr}` / `{0[key]}` fields and hide heap addresses.
 2. builtins.py: the program's globals hold only whitelisted builtins, a captured `print`, a bounded
-   `range`, a read-only numpy stand-in (`np`: functions that build new arrays, never object arrays;
-   `np.ndarray` only for isinstance) and `math`. Every attribute a program reads passes
-   numpy_surface.attribute: numpy arrays, scalars and dtypes offer only an allow-list of read-only
-   and arithmetic members (no in-place or raw-memory method), astype only to numeric dtypes.
+   `range`, a read-only numpy stand-in (`np`: functions that build new arrays; `np.ndarray` only for
+   isinstance) and `math`. Every attribute a program reads passes numpy_surface.attribute: numpy
+   arrays, scalars and dtypes offer only an allow-list of read-only and arithmetic members (no
+   in-place or raw-memory method). Every numpy callable takes only the arguments it lists (no
+   `out=`, `where=`, `signature=`...), and only numeric dtypes go in or come out, of the callables,
+   the operators (operators.py) and the arithmetic builtins alike.
 3. worker.py runs the program in a fresh `python -I` process (one per run) with an empty
-   environment, RLIMIT_CPU / AS / FSIZE=0 / NOFILE=0 / CORE=0 / NPROC=0, an audit hook refusing
+   environment, RLIMIT_CPU / AS / FSIZE=0 / NOFILE=0 / CORE=0 / NPROC=32, an audit hook refusing
    open / import / exec / os / socket / subprocess events, and stdin/stdout replaced by /dev/null
    (the protocol uses private copies of the pipes, so prints cannot forge messages). numpy's lazily
    initialised paths are warmed up before the hook is armed. The parent enforces the wall-clock
