@@ -1006,6 +1006,15 @@ ARGUMENT_AND_DTYPE_ATTACKS = [
     ),
     Attack("maximum_object", wrap("return np.maximum(np.arange(2), [10**30, 1])"), E, made("np.maximum")),
     Attack("unknown_dtype", wrap("return np.zeros(2, dtype='no such')"), E, "'no such' is not a numpy dtype"),
+    # a refused dtype's message names it without its heap address (numpy's own message did not)
+    Attack(
+        "address_in_dtype_error",
+        F
+        + wrap("try:", "    np.zeros(2, dtype=f)", "except TypeError as error:", "    return error.args[0]"),
+        OK,
+        f"{HIDDEN} is not a numpy dtype; use np.float64, np.float32, np.int64, np.int32, np.uint8, float, "
+        "int or bool",
+    ),
     # `%=` on an item formats text too: it hides addresses like every other route
     Attack(
         "address_percent_item", F + wrap("text = ['%r']", "text[0] %= (f,)", "return text[0]"), OK, HIDDEN

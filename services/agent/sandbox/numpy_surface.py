@@ -29,6 +29,8 @@ from typing import Any, NamedTuple
 
 import numpy
 
+from services.agent.sandbox.text import hide_addresses
+
 NUMERIC_DTYPE_KINDS = "biufc"  # bool, signed, unsigned, float, complex: everything else is refused
 NUMERIC_DTYPES_HINT = "np.float64, np.float32, np.int64, np.int32, np.uint8, float, int or bool"
 
@@ -163,7 +165,8 @@ def _numeric_dtype(dtype: Any, label: str) -> numpy.dtype:
     try:
         resolved = numpy.dtype(dtype)
     except (TypeError, ValueError, RuntimeError):  # RuntimeError: numpy's parser of '(2,)f8' compiles
-        raise TypeError(f"{dtype!r} is not a numpy dtype; use {NUMERIC_DTYPES_HINT}") from None
+        shown = hide_addresses(repr(dtype))[:80]  # a function's repr names its heap address
+        raise TypeError(f"{shown} is not a numpy dtype; use {NUMERIC_DTYPES_HINT}") from None
     if resolved.kind in NUMERIC_DTYPE_KINDS:
         return resolved
     if label.endswith(".astype"):
