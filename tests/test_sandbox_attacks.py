@@ -990,6 +990,7 @@ ARGUMENT_AND_DTYPE_ATTACKS = [
     Attack("method_cumsum_object", wrap("return str((np.ones(2).cumsum(dtype='O')).dtype)"), E, OBJECT_DTYPE),
     Attack("method_sum_object", wrap("return np.ones(2).sum(0, 'O')"), E, OBJECT_DTYPE),
     Attack("method_mean_object", wrap("return np.ones(2).mean(dtype='O')"), E, OBJECT_DTYPE),
+    Attack("arange_big_ints", wrap("return str(np.arange(0, 10**30, 10**29).dtype)"), E, made("np.arange")),
     Attack("arange_object", wrap("return np.arange(3, dtype='O')"), E, OBJECT_DTYPE),
     Attack("linspace_object", wrap("return np.linspace(0, 1, 3, dtype='O')"), E, OBJECT_DTYPE),
     Attack("eye_object", wrap("return np.eye(2, dtype='O')"), E, OBJECT_DTYPE),

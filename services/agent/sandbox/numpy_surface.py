@@ -24,6 +24,7 @@ Three lists, each checked where every use passes through:
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
@@ -40,11 +41,16 @@ class Signature(NamedTuple):
 
     positional: tuple[str, ...]  # names of the parameters that may be passed by position, in order
     keywords: frozenset[str]  # parameters that may be passed by name
-    variadic: bool = False  # any number of positional values (`a.reshape(2, 3)`, `a.item(0, 1)`)
+    most_positional: int  # len(positional), or no bound (`a.reshape(2, 3)`, `a.item(0, 1)`)
+    dtype_position: int  # where a positional dtype sits, -1 for none
 
 
 def signature(positional: str = "", keywords: str = "", variadic: bool = False) -> Signature:
-    return Signature(tuple(positional.split()), frozenset(keywords.split()), variadic)
+    names = tuple(positional.split())
+    dtype_position = names.index("dtype") if "dtype" in names else -1
+    return Signature(
+        names, frozenset(keywords.split()), sys.maxsize if variadic else len(names), dtype_position
+    )
 
 
 _REDUCTION = signature("axis dtype", "axis dtype keepdims")  # sum, mean, prod
@@ -182,7 +188,7 @@ def _numeric_dtype(dtype: Any, label: str) -> numpy.dtype:
 
 def check_arguments(label: str, accepted: Signature, arguments: tuple, keywords: dict[str, Any]) -> None:
     """TypeError unless `arguments` and `keywords` fit `accepted`; numeric dtypes only."""
-    if not accepted.variadic and len(arguments) > len(accepted.positional):
+    if len(arguments) > accepted.most_positional:
         names = ", ".join(accepted.positional) or "no argument"
         raise TypeError(
             f"{label}() takes {names} by position in the sandbox; {len(arguments)} positional "
@@ -195,16 +201,18 @@ def check_arguments(label: str, accepted: Signature, arguments: tuple, keywords:
                 f"{label}({name}=...) is not available in the sandbox; keyword arguments {label} "
                 f"accepts: {offer}"
             )
-    if "dtype" in keywords and keywords["dtype"] is not None:
+    if keywords.get("dtype") is not None:
         _numeric_dtype(keywords["dtype"], label)
-    if "dtype" in accepted.positional and not accepted.variadic:
-        index = accepted.positional.index("dtype")
-        if len(arguments) > index and arguments[index] is not None:
-            _numeric_dtype(arguments[index], label)
+    position = accepted.dtype_position
+    if 0 <= position < len(arguments) and arguments[position] is not None:
+        _numeric_dtype(arguments[position], label)
+
+
+_NUMPY_VALUES = (numpy.ndarray, numpy.generic)  # a tuple: isinstance on a `|` union is slower
 
 
 def _forbidden_dtype(value: Any) -> numpy.dtype | None:
-    if isinstance(value, numpy.ndarray | numpy.generic) and value.dtype.kind not in NUMERIC_DTYPE_KINDS:
+    if isinstance(value, _NUMPY_VALUES) and value.dtype.kind not in NUMERIC_DTYPE_KINDS:
         return value.dtype
     if isinstance(value, tuple):  # np.unique(..., return_counts=True), np.linalg.svd, divmod
         for item in value:

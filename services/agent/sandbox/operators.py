@@ -34,8 +34,14 @@ IN_PLACE: dict[str, Callable[[Any, Any], Any]] = {
 }
 
 
+# Results that cannot be numpy values: checked by their exact type, the cheap path of every loop.
+_PYTHON_VALUES = frozenset({int, float, bool, complex, str, bytes, list, tuple, dict, set, frozenset})
+
+
 def result(value: Any, symbol: str) -> Any:
     """The value of `left symbol right`, unless it is a numpy array of a refused dtype."""
+    if type(value) in _PYTHON_VALUES:
+        return value
     return checked_result(f"'{symbol}'", value)
 
 
@@ -48,9 +54,9 @@ def percent(left: Any, right: Any) -> Any:
 def in_place(target: Any, value: Any, symbol: str) -> Any:
     """`target symbol value` as an augmented assignment computes it (in place where the type can)."""
     updated = IN_PLACE[symbol](target, value)
-    if symbol == "%=" and isinstance(updated, str):
-        return hide_addresses(updated)
-    return result(updated, symbol)
+    if type(updated) in _PYTHON_VALUES:  # the cheap path, inlined: loops of `total += x`
+        return hide_addresses(updated) if symbol == "%=" and isinstance(updated, str) else updated
+    return checked_result(f"'{symbol}'", updated)
 
 
 def in_place_item(container: Any, key: Any, value: Any, symbol: str) -> None:
