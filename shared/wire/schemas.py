@@ -52,6 +52,12 @@ class SceneInfo(_Model):
     image_sizes: list[tuple[int, int]] = Field(..., description="(width, height) per image.")
     has_depth: bool
     has_cameras: bool
+    kind: Literal["photos", "posed-rgbd"] = Field(
+        "photos",
+        description="What was uploaded: posed-rgbd (every view's depth, pose and intrinsics) or photos. "
+        "A request that names no backbone reconstructs a posed-rgbd scene with posed-rgbd, on every "
+        "replica (the kind is stored with the scene).",
+    )
 
 
 class SceneCreated(SceneInfo):
