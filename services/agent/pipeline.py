@@ -49,6 +49,7 @@ def _model_config(settings: AgentSettings, role: str) -> ChatModelConfig | None:
         max_tokens=getattr(settings, f"{role}_model_max_tokens"),
         text_only=getattr(settings, f"{role}_model_text_only"),
         text_only_hint=f"set PYSPATIAL_{role.upper()}_MODEL_TEXT_ONLY=true",
+        key_setting=f"PYSPATIAL_{role.upper()}_MODEL_API_KEY",
     )
 
 
