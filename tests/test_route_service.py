@@ -183,8 +183,8 @@ def test_how_do_i_get_there_through_solve_uses_the_same_tools(recon_and_agent, p
     program = (
         "```python\ndef program(input_scene):\n"
         "    recon = pySpatial.reconstruct(input_scene)\n"
-        f"    goal = pySpatial.locate(recon, {pixel['view'] - 1}, {pixel['u']:.1f}, {pixel['v']:.1f})\n"
-        "    return pySpatial.plan_route(recon, 0, goal['point'])['summary']\n```"
+        f"    goal = pySpatial.locate(recon, {pixel['view']}, {pixel['u']:.1f}, {pixel['v']:.1f})\n"
+        "    return pySpatial.plan_route(recon, 1, goal['point'])['summary']\n```"
     )
     llm.reset()
     llm.script([program], model="coder")

@@ -2,9 +2,10 @@
 
 The agent downloads the reconstruction from recon once per request and plans with
 ``shared.navigation`` (pure numpy, a fraction of a second). View numbers are 1-based here, as on
-the page and in the CLI; the library and the sandbox count from 0. Goals the planner cannot start
-from are the client's 422 (a pixel outside the image, on nothing reconstructed, inside an
-obstacle); a goal no route reaches is a 200 with ``reachable: false`` and the reason.
+the page, in the CLI and in the program API; ``shared.navigation`` takes indices (0-based) and its
+messages name views from 1. Goals the planner cannot start from are the client's 422 (a pixel
+outside the image, on nothing reconstructed, inside an obstacle); a goal no route reaches is a
+200 with ``reachable: false`` and the reason.
 """
 
 from __future__ import annotations
