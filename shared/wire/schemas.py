@@ -85,14 +85,16 @@ class ViewConfidenceInfo(_Model):
     )
 
 
-# JSON index fields are 0-based; every text for people says "view 1" for the first photo, as
-# questions say "image 1" (docs/ARCHITECTURE.md, "View numbers").
-VIEW_NUMBERS = ' Texts (warnings, reasons, errors, sentences) count views from 1: index 0 is "view 1".'
+# One view numbering (docs/ARCHITECTURE.md, "View numbers"): every JSON field that names a view,
+# and every text for people, counts views from 1, as questions say "image 1"; only the positions of
+# JSON lists (cameras[0] is view 1) and the geometry inside the services are 0-based.
+VIEW_NUMBERS = " Views are numbered from 1 in every field and text; a JSON list's first item is view 1."
+ViewNumber = Annotated[int, Field(ge=1)]
 
 
 class PairConfidenceInfo(_Model):
-    first: int = Field(..., description="Index of the first view (0-based, as `cameras[].index`).")
-    second: int = Field(..., description="Index of the second view (0-based).")
+    first: int = Field(..., ge=1, description="The first view (1-based, as `cameras[].view`).")
+    second: int = Field(..., ge=1, description="The second view (1-based).")
     inliers: int = Field(..., description="Points both views see.")
     reprojection_error_px: float | None = None
     triangulation_angle_deg: float | None = Field(None, description="Median angle between their rays.")
@@ -110,9 +112,8 @@ class PairConfidenceInfo(_Model):
 
 
 class CameraInfo(_Model):
-    index: int = Field(
-        ...,
-        description="0-based position of the photo in the upload." + VIEW_NUMBERS,
+    view: int = Field(
+        ..., ge=1, description="The view: the photo's place in the upload, 1-based." + VIEW_NUMBERS
     )
     extrinsic: Matrix | None = Field(..., description="3x4 camera-from-world; null when not registered.")
     intrinsic: Matrix | None = Field(..., description="3x3 in pixels; null when the backbone has none.")
@@ -171,7 +172,7 @@ class RenderRequest(_Model):
 class PixelTarget(_Model):
     """An object located by a pixel of one photo: the nearest reconstructed surface there."""
 
-    view: Annotated[int, Field(ge=0, description="0-based view the pixel is in.")]
+    view: Annotated[int, Field(ge=1, description="The view the pixel is in (1-based).")]
     u: Annotated[float, Field(description="Column, in that photo's pixels.")]
     v: Annotated[float, Field(description="Row, in that photo's pixels.")]
 
@@ -187,8 +188,8 @@ class MotionTarget(_Model):
 
 class CameraMotionRequest(_Model):
     scene_id: str = Field(..., pattern=SCENE_ID_PATTERN, description="A scene id from POST /v1/scenes.")
-    pairs: list[tuple[int, int]] | None = Field(
-        None, description="0-based view pairs; consecutive if unset." + VIEW_NUMBERS
+    pairs: list[tuple[ViewNumber, ViewNumber]] | None = Field(
+        None, description="View pairs (from, to), 1-based; consecutive if unset." + VIEW_NUMBERS
     )
     from_view: int | None = Field(
         None,
@@ -213,10 +214,11 @@ class CameraMotionRequest(_Model):
         return self
 
     def requested_pairs(self) -> list[tuple[int, int]] | None:
-        """The 0-based pairs asked for; None: the default (consecutive) pairs."""
+        """The pairs asked for as indices (0-based, as the geometry takes them); None: the default
+        (consecutive) pairs."""
         if self.from_view is not None and self.to_view is not None:
             return [(self.from_view - 1, self.to_view - 1)]
-        return self.pairs
+        return None if self.pairs is None else [(first - 1, second - 1) for first, second in self.pairs]
 
 
 class FrameMotionItem(_Model):
@@ -331,8 +333,8 @@ class MotionOverFocalItem(_Model):
 class CameraMotionItem(_Model):
     """One pair of views: a description, or (described = false) the reason there is none."""
 
-    from_view: int = Field(..., description="0-based index of the first view." + VIEW_NUMBERS)
-    to_view: int = Field(..., description="0-based index of the second view.")
+    from_view: int = Field(..., ge=1, description="The first view (1-based)." + VIEW_NUMBERS)
+    to_view: int = Field(..., ge=1, description="The second view (1-based).")
     described: bool = Field(True, description="False when the motion is unknown; `reason` says why.")
     reason: str | None = Field(None, description="Why there is no description (unregistered view, ...).")
     direction: str | None = Field(None, description="Horizontal direction, or 'no significant movement'.")
@@ -485,7 +487,7 @@ class ClueView(_Model):
     """Where one clue image came from: a view rendered from a pose, or an input photo."""
 
     source: Literal["rendered", "input"]
-    input_index: int | None = Field(None, description="0-based input image, when source is input.")
+    input_view: int | None = Field(None, ge=1, description="The input view (1-based), when source is input.")
     extrinsic: Matrix | None = Field(
         None, description="3x4 camera-from-world it was rendered from (or the input camera's pose)."
     )

@@ -27,7 +27,7 @@ async def camera_motion(
             request.scene_id, request.requested_pairs(), request.backbone, request.target, tenant
         ),
     )
-    items = [CameraMotionItem.model_validate(m.to_dict()) for m in motions]
+    items = [CameraMotionItem.model_validate(numbered_from_one(m.to_dict())) for m in motions]
     return CameraMotionResponse(
         scene_id=request.scene_id,
         backbone=recon.backbone,
@@ -36,3 +36,8 @@ async def camera_motion(
         scene_scale=scale,
         warnings=recon.warnings,
     )
+
+
+def numbered_from_one(motion: dict) -> dict:
+    """A pair's motion as the wire names it: its views numbered from 1 (the geometry indexes from 0)."""
+    return {**motion, "from_view": motion["from_view"] + 1, "to_view": motion["to_view"] + 1}
