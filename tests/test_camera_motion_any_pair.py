@@ -67,7 +67,7 @@ def test_a_view_out_of_range_is_a_4xx(recon, scene_id) -> None:
     response = httpx.post(
         f"{recon.url}/v1/camera-motion", json={"scene_id": scene_id, "from_view": 1, "to_view": 4}, timeout=30
     )
-    assert response.status_code == 422 and "out of range" in response.text
+    assert response.status_code == 422 and "view 4 does not exist: the scene has views 1..3" in response.text
 
 
 def test_the_sandbox_tool_and_the_python_api_name_any_pair(recon, scene_id) -> None:
