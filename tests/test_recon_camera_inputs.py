@@ -390,7 +390,7 @@ def test_camera_motion_toward_a_target_point_pixel_or_the_scene_centre(client, r
 
     pngs, depths, extrinsics, intrinsics = exact_pair(room, lambda first: moved(first, first[2, :3] * 0.5))
     scene = client.upload_scene(pngs, depths=depths, extrinsics=extrinsics, intrinsics=intrinsics)
-    ahead = MotionTarget(pixel=PixelTarget(view=0, u=80, v=60), name="the wall ahead")
+    ahead = MotionTarget(pixel=PixelTarget(view=1, u=80, v=60), name="the wall ahead")  # 1-based
     [motion] = client.camera_motion(scene.scene_id, backbone="posed-rgbd", target=ahead).motions
     before, after = motion.target_distances
     assert motion.target_change == "closer" and before - after == pytest.approx(0.5, abs=0.05)
