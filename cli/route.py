@@ -165,8 +165,8 @@ def route(
         for number, sentence in enumerate(plan.sentences, 1):
             console.print(f"{number}. {sentence}")
         console.print(
-            f"length {plan.length_m:.2f} {unit} (straight line {plan.straight_line_m:.2f}), "
-            f"smallest clearance {plan.clearance_m:.2f} {unit}; turns are {plan.turn_convention}"
+            f"length {plan.length:.2f} {unit} (straight line {plan.straight_line:.2f}), "
+            f"smallest clearance {plan.clearance:.2f} {unit}; turns are {plan.turn_convention}"
         )
     else:
         console.print(f"[red]no route:[/] {plan.reason}")

@@ -266,6 +266,7 @@ def test_camera_motion_describes_known_motion(recon, client, rgbd_scene, views):
     # moves the camera to its right and turns it left.
     for item in motion.motions:
         assert "right" in item.direction and item.yaw_deg > 0, item
+        assert -180 < item.angle_deg < 0  # a step to the right: left-positive like the turn
     assert motion.text.count("\n") == 1
     response = httpx.post(
         recon.url + "/v1/camera-motion",

@@ -79,7 +79,7 @@ def test_a_pixel_goal_gives_steps_that_reach_it_on_the_true_geometry(planned, sc
     assert np.linalg.norm(np.array(planned.goal_located) - two.goal) < 0.05
     run = execute_steps(two, [step.model_dump() for step in planned.steps], 0.25)
     assert not run.collided and np.linalg.norm(run.end - two.goal[:2]) <= 0.3
-    assert planned.length_m >= planned.straight_line_m and planned.clearance_m > 0
+    assert planned.length >= planned.straight_line and planned.clearance > 0
     assert len(planned.path_world) == len(planned.path_start_camera) == len(planned.steps) + 1
 
 
@@ -90,7 +90,7 @@ def test_the_same_scene_by_id_with_a_goal_in_the_start_camera(agent, planned, sc
     with AgentClient(agent.url) as client:
         again = client.route({"point_start_camera": in_camera}, scene_id=planned.scene_id, start_view=1)
     assert again.reachable and again.scene_id == planned.scene_id
-    assert again.length_m == pytest.approx(planned.length_m, abs=0.1)
+    assert again.length == pytest.approx(planned.length, abs=0.1)
 
 
 @pytest.mark.parametrize(
@@ -123,7 +123,7 @@ def test_an_unreachable_goal_is_a_200_with_the_reason(agent, scenes):
             {"point_world": two.goal.tolist()}, robot={"radius": 0.25}, **_upload_arguments(two, views)
         )
         assert not plan.reachable and plan.refusal == "narrow_gap" and "wide" in plan.reason
-        assert plan.steps == [] and plan.length_m is None
+        assert plan.steps == [] and plan.length is None
         with pytest.raises(ServiceError) as refused:
             client.route({"point_world": two.goal.tolist()}, scene_id=plan.scene_id, start_view=0)
     assert refused.value.status_code == 422

@@ -168,7 +168,7 @@ def test_a_route_by_scene_id_is_the_tenants_and_as_uploaded(stack, rooms):
         assert uploaded.reachable and uploaded.backbone == "posed-rgbd"
         assert by_id.backbone == "posed-rgbd" and by_id.units == uploaded.units
         assert [s.model_dump() for s in by_id.steps] == [s.model_dump() for s in uploaded.steps]
-        assert by_id.length_m == uploaded.length_m
+        assert by_id.length == uploaded.length
         assert _status(lambda: beta.route(goal, scene_id=uploaded.scene_id, start_view=1)) == 404
         try:  # a backbone the request names wins (here classical, which may not place these views)
             assert alpha.route(goal, scene_id=uploaded.scene_id, backbone="classical").backbone == "classical"

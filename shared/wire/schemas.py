@@ -281,7 +281,7 @@ class QuantityOverFocalItem(_Model):
     range: list[float] | None = Field(
         None,
         description="[min, max] over the hypotheses: degrees for turn (+ left), tilt (+ up), roll (+ "
-        "clockwise) and direction (heading, 0 forward, + right); for lateral (+ right), depth (+ "
+        "clockwise) and direction (heading, 0 forward, + = left); for lateral (+ right), depth (+ "
         "forward) and vertical (+ up), that component of the unit step; null for still.",
     )
     determined: bool = Field(..., description="True when every hypothesis gives the same word.")
@@ -303,7 +303,7 @@ class MotionOverFocalItem(_Model):
     direction_determined: bool
     heading_range_deg: list[float] | None = Field(
         None,
-        description="[min, max] heading of the step over the hypotheses (0 forward, + right); "
+        description="[min, max] heading of the step over the hypotheses (0 forward, + = left); "
         "null if none moved.",
     )
     vertical_directions: list[str] = Field(
@@ -339,8 +339,12 @@ class CameraMotionItem(_Model):
     reason: str | None = Field(None, description="Why there is no description (unregistered view, ...).")
     direction: str | None = Field(None, description="Horizontal direction, or 'no significant movement'.")
     vertical_direction: str | None = Field(None, description="'up', 'down', or null when not significant.")
-    angle_deg: float | None = None
-    distance: float | None = None
+    angle_deg: float | None = Field(
+        None,
+        description="Heading of the horizontal step in the first view's image axes, degrees: 0 forward, "
+        "+90 = left, -90 = right (left-positive, as every horizontal angle here).",
+    )
+    distance: float | None = Field(None, description="Length of the step, in `units`.")
     displacement_in_first_camera: list[float] | None = None
     vertical: float | None = Field(None, description="Displacement along the up axis (positive = up).")
     yaw_deg: float | None = Field(None, description="Turn about the up axis between the views; + = left.")
@@ -766,15 +770,22 @@ class RouteRequest(_Model):
     scene_id: str | None = Field(None, pattern=SCENE_ID_PATTERN)
     extrinsics: list[Matrix] | None = Field(None, description="Per view 3x4 camera-from-world (with depths).")
     intrinsics: list[Matrix | None] | None = Field(None, description="Per view 3x3 pixel intrinsics.")
-    backbone: str | None = None
+    backbone: str | None = Field(
+        None,
+        description="Wins when given; else an upload with depths runs posed-rgbd, and a scene_id is "
+        "reconstructed as it was uploaded (posed-rgbd for posed RGB-D). The response's backbone says "
+        "which ran.",
+    )
     start_view: int = Field(1, ge=1, description="1-based view whose camera stands above the robot's start.")
     goal: RouteGoal
     robot: RobotSpec = Field(default_factory=RobotSpec)
 
 
 class RouteStep(_Model):
-    turn_degrees: float = Field(..., description="Turn in place about up first; left-positive.")
-    move: float = Field(..., description="Then drive forward this far (metres when units is metres).")
+    turn_degrees: float = Field(
+        ..., description="Turn in place about up first, degrees; + = left (counter-clockwise from above)."
+    )
+    move: float = Field(..., description="Then drive forward this far, in `units` (metres or scene units).")
 
 
 class RouteResponse(_Model):
@@ -788,10 +799,14 @@ class RouteResponse(_Model):
     sentences: list[str]
     path_world: list[list[float]]
     path_start_camera: list[list[float]]
-    clearance_m: float | None = Field(None, description="Smallest gap between the robot and an obstacle.")
-    length_m: float | None
-    straight_line_m: float | None
-    units: Literal["metres", "scene units"]
+    clearance: float | None = Field(
+        None, description="Smallest gap between the robot and an obstacle, in `units`."
+    )
+    length: float | None = Field(..., description="The route's length, in `units`.")
+    straight_line: float | None = Field(..., description="Start to goal in a straight line, in `units`.")
+    units: Literal["metres", "scene units"] = Field(
+        ..., description="The unit of every length here: metres when the reconstruction is metric."
+    )
     metres_per_unit: float | None = Field(
         None, description="1 when metric; otherwise the estimate from an assumed 1.5 m camera height."
     )
