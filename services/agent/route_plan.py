@@ -28,8 +28,9 @@ def _goal_point(recon: Reconstruction, goal: RouteGoal, start: int) -> np.ndarra
     if goal.point_world is not None:
         return np.asarray(goal.point_world, np.float64)
     if goal.point_start_camera is not None:
-        pose = recon.extrinsics[start]
-        return pose[:, :3].T @ (np.asarray(goal.point_start_camera, np.float64) - pose[:, 3])
+        cam_from_world = recon.extrinsics[start]
+        rotation, translation = cam_from_world[:, :3], cam_from_world[:, 3]
+        return rotation.T @ (np.asarray(goal.point_start_camera, np.float64) - translation)
     pixel = goal.pixel
     view = pixel.view - 1
     if view >= recon.num_views:
