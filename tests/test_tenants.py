@@ -88,7 +88,7 @@ def test_recon_keeps_each_tenants_scenes_to_itself(stack, views):
             "download": _status(lambda: beta.reconstruction(scene)),
             "points": _status(lambda: beta.points(scene)),
             "render": _status(lambda: beta.render(scene, views.extrinsics[0], 32, 32)),
-            "motion": _status(lambda: beta.camera_motion(scene, [(0, 1)])),
+            "motion": _status(lambda: beta.camera_motion(scene, [(1, 2)])),
             "default tenant": _status(lambda: plain.scene_info(scene)),
         }
         assert refusals == dict.fromkeys(refusals, 404)
