@@ -135,7 +135,7 @@ def _by_id_under_load(url: str, scene_ids: list[str], fault) -> tuple[list[str],
                 scene_id = scene_ids[count % len(scene_ids)]
                 try:
                     client.reconstruct(scene_id)
-                    client.camera_motion(scene_id, [(0, 1)])
+                    client.camera_motion(scene_id, [(1, 2)])
                 except Exception as error:  # noqa: BLE001 - every failure is counted
                     failures.append(f"{scene_id}: {error}")
                 count += 1
