@@ -15,7 +15,7 @@ person would write; the program then runs under the same sandbox as model-writte
 - "around": anything else plannable: render left, right and behind of the asked view (view 1 by default).
 
 Occlusion and object-perspective questions cannot be planned offline (see QuestionIntent.offline_reason):
-`UnplannableQuestion` says why. Views are 1-based in questions and 0-based in code.
+`UnplannableQuestion` says why. Views are 1-based in questions and tools; `recon.extrinsics[0]` is view 1.
 """
 
 from __future__ import annotations
