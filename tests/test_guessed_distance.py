@@ -73,5 +73,5 @@ def test_camera_motion_over_http_gives_no_motion_for_a_pair_resting_on_a_guessed
     assert measured
     for pair in measured:
         assert by_pair[pair].described and by_pair[pair].reason is None
-        assert by_pair[pair].sentence.startswith(f"From view {pair[0] + 1} to view {pair[1] + 1}")
+        assert by_pair[pair].sentence.startswith(f"From view {pair[0]} to view {pair[1]}")
         assert "unknown" not in by_pair[pair].sentence
