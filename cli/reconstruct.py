@@ -35,7 +35,7 @@ def show_summary(summary: ReconstructionSummary) -> None:
             pose = np.asarray(camera.extrinsic)
             centre = ", ".join(f"{v:+.3f}" for v in -pose[:, :3].T @ pose[:, 3])
         table.add_row(
-            str(camera.index + 1),
+            str(camera.view),
             "yes" if camera.registered else "[red]no[/]",
             f"{camera.width}x{camera.height}",
             "-" if camera.intrinsic is None else f"{camera.intrinsic[0][0]:.1f} ({camera.intrinsics_source})",

@@ -71,7 +71,7 @@ def _origin(view: ClueView | None) -> str:
     if view is None:
         return ""
     if view.source == "input":
-        return f" (input image {view.input_index + 1})" if view.input_index is not None else ""
+        return f" (input image {view.input_view})" if view.input_view is not None else ""
     if view.extrinsic is None:
         return " (rendered)"
     pose = np.asarray(view.extrinsic)

@@ -38,19 +38,82 @@ def parse_goal(pixel: str | None, world: str | None, camera: str | None) -> dict
     return {"point_world": point} if world else {"point_start_camera": point}
 
 
-def _posed_inputs(depths: list[Path] | None, cameras: Path | None) -> dict:
+def split_depths(arguments: list[Path], depths: list[Path] | None) -> tuple[list[Path], list[Path]]:
+    """Photos and depth files apart. A shell glob after --depths (`--depths d*.npy`) gives the option
+    its first file and leaves the others among the photos: every .npy there is a depth, in the
+    order given (a .npy is never a photo)."""
+    photos = [path for path in arguments if path.suffix.lower() != ".npy"]
+    named = [*(depths or []), *(path for path in arguments if path.suffix.lower() == ".npy")]
+    return photos, [found for path in named for found in _expanded(path)]
+
+
+def _expanded(path: Path) -> list[Path]:
+    """A quoted pattern the shell left alone ('d*.npy'), as the files it matches sorted by name."""
+    if path.exists() or not any(mark in str(path) for mark in "*?["):
+        return [path]
+    return sorted(path.parent.glob(path.name)) or [path]
+
+
+def _matrix(value, shape: tuple[int, int]) -> bool:
+    return np.asarray(value, dtype=object).shape == shape
+
+
+def per_view_intrinsics(given: dict, num_views: int) -> list:
+    """One 3x3 per view from a cameras file: `intrinsics` as one per view, or one shared 3x3 (as
+    `intrinsic` or as `intrinsics`), repeated for every view."""
+    shared = given.get("intrinsic", given.get("intrinsics"))
+    if shared is not None and _matrix(shared, (3, 3)):
+        return [shared] * num_views
+    listed = given.get("intrinsics")
+    if not isinstance(listed, list) or len(listed) != num_views:
+        count = len(listed) if isinstance(listed, list) else 0
+        raise fail(
+            f'--cameras: give one shared 3x3 "intrinsic" or one 3x3 per view in "intrinsics" '
+            f"(views 1..{num_views}); found {count}"
+        )
+    for view, matrix in enumerate(listed, 1):
+        if not _matrix(matrix, (3, 3)):
+            raise fail(f"--cameras: the intrinsics of view {view} are not a 3x3 matrix")
+    return listed
+
+
+def _read_posed(depths: list[Path], cameras: Path) -> tuple[list[np.ndarray], dict]:
+    try:
+        given = json.loads(cameras.read_text())
+    except (OSError, ValueError) as error:
+        raise fail(f"could not read --cameras {cameras}: {error}") from None
+    arrays = []
+    for view, path in enumerate(depths, 1):
+        try:
+            arrays.append(np.load(path, allow_pickle=False))
+        except (OSError, ValueError) as error:
+            raise fail(f"could not read the depth of view {view} ({path}): {error}") from None
+    if not isinstance(given, dict):
+        raise fail('--cameras is a JSON object {"extrinsics": [3x4 per view], "intrinsic": 3x3}')
+    return arrays, given
+
+
+def posed_inputs(depths: list[Path], cameras: Path | None, num_views: int) -> dict:
+    """The posed RGB-D part of the request: per view a depth, a 3x4 pose and a 3x3 intrinsic."""
     if not depths and cameras is None:
         return {}
     if not depths or cameras is None:
         raise fail("--depths and --cameras go together (posed RGB-D)")
-    try:
-        given = json.loads(cameras.read_text())
-        arrays = [np.load(path, allow_pickle=False) for path in depths]
-    except (OSError, ValueError) as error:
-        raise fail(f"could not read the posed inputs: {error}") from None
-    if not isinstance(given, dict) or "extrinsics" not in given or "intrinsics" not in given:
-        raise fail('--cameras is a JSON file {"extrinsics": [3x4 ...], "intrinsics": [3x3 ...]}')
-    return {"depths": arrays, "extrinsics": given["extrinsics"], "intrinsics": given["intrinsics"]}
+    if len(depths) != num_views:
+        raise fail(f"{len(depths)} depth file(s) for {num_views} photos: give one .npy per view, in order")
+    arrays, given = _read_posed(depths, cameras)
+    extrinsics = given.get("extrinsics")
+    if not isinstance(extrinsics, list) or len(extrinsics) != num_views:
+        raise fail(f'--cameras: "extrinsics" needs one 3x4 camera-from-world per view (views 1..{num_views})')
+    for view, pose in enumerate(extrinsics, 1):
+        if not (_matrix(pose, (3, 4)) or _matrix(pose, (4, 4))):
+            raise fail(f"--cameras: the extrinsic of view {view} is not a 3x4 (or 4x4) matrix")
+    cam_from_world = [np.asarray(pose, dtype=float)[:3] for pose in extrinsics]
+    return {
+        "depths": arrays,
+        "extrinsics": np.stack(cam_from_world),
+        "intrinsics": per_view_intrinsics(given, num_views),
+    }
 
 
 def route(
@@ -59,14 +122,22 @@ def route(
     goal_pixel: str | None = typer.Option(None, help="VIEW:U,V, a pixel (column, row) of a view (1-based)."),
     goal_world: str | None = typer.Option(None, help="X,Y,Z in the reconstruction's world frame."),
     goal_camera: str | None = typer.Option(None, help="X,Y,Z in the start camera's frame (OpenCV axes)."),
-    depths: list[Path] = typer.Option(None, help="Per view a .npy z-depth in metres (with --cameras)."),
-    cameras: Path | None = typer.Option(None, help='JSON {"extrinsics": [...], "intrinsics": [...]}.'),
+    depths: list[Path] = typer.Option(
+        None,
+        help="Per view a .npy z-depth in metres (with --cameras), in view order: repeat the option, or "
+        "give several files (--depths d*.npy) or a quoted pattern (--depths 'd*.npy', sorted by name).",
+    ),
+    cameras: Path | None = typer.Option(
+        None,
+        help='JSON {"extrinsics": [3x4 camera-from-world per view], "intrinsic": one shared 3x3} '
+        '(or "intrinsics": one 3x3 per view).',
+    ),
     radius: float = typer.Option(0.25, help="The robot's radius, metres."),
     height: float = typer.Option(0.5, help="The top of the robot's body above the floor, metres."),
     floor_clearance: float = typer.Option(0.05, help="The bottom of its body: lower things are driven over."),
     backbone: str | None = typer.Option(None, help="Reconstruction backbone (posed-rgbd with depths)."),
     out: Path | None = typer.Option(
-        None, help="Where to write the plan [default: pyspatial-out/route/SCENE.json]."
+        None, help="Where to write the plan.", show_default="pyspatial-out/route/<scene id>.json"
     ),
     agent_url: str = typer.Option(DEFAULT_AGENT_URL, envvar="PYSPATIAL_AGENT_URL", help="Agent service."),
     timeout: float = typer.Option(900.0, help="Seconds to wait for the plan."),
@@ -74,11 +145,12 @@ def route(
 ) -> None:
     """Plan turns and forward moves from the floor below a view's camera to a goal, avoiding obstacles."""
     goal = parse_goal(goal_pixel, goal_world, goal_camera)
+    images, depth_files = split_depths(photos, depths)
     try:
-        paths = collect_images(photos)
+        paths = collect_images(images)
     except ValueError as error:
         raise fail(str(error)) from None
-    posed = _posed_inputs(depths, cameras)
+    posed = posed_inputs(depth_files, cameras, len(paths))
     robot = {"radius": radius, "height": height, "floor_clearance": floor_clearance}
     with service_errors(), AgentClient(agent_url, timeout=timeout, api_key=api_key) as client:
         with spinner(f"planning a route over {len(paths)} photos"):
@@ -93,8 +165,8 @@ def route(
         for number, sentence in enumerate(plan.sentences, 1):
             console.print(f"{number}. {sentence}")
         console.print(
-            f"length {plan.length_m:.2f} {unit} (straight line {plan.straight_line_m:.2f}), "
-            f"smallest clearance {plan.clearance_m:.2f} {unit}; turns are {plan.turn_convention}"
+            f"length {plan.length:.2f} {unit} (straight line {plan.straight_line:.2f}), "
+            f"smallest clearance {plan.clearance:.2f} {unit}; turns are {plan.turn_convention}"
         )
     else:
         console.print(f"[red]no route:[/] {plan.reason}")

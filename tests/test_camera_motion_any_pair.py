@@ -37,16 +37,16 @@ def scene_id(recon) -> str:
 def test_the_endpoint_describes_a_non_consecutive_pair(recon, scene_id) -> None:
     with ReconClient(recon.url) as client:
         one = client.camera_motion(scene_id, from_view=1, to_view=3)
-        same = client.camera_motion(scene_id, pairs=[(0, 2)])
+        same = client.camera_motion(scene_id, pairs=[(1, 3)])  # 1-based, as from_view/to_view
         back = client.camera_motion(scene_id, from_view=3, to_view=1)
         consecutive = client.camera_motion(scene_id)
-    assert [(m.from_view, m.to_view) for m in one.motions] == [(0, 2)]
+    assert [(m.from_view, m.to_view) for m in one.motions] == [(1, 3)]
     assert one.text.startswith("From view 1 to view 3, in view 1's image axes, ") and one.text == same.text
     assert back.text.startswith("From view 3 to view 1, in view 3's image axes, ")
     # The exact cameras' own description of that pair (shared/geometry), not a chain of two.
     exact = describe_pairs(np.asarray(VIEWS.extrinsics), [None] * 3, pairs=[(0, 2)])[0]
     assert (one.motions[0].direction, one.motions[0].turn) == (exact.direction, exact.turn)
-    assert [(m.from_view, m.to_view) for m in consecutive.motions] == [(0, 1), (1, 2)]
+    assert [(m.from_view, m.to_view) for m in consecutive.motions] == [(1, 2), (2, 3)]
 
 
 @pytest.mark.parametrize(
@@ -54,7 +54,7 @@ def test_the_endpoint_describes_a_non_consecutive_pair(recon, scene_id) -> None:
     [
         ({"from_view": 1}, "go together"),
         ({"from_view": 2, "to_view": 2}, "different"),
-        ({"from_view": 1, "to_view": 2, "pairs": [[0, 1]]}, "not both"),
+        ({"from_view": 1, "to_view": 2, "pairs": [[1, 2]]}, "not both"),
         ({"from_view": 0, "to_view": 2}, "greater than or equal to 1"),
     ],
 )
@@ -67,7 +67,7 @@ def test_a_view_out_of_range_is_a_4xx(recon, scene_id) -> None:
     response = httpx.post(
         f"{recon.url}/v1/camera-motion", json={"scene_id": scene_id, "from_view": 1, "to_view": 4}, timeout=30
     )
-    assert response.status_code == 422 and "out of range" in response.text
+    assert response.status_code == 422 and "view 4 does not exist: the scene has views 1..3" in response.text
 
 
 def test_the_sandbox_tool_and_the_python_api_name_any_pair(recon, scene_id) -> None:

@@ -164,7 +164,7 @@ def test_confidence_over_http(tmp_path, redis_url):
         assert camera.registered and camera.confidence is not None
         assert camera.confidence.inliers >= 30 and camera.confidence.unregistered_reason is None
         assert 0 < camera.confidence.spread <= 1 and camera.confidence.reprojection_error_px < 1.5
-    assert {(pair.first, pair.second) for pair in summary.pairs} == {(0, 1), (0, 2), (1, 2)}
+    assert {(pair.first, pair.second) for pair in summary.pairs} == {(1, 2), (1, 3), (2, 3)}  # 1-based
     assert all(pair.triangulation_angle_deg > 1 for pair in summary.pairs)
 
 

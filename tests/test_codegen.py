@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import ast
+import inspect
+import re
 from collections.abc import Iterator
 
 import pytest
 
 from services.agent.codegen import (
+    DEFAULT_TEMPLATE,
     ExecutionOutcome,
     build_codegen_messages,
     extract_program,
@@ -16,6 +19,7 @@ from services.agent.codegen import (
 )
 from services.agent.llm import ChatClient, ChatModelConfig
 from services.agent.prompts import PromptError, load_examples, load_template
+from services.agent.sandbox.api import PySpatial
 from services.agent.sandbox.validation import ProgramRejected, validate_program
 from services.agent.steps import SolveLog
 from shared.questions.intent import parse_question
@@ -123,7 +127,7 @@ def test_images_follow_the_text_in_order_or_not_at_all() -> None:
 
 def test_template_is_versioned_and_strict() -> None:
     template = load_template("codegen")
-    assert (template.name, template.version, template.id) == ("codegen", 3, "codegen_v3")
+    assert (template.name, template.version, template.id) == ("codegen", 4, "codegen_v4")
     assert "pySpatial.plan_route(recon, start_view, goal" in template.text  # issue 23's tools
     assert template.fields == {"examples", "photos", "question"}
     assert load_template("codegen_v1").fields == {"examples", "num_images", "question"}  # still there
@@ -133,6 +137,61 @@ def test_template_is_versioned_and_strict() -> None:
         template.render(question="q", photos="", examples="", extra="x")
     with pytest.raises(PromptError):
         load_template("codegen_v99")
+
+
+# ---- the prompt's API page against the API's own conventions --------------------------------------
+
+VIEW_BASE = re.compile(r"\b([01])-based\b")
+TURN_SIGN = re.compile(r"\+ = (left|right)|\b(left|right)-positive")
+UNITS = ("scene units", "metres", "pixels", "degrees")
+DISTANCES = {"distance", "robot_radius", "goal", "point"}  # arguments that are lengths or positions
+
+
+def _page_entries(text: str) -> dict[str, tuple[list[str], str]]:
+    """Each `def pySpatial.NAME(args)` of the prompt's API page: its argument names and docstring."""
+    found = re.findall(r'def pySpatial\.(\w+)\(([^)]*)\)[^\n]*:\n\s*"""(.*?)"""', text, re.S)
+    return {
+        name: ([a.split("=")[0].strip() for a in args.split(",") if a.strip()], doc)
+        for name, args, doc in found
+    }
+
+
+def _sides(text: str) -> set[str]:
+    return {side for pair in TURN_SIGN.findall(text) for side in pair if side}
+
+
+def _program_api() -> dict[str, tuple[list[str], str]]:
+    """Every tool a program calls: its argument names and docstring, from the class itself."""
+    tools = {}
+    for name, member in vars(PySpatial).items():
+        if name.startswith("_") or not inspect.isfunction(member):
+            continue
+        arguments = [a for a in inspect.signature(member).parameters if a != "self"]
+        tools[name] = (arguments, " ".join((inspect.getdoc(member) or "").split()))
+    return tools
+
+
+def test_the_prompts_api_page_states_the_apis_view_base_turn_sign_and_units() -> None:
+    text = load_template(DEFAULT_TEMPLATE).text
+    page = _page_entries(text)
+    api = _program_api()
+    assert set(api) == set(page), "the API page lists every tool and only those"
+    for name, (arguments, doc) in api.items():
+        page_arguments, page_doc = page[name]
+        page_doc = " ".join(page_doc.split())
+        assert page_arguments == arguments, name
+        if any(argument.endswith("view") for argument in arguments):  # a view argument's base
+            assert set(VIEW_BASE.findall(doc)) == {"1"}, f"{name}: the API names no 1-based view"
+            assert set(VIEW_BASE.findall(page_doc)) == {"1"}, f"{name}: the page names no 1-based view"
+        assert _sides(doc) <= {"left"} and _sides(page_doc) == _sides(doc), f"{name}: the turn sign"
+        if "degrees" in doc.lower() and not _sides(doc):  # an unsigned angle: its name says which way
+            assert any(way in name for way in ("left", "right", "around")), name
+        for unit in UNITS:
+            assert unit not in doc.lower() or unit in page_doc.lower(), f"{name}: the page omits {unit}"
+        if DISTANCES & set(arguments):
+            assert "scene units" in doc or "metres" in doc, f"{name}: a length without its unit"
+    rules = " ".join(text.split("## API")[0].split())
+    assert "1-based" in rules and "+ = left, - = right" in rules and "scene units" in rules
 
 
 # ---- extracting the program -----------------------------------------------------------------------

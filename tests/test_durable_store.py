@@ -135,7 +135,7 @@ def _by_id_under_load(url: str, scene_ids: list[str], fault) -> tuple[list[str],
                 scene_id = scene_ids[count % len(scene_ids)]
                 try:
                     client.reconstruct(scene_id)
-                    client.camera_motion(scene_id, [(0, 1)])
+                    client.camera_motion(scene_id, [(1, 2)])
                 except Exception as error:  # noqa: BLE001 - every failure is counted
                     failures.append(f"{scene_id}: {error}")
                 count += 1
@@ -158,7 +158,7 @@ def test_redis_restarted_empty_and_flushed_under_load_fails_nothing(stack, views
     def upload_while_down() -> None:  # stored, and served by the other replica, with no Redis at all
         uploaded_while_down.extend(_upload_and_reconstruct(stack.first.url, views, [350]))
         with ReconClient(stack.second.url, timeout=60) as client:
-            assert client.camera_motion(uploaded_while_down[0], [(0, 1)]).motions
+            assert client.camera_motion(uploaded_while_down[0], [(1, 2)]).motions
 
     def faults() -> None:
         time.sleep(0.2)
@@ -173,7 +173,7 @@ def test_redis_restarted_empty_and_flushed_under_load_fails_nothing(stack, views
     # the replica that took the uploads was restarted-from too: a fresh upload lands, and it solves
     late = _upload_and_reconstruct(stack.first.url, views, [399])
     with ReconClient(stack.second.url, timeout=60) as client:
-        assert client.camera_motion(late[0], [(0, 1)]).motions
+        assert client.camera_motion(late[0], [(1, 2)]).motions
 
 
 def test_a_6mb_allkeys_lru_redis_over_two_dozen_scenes_fails_nothing_by_id(stack):
@@ -189,7 +189,7 @@ def test_a_6mb_allkeys_lru_redis_over_two_dozen_scenes_fails_nothing_by_id(stack
         with ReconClient(stack.second.url, timeout=120) as other:
             infos = [other.scene_info(scene_id) for scene_id in ids]
             images = [other.scene_image(scene_id, 2) for scene_id in ids[:3]]
-            motion = [other.camera_motion(ids[0], [(0, 1)])]  # the first upload: evicted first
+            motion = [other.camera_motion(ids[0], [(1, 2)])]  # the first upload: evicted first
     finally:
         control.config_set("maxmemory", "0")
     assert [info.num_images for info in infos] == [3] * 24

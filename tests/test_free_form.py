@@ -96,6 +96,8 @@ def test_the_answer_model_is_asked_for_words_not_a_letter(llm: ScriptedLLM, clie
     assert result.answer == "to the right" and result.method == "model_json"
     result = answer_from_images(client, intent, [b"png-1", b"png-2"])
     assert result.answer == "to the right"
+    # The images-only path counts its tokens like the others (the server's usage, words here).
+    assert result.prompt_tokens > 0 and result.completion_tokens > 0
     for request in llm.requests():
         prompt = " ".join(part.get("text", "") for part in request["messages"][0]["content"])
         assert "in a few words" in prompt and "one letter" not in prompt

@@ -60,18 +60,18 @@ def test_camera_motion_over_http_gives_no_motion_for_a_pair_resting_on_a_guessed
         photos = _among_photos()
         scene_id = upload_photos(client, photos)
         pairs = client.reconstruct(scene_id).pairs
-        response = client.camera_motion(scene_id, pairs=list(combinations(range(len(photos)), 2)))
-    by_pair = {(m.from_view, m.to_view): m for m in response.motions}
-    guessed = by_pair[(1, 3)]
+        response = client.camera_motion(scene_id, pairs=list(combinations(range(1, len(photos) + 1), 2)))
+    by_pair = {(m.from_view, m.to_view): m for m in response.motions}  # views numbered from 1
+    guessed = by_pair[(2, 4)]
     assert not guessed.described and "guessed distance" in guessed.reason
     assert guessed.direction is None and guessed.turn is None and guessed.over_focal is None
     assert guessed.sentence == f"From view 2 to view 4 the camera motion is unknown: {guessed.reason}."
     flagged = {(p.first, p.second): p.uncertain_reason for p in pairs}
-    assert "guessed distance" in flagged[(1, 3)]
+    assert "guessed distance" in flagged[(2, 4)]
     # A pair that measures its own direction, in the same scene, still gets its sentence.
     measured = [(p.first, p.second) for p in pairs if p.inliers >= 15 and p.uncertain_reason is None]
     assert measured
     for pair in measured:
         assert by_pair[pair].described and by_pair[pair].reason is None
-        assert by_pair[pair].sentence.startswith(f"From view {pair[0] + 1} to view {pair[1] + 1}")
+        assert by_pair[pair].sentence.startswith(f"From view {pair[0]} to view {pair[1]}")
         assert "unknown" not in by_pair[pair].sentence

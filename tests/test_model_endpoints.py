@@ -7,6 +7,7 @@ as real servers do, or sending replies built to stall a regex.
 
 from __future__ import annotations
 
+import base64
 import threading
 import time
 
@@ -22,6 +23,12 @@ from tests.support.stack import recon_env, upload_posed_views
 from tests.test_model_replies import cleaned
 
 RECON_APP = "services.recon.app:create_app"
+
+
+def png_base64(png: bytes) -> str:
+    return base64.b64encode(png).decode()
+
+
 AGENT_APP = "services.agent.app:create_app"
 SECRET = "sk-test-SECRET0123456789abcdef"
 MOTION_REPLY = """```python
@@ -180,6 +187,23 @@ def test_a_rejected_key_is_a_502_the_client_sees_without_the_key(vision_agent, l
     assert "rejected the API key (HTTP 401)" in detail and "[redacted]" in detail
     assert SECRET not in response.text and "SECRET0123" not in vision_agent.log()
     assert llm.requests()[0]["body"]["model"] == "coder" and len(llm.requests()) == 1
+
+
+def test_a_rejected_answer_key_on_the_images_only_path_is_a_502_naming_the_setting(vision_agent, llm, views):
+    """Photos the backbone cannot use (posed-rgbd, no depths): no program runs, the answer model
+    answers from the photos alone, and its rejected key is the client's 502, not a null answer."""
+    llm.reset()
+    llm.script([{"status": 401, "error_message": "Incorrect API key {authorization}"}], model="answerer")
+    body = {
+        "question": "Which way did I move? A. left B. right",
+        "images": [png_base64(p) for p in views.pngs()],
+    }
+    response = httpx.post(vision_agent.url + "/v1/solve", json=body, timeout=120)
+    assert response.status_code == 502, response.text
+    detail = response.json()["detail"]
+    assert "model 'answerer'" in detail and "rejected the API key (HTTP 401)" in detail
+    assert "PYSPATIAL_ANSWER_MODEL_API_KEY" in detail and SECRET not in response.text
+    assert [request["body"]["model"] for request in llm.requests()] == ["answerer"]  # no code model ran
 
 
 def test_an_upstream_error_echoing_the_key_never_reaches_the_response_or_the_log(vision_agent, llm, scene_id):

@@ -266,7 +266,7 @@ def exercise_recon(observe: Observer, stack, views) -> None:
             "/v1/camera-motion",
             lambda s: "/v1/camera-motion",
             lambda s: {"scene_id": s},
-            lambda s: ("POST", "/v1/camera-motion", {"scene_id": s, "pairs": [[0, 9]]}),
+            lambda s: ("POST", "/v1/camera-motion", {"scene_id": s, "pairs": [[1, 9]]}),
         ),
     ]
 

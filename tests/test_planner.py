@@ -268,6 +268,28 @@ def test_rendered_clues_show_the_asked_side(question: str, walls: list[str], too
     assert [dominant_wall(png) for png in result.clue_images] == walls
 
 
+class MetricColourRoom(ColourRoomTools):
+    """The colour room as a metric reconstruction reports it (units: metres)."""
+
+    def reconstruct(self) -> dict:
+        return {**super().reconstruct(), "units": "metres"}
+
+
+@pytest.mark.parametrize("metric", [True, False])
+def test_a_distance_in_metres_is_moved_only_where_the_scene_is_metric(metric: bool) -> None:
+    """'Walk 2.5 m' from the origin facing north ends 0.5 m from the red wall: in a metric scene the
+    render after it is all red; without a metric scale the program says why it cannot move metres."""
+    question = "From image 1, if you walk forward 2.5 meters, what is in front of you? A. a wall B. a door"
+    room = MetricColourRoom(ROOM) if metric else ColourRoomTools(ROOM)
+    plan = plan_intent(parse_question(question, len(ROOM)), len(ROOM))
+    result = run_program(plan.source, question, len(ROOM), room)
+    if metric:
+        assert result.ok and [dominant_wall(png) for png in result.clue_images] == ["red"]
+        assert "no metric scale" not in (result.clue_text or "")
+    else:
+        assert result.clue_images == [] and "no metric scale" in (result.clue_text or result.error or "")
+
+
 def test_computed_motion_matches_shared_camera_motion(tools: ColourRoomTools) -> None:
     _, result = run("How did the camera move from view 1 to view 3? A. Left B. Right", tools)
     expected = describe_camera_motion(tools.recon.extrinsics, pairs=[(0, 2)], up=WORLD_UP)[0].sentence

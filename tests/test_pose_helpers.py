@@ -77,7 +77,8 @@ def test_programs_get_4x4_extrinsics_and_the_helpers() -> None:
     cameras = ThreeCameras.extrinsics
     expected = poses.as_4x4(cameras[1]) @ np.linalg.inv(poses.as_4x4(cameras[0]))
     np.testing.assert_allclose(values["relative"], expected, atol=1e-9)
-    assert values["heading"] == pytest.approx(30.0) and values["heading_back"] == pytest.approx(-30.0)
+    # Left-positive like every horizontal angle: the third camera turned 30 degrees right.
+    assert values["heading"] == pytest.approx(-30.0) and values["heading_back"] == pytest.approx(30.0)
     assert values["distance"] == pytest.approx(0.5) and values["distance_h"] == pytest.approx(0.5)
     assert values["turned"] == [4, 4] and values["turned_3x4"] == [3, 4]
 

@@ -240,7 +240,7 @@ def partial_scene(client, room) -> str:
     assert [c.registered for c in summary.cameras] == [True, False, True, True], summary.warnings
     # People count views from 1, in /reconstruct's warnings as in camera motion's sentences.
     assert any(w.startswith("view 2 could not be registered (") for w in summary.warnings), summary.warnings
-    assert summary.cameras[1].index == 1  # the JSON index field keeps its 0-based meaning
+    assert summary.cameras[1].view == 2  # the JSON field names the view as people do
     return scene.scene_id
 
 
@@ -251,7 +251,7 @@ def test_partially_registered_scene_gets_per_pair_motion(recon, partial_scene):
     pairs = [(m["from_view"], m["to_view"], m["described"]) for m in body["motions"]]
     # No focal given and none the views fix: the placed pairs were solved over focal hypotheses, and
     # every such pair has its sentence of what they share (view 1 -> 4 too).
-    assert pairs == [(0, 1, False), (0, 2, True), (0, 3, True), (1, 2, False), (2, 3, True)]
+    assert pairs == [(1, 2, False), (1, 3, True), (1, 4, True), (2, 3, False), (3, 4, True)]
     assert all(m["over_focal"] is not None for m in body["motions"] if m["described"])
     # Every quantity of the vocabulary, each with its words, its range and whether all focals agree.
     for motion in (m for m in body["motions"] if m["described"]):
@@ -273,17 +273,15 @@ def test_partially_registered_scene_gets_per_pair_motion(recon, partial_scene):
     assert body["motions"][1]["sentence"].startswith("From view 1 to view 3 the camera turned")
     assert body["text"].count("\n") == 4 and body["scene_scale"] > 0
 
-    body = {"scene_id": partial_scene, "pairs": [[1, 3], [3, 0]]}
+    body = {"scene_id": partial_scene, "pairs": [[2, 4], [4, 1]]}
     explicit = httpx.post(recon.url + "/v1/camera-motion", json=body, timeout=60)
     assert explicit.status_code == 200
     assert [m["described"] for m in explicit.json()["motions"]] == [False, True]
     out_of_range = httpx.post(
-        recon.url + "/v1/camera-motion", json={"scene_id": partial_scene, "pairs": [[0, 9]]}, timeout=60
+        recon.url + "/v1/camera-motion", json={"scene_id": partial_scene, "pairs": [[1, 9]]}, timeout=60
     )
     assert out_of_range.status_code == 422
-    assert out_of_range.json()["detail"] == (
-        "view index 9 is out of range: the scene has 4 views, at indices 0..3 (0-based: view 1 is index 0)"
-    )
+    assert out_of_range.json()["detail"] == ("view 9 does not exist: the scene has views 1..4")
 
 
 def test_motion_of_a_view_with_an_uncertain_position_is_not_stated(recon, client):
@@ -306,12 +304,12 @@ def test_motion_of_a_view_with_an_uncertain_position_is_not_stated(recon, client
     response = httpx.post(recon.url + "/v1/camera-motion", json={"scene_id": uploaded.scene_id}, timeout=60)
     assert response.status_code == 200, response.text
     motions = {(m["from_view"], m["to_view"]): m for m in response.json()["motions"]}
-    assert sorted(motions) == [(0, 1), (0, 2), (1, 2)]
-    for pair in ((0, 1), (1, 2)):
+    assert sorted(motions) == [(1, 2), (1, 3), (2, 3)]
+    for pair in ((1, 2), (2, 3)):
         assert not motions[pair]["described"]
         assert motions[pair]["reason"] == f"view 2's pose is not certain ({flags[1]})"
         assert "the camera motion is unknown: view 2's pose is not certain" in motions[pair]["sentence"]
-    assert motions[(0, 2)]["described"], motions[(0, 2)]
+    assert motions[(1, 3)]["described"], motions[(1, 3)]
 
 
 MOTION_PROGRAM = """```python
@@ -392,7 +390,7 @@ def test_camera_motion_toward_a_target_point_pixel_or_the_scene_centre(client, r
 
     pngs, depths, extrinsics, intrinsics = exact_pair(room, lambda first: moved(first, first[2, :3] * 0.5))
     scene = client.upload_scene(pngs, depths=depths, extrinsics=extrinsics, intrinsics=intrinsics)
-    ahead = MotionTarget(pixel=PixelTarget(view=0, u=80, v=60), name="the wall ahead")
+    ahead = MotionTarget(pixel=PixelTarget(view=1, u=80, v=60), name="the wall ahead")  # 1-based
     [motion] = client.camera_motion(scene.scene_id, backbone="posed-rgbd", target=ahead).motions
     before, after = motion.target_distances
     assert motion.target_change == "closer" and before - after == pytest.approx(0.5, abs=0.05)

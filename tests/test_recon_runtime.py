@@ -194,13 +194,13 @@ def test_npz_depth_and_deeply_nested_extrinsics_are_4xx(recon, views):
 def test_forty_thousand_camera_motion_pairs_are_refused(recon, views):
     with ReconClient(recon.url) as client:
         scene_id = client.upload_scene(jittered(views.images, 3)).scene_id
-    pairs = [[0, 1]] * 40_000
+    pairs = [[1, 2]] * 40_000
     response = httpx.post(
         recon.url + "/v1/camera-motion", json={"scene_id": scene_id, "pairs": pairs}, timeout=60
     )
     assert response.status_code == 422 and "at most 1024" in response.json()["detail"]
     response = httpx.post(
-        recon.url + "/v1/camera-motion", json={"scene_id": scene_id, "pairs": [[0, 1], [1, 2]]}, timeout=120
+        recon.url + "/v1/camera-motion", json={"scene_id": scene_id, "pairs": [[1, 2], [2, 3]]}, timeout=120
     )
     assert response.status_code == 200 and len(response.json()["motions"]) == 2
 

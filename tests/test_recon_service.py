@@ -261,17 +261,18 @@ def test_posed_rgbd_without_geometry_is_a_clear_error(client, views):
 
 def test_camera_motion_describes_known_motion(recon, client, rgbd_scene, views):
     motion = client.camera_motion(rgbd_scene, backbone="posed-rgbd")
-    assert [(m.from_view, m.to_view) for m in motion.motions] == [(0, 1), (1, 2)]
+    assert [(m.from_view, m.to_view) for m in motion.motions] == [(1, 2), (2, 3)]  # numbered from 1
     # The cameras orbit counter-clockwise (seen from above) while facing the centre: each step
     # moves the camera to its right and turns it left.
     for item in motion.motions:
         assert "right" in item.direction and item.yaw_deg > 0, item
+        assert -180 < item.angle_deg < 0  # a step to the right: left-positive like the turn
     assert motion.text.count("\n") == 1
     response = httpx.post(
         recon.url + "/v1/camera-motion",
-        json={"scene_id": rgbd_scene, "pairs": [[0, 7]], "backbone": "posed-rgbd"},
+        json={"scene_id": rgbd_scene, "pairs": [[1, 8]], "backbone": "posed-rgbd"},
     )
-    assert response.status_code == 422 and "out of range" in response.json()["detail"]
+    assert response.status_code == 422 and "view 8 does not exist" in response.json()["detail"]
 
 
 def test_concurrent_reconstructs_run_once(recon, views):

@@ -79,7 +79,7 @@ def test_a_pixel_goal_gives_steps_that_reach_it_on_the_true_geometry(planned, sc
     assert np.linalg.norm(np.array(planned.goal_located) - two.goal) < 0.05
     run = execute_steps(two, [step.model_dump() for step in planned.steps], 0.25)
     assert not run.collided and np.linalg.norm(run.end - two.goal[:2]) <= 0.3
-    assert planned.length_m >= planned.straight_line_m and planned.clearance_m > 0
+    assert planned.length >= planned.straight_line and planned.clearance > 0
     assert len(planned.path_world) == len(planned.path_start_camera) == len(planned.steps) + 1
 
 
@@ -90,14 +90,14 @@ def test_the_same_scene_by_id_with_a_goal_in_the_start_camera(agent, planned, sc
     with AgentClient(agent.url) as client:
         again = client.route({"point_start_camera": in_camera}, scene_id=planned.scene_id, start_view=1)
     assert again.reachable and again.scene_id == planned.scene_id
-    assert again.length_m == pytest.approx(planned.length_m, abs=0.1)
+    assert again.length == pytest.approx(planned.length, abs=0.1)
 
 
 @pytest.mark.parametrize(
     ("goal", "message"),
     [
         ({"pixel": {"view": 2, "u": 400, "v": 10}}, "outside view 2's image"),
-        ({"pixel": {"view": 2, "u": 5, "v": 5}}, "nothing is reconstructed"),
+        ({"pixel": {"view": 2, "u": 5, "v": 5}}, "nothing is reconstructed there (view 2 has no depth"),
         ({"point_world": "dividing wall"}, "inside an obstacle"),
         ({"pixel": {"view": 9, "u": 5, "v": 5}}, "view 9 does not exist"),
         ({}, "exactly one of"),
@@ -123,7 +123,7 @@ def test_an_unreachable_goal_is_a_200_with_the_reason(agent, scenes):
             {"point_world": two.goal.tolist()}, robot={"radius": 0.25}, **_upload_arguments(two, views)
         )
         assert not plan.reachable and plan.refusal == "narrow_gap" and "wide" in plan.reason
-        assert plan.steps == [] and plan.length_m is None
+        assert plan.steps == [] and plan.length is None
         with pytest.raises(ServiceError) as refused:
             client.route({"point_world": two.goal.tolist()}, scene_id=plan.scene_id, start_view=0)
     assert refused.value.status_code == 422
@@ -142,35 +142,59 @@ def test_the_command_line_prints_the_sentences_and_writes_the_plan(agent, scenes
         save_photo(photos[-1], view.rgb, two.intrinsic)
         depths.append(tmp_path / f"depth_{index + 1}.npy")
         np.save(depths[-1], view.depth)
-    cameras = tmp_path / "cameras.json"
+    cameras = tmp_path / "cameras.json"  # one 3x3 shared by every view
     cameras.write_text(
+        json.dumps({"extrinsics": two.extrinsics.tolist(), "intrinsic": two.intrinsic.tolist()})
+    )
+    per_view = tmp_path / "per_view.json"
+    per_view.write_text(
         json.dumps(
             {"extrinsics": two.extrinsics.tolist(), "intrinsics": [two.intrinsic.tolist()] * len(views)}
         )
     )
     pixel = goal_pixel(two)
-    plan_file = tmp_path / "plan.json"
-    done = pyspatial(
+    goal = ["--goal-pixel", f"{pixel['view']}:{pixel['u']},{pixel['v']}", "--agent-url", agent.url]
+    plans = {}
+    # What a shell gives for `--depths depth_*.npy` (the option's first file, then the others), the
+    # repeated option, and a quoted pattern; one shared intrinsic, then one per view.
+    for name, depth_arguments, camera_file in (
+        ("glob", ["--depths", *map(str, depths)], cameras),
+        ("repeated", [part for path in depths for part in ("--depths", str(path))], per_view),
+        ("pattern", ["--depths", str(tmp_path / "depth_*.npy")], cameras),
+    ):
+        plan_file = tmp_path / f"{name}.json"
+        done = pyspatial(
+            "route",
+            *map(str, photos),
+            *depth_arguments,
+            "--cameras",
+            str(camera_file),
+            "--out",
+            str(plan_file),
+            *goal,
+            cwd=tmp_path,
+        )
+        assert done.returncode == 0, name + done.stdout + done.stderr
+        plans[name] = json.loads(plan_file.read_text())
+        assert all(sentence in done.stdout for sentence in plans[name]["sentences"])
+        assert "left-positive" in done.stdout
+    plan = plans["glob"]
+    assert plan["reachable"] and plan["sentences"] and plan["backbone"] == "posed-rgbd"
+    assert plans["repeated"]["steps"] == plan["steps"] == plans["pattern"]["steps"]
+    short = pyspatial(
         "route",
         *map(str, photos),
-        "--start-view",
-        "1",
-        "--goal-pixel",
-        f"{pixel['view']}:{pixel['u']},{pixel['v']}",
-        *[part for path in depths for part in ("--depths", str(path))],
+        "--depths",
+        *map(str, depths[:-1]),
         "--cameras",
         str(cameras),
-        "--out",
-        str(plan_file),
-        "--agent-url",
-        agent.url,
+        *goal,
         cwd=tmp_path,
     )
-    assert done.returncode == 0, done.stdout + done.stderr
-    plan = json.loads(plan_file.read_text())
-    assert plan["reachable"] and plan["sentences"]
-    assert all(sentence in done.stdout for sentence in plan["sentences"])
-    assert "left-positive" in done.stdout
+    assert short.returncode != 0
+    assert f"{len(views) - 1} depth file(s) for {len(views)} photos" in short.stdout + short.stderr
+    helped = pyspatial("route", "--help", cwd=tmp_path)
+    assert "pyspatial-out/route/" in helped.stdout  # --out's default is shown
     bad = pyspatial(
         "route", *map(str, photos), "--goal-pixel", "2:oops", "--agent-url", agent.url, cwd=tmp_path
     )
@@ -183,8 +207,8 @@ def test_how_do_i_get_there_through_solve_uses_the_same_tools(recon_and_agent, p
     program = (
         "```python\ndef program(input_scene):\n"
         "    recon = pySpatial.reconstruct(input_scene)\n"
-        f"    goal = pySpatial.locate(recon, {pixel['view'] - 1}, {pixel['u']:.1f}, {pixel['v']:.1f})\n"
-        "    return pySpatial.plan_route(recon, 0, goal['point'])['summary']\n```"
+        f"    goal = pySpatial.locate(recon, {pixel['view']}, {pixel['u']:.1f}, {pixel['v']:.1f})\n"
+        "    return pySpatial.plan_route(recon, 1, goal['point'])['summary']\n```"
     )
     llm.reset()
     llm.script([program], model="coder")

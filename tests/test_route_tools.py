@@ -14,7 +14,7 @@ from shared.wire.client import ReconClient
 from tests.support.stack import recon_env
 
 RECON_APP = "services.recon.app:create_app"
-GOAL_VIEW = 3
+GOAL_VIEW = 3  # 0-based in two_rooms' arrays; programs name it GOAL_VIEW + 1, as questions count
 
 
 @pytest.fixture(scope="module")
@@ -46,9 +46,9 @@ def test_a_program_locates_the_goal_pixel_and_plans_a_route_to_it(scene):
     source = (
         "def program(input_scene):\n"
         "    recon = pySpatial.reconstruct(input_scene)\n"
-        f"    found = pySpatial.locate(recon, {GOAL_VIEW}, {u:.2f}, {v:.2f})\n"
-        "    plan = pySpatial.plan_route(recon, 0, found['point'], robot_radius=0.25)\n"
-        "    far = pySpatial.locate(recon, 1, 5.0, 5.0)\n"
+        f"    found = pySpatial.locate(recon, {GOAL_VIEW + 1}, {u:.2f}, {v:.2f})\n"
+        "    plan = pySpatial.plan_route(recon, 1, found['point'], robot_radius=0.25)\n"
+        "    far = pySpatial.locate(recon, 2, 5.0, 5.0)\n"
         "    return plan['summary'] + ' | ' + str(len(plan['steps'])) + ' | ' + str(far['point'] is None)\n"
     )
     result, tools = _run(source, scene)
@@ -62,11 +62,12 @@ def test_a_program_locates_the_goal_pixel_and_plans_a_route_to_it(scene):
 @pytest.mark.parametrize(
     ("call", "message"),
     [
-        ("pySpatial.plan_route(recon, 9, [0, 0, 0])", "view 9 does not exist"),
-        ("pySpatial.plan_route(recon, 0, [0, 0])", "3"),
-        ("pySpatial.plan_route(recon, 0, [1, 1, 0], robot_radius=-1)", "robot_radius"),
-        ("pySpatial.locate(recon, 0, 9999, 5)", "outside"),
-        ("pySpatial.locate(recon, 'one', 1, 1)", "integer index"),
+        ("pySpatial.plan_route(recon, 9, [0, 0, 0])", "view 9 does not exist; views are numbered 1.."),
+        ("pySpatial.plan_route(recon, 0, [0, 0, 0])", "view 0 does not exist; views are numbered 1.."),
+        ("pySpatial.plan_route(recon, 1, [0, 0])", "3"),
+        ("pySpatial.plan_route(recon, 1, [1, 1, 0], robot_radius=-1)", "robot_radius"),
+        ("pySpatial.locate(recon, 1, 9999, 5)", "outside view 1's image"),
+        ("pySpatial.locate(recon, 'one', 1, 1)", "view number"),
     ],
 )
 def test_bad_arguments_fail_the_program_with_a_reason(scene, call, message):

@@ -89,7 +89,7 @@ def test_stages_arrive_in_order_then_the_result_with_the_clue_poses(agent, scene
     clue = result["clue"]
     assert len(clue["views"]) == len(clue["images"]) >= 1
     view = clue["views"][0]
-    assert view["source"] == "rendered" and view["input_index"] is None
+    assert view["source"] == "rendered" and view["input_view"] is None
     pose = np.asarray(view["extrinsic"])
     truth = views.extrinsics[1]
     centre = -pose[:, :3].T @ pose[:, 3]

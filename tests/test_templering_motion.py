@@ -46,7 +46,7 @@ def stack(tmp_path_factory, redis_url):
             pngs = [encode_image(load_image(ROOT, CAMERAS[n].name)) for n in range(4)]
             with ReconClient(recon.url, timeout=300) as client:
                 scene_id = client.upload_scene(pngs).scene_id
-                motion = client.camera_motion(scene_id, pairs=PAIRS)
+                motion = client.camera_motion(scene_id, pairs=[(a + 1, b + 1) for a, b in PAIRS])  # 1-based
             yield agent, scene_id, motion
 
 

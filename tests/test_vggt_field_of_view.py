@@ -92,7 +92,7 @@ def test_zero_field_of_view_over_http(tmp_path: Path) -> None:
         summary = client.reconstruct(scene.scene_id)
         assert any("were not used" in w and "view(s) 1" in w for w in summary.warnings), summary.warnings
         [bad] = [camera for camera in summary.cameras if not camera.registered]
-        assert bad.index == zero[0] and bad.extrinsic is None and bad.intrinsic is None
+        assert bad.view == zero[0] + 1 and bad.extrinsic is None and bad.intrinsic is None
         assert [camera.intrinsics_source for camera in summary.cameras] == ["predicted"] * 3
         assert any(f"view {zero[0] + 1}" in w and "zero field of view" in w for w in summary.warnings)
         body = {"scene_id": scene.scene_id}
@@ -100,7 +100,7 @@ def test_zero_field_of_view_over_http(tmp_path: Path) -> None:
         assert response.status_code == 200, response.text
         motions = response.json()["motions"]
         for motion in motions:
-            uses_bad = zero[0] in (motion["from_view"], motion["to_view"])
+            uses_bad = zero[0] + 1 in (motion["from_view"], motion["to_view"])
             assert motion["described"] is not uses_bad
             if uses_bad:
                 assert motion["reason"] == f"view {zero[0] + 1} could not be registered by the vggt backbone"

@@ -749,7 +749,7 @@ def test_route_mode_plans_to_a_clicked_goal_and_downloads_the_plan(
     assert not run.collided and np.linalg.norm(run.end - two.goal[:2]) <= 0.3
 
     summary = _text(browser, "route-summary")
-    assert summary.startswith(f"{len(plan['steps'])} step(s), {plan['length_m']:.2f} m"), summary
+    assert summary.startswith(f"{len(plan['steps'])} step(s), {plan['length']:.2f} m"), summary
     assert "left-positive" in summary
     steps = [e.text for e in browser.find_elements(By.CSS_SELECTOR, "#route-steps li")]
     assert steps == plan["sentences"] and len(steps) >= 2

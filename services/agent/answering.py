@@ -148,13 +148,19 @@ def answer_with_model(
     template_version: str = DEFAULT_TEMPLATE,
 ) -> AnswerResult:
     """Ask the answer model; a model failure gives answer=None with the reason, not an exception."""
-    options = intent.options
     messages = build_answer_messages(intent, images_png, program, clue_text, clue_images, template_version)
+    return _ask_for_an_option(client, messages, intent.options)
+
+
+def _ask_for_an_option(client: ChatClient, messages: list[dict], options: dict[str, str]) -> AnswerResult:
+    """The model's option with its tokens counted. A rejected key or a text-only server
+    (ModelConfigurationError) is raised: the client must see it (502 naming the setting), not a null.
+    Any other model failure gives answer=None with the reason."""
     try:
         try:
             reply = client.complete(messages, response_format=answer_schema(sorted(options)))
         except ModelConfigurationError:
-            raise  # a rejected key or a text-only server: the client must see it (502), not a null
+            raise
         except ModelError:
             # Many local servers refuse json_schema (a 4xx); the prompt asks for JSON anyway.
             reply = client.complete(messages)
@@ -208,24 +214,14 @@ def answer_from_images(
 ) -> AnswerResult:
     """The answer model alone, from the question and the photos: the fallback when no program ran
     (the backbone could not reconstruct, or no program could be written or run), as the paper's code
-    does. A model failure gives answer=None with the reason."""
-    options = intent.options
-    letters = sorted(options)
+    does. A model failure gives answer=None with the reason; a rejected key is raised."""
     content = load_template(free_form.template_for(intent, template_version)).render_parts(
         slots={"original_images": _labelled_images("Image", images_png)},
         question=intent.text,
         num_images=len(images_png),
         **_letter_fields(intent),
     )
-    messages = [{"role": "user", "content": content}]
-    try:
-        try:
-            reply = client.complete(messages, response_format=answer_schema(letters))
-        except ModelError:
-            reply = client.complete(messages)
-    except LLMError as error:
-        return AnswerResult(answer=None, method="none", reason=f"the answer model failed: {error}")
-    return read_model_answer(reply.text, options)
+    return _ask_for_an_option(client, [{"role": "user", "content": content}], intent.options)
 
 
 # ---- offline -----------------------------------------------------------------------------------

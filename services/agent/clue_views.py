@@ -27,7 +27,7 @@ def clue_views(
         views.append(
             ClueView(
                 source="input",
-                input_index=index,
+                input_view=None if index is None else index + 1,
                 extrinsic=camera.extrinsic if camera is not None else None,
                 width=width,
                 height=height,

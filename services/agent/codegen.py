@@ -42,7 +42,7 @@ from services.agent.steps import SolveLog
 from shared.questions.intent import QuestionIntent
 from shared.wire.schemas import ProgramStep
 
-DEFAULT_TEMPLATE = "codegen_v3"
+DEFAULT_TEMPLATE = "codegen_v4"
 REPAIR_TEMPLATE = "repair_v2"
 MAX_EXAMPLES = 6  # the examples in the latest codegen_examples_v<N>.md
 DEFAULT_MAX_REPLY_CHARS = 60_000
@@ -225,7 +225,7 @@ _HINTS: list[tuple[re.Pattern[str], str]] = [
         "camera x right, y down, z forward) and intrinsics are 3x3. A 3D point is a 3-vector: use "
         "R @ p + t, or E @ [x, y, z, 1] with a homogeneous point. Helpers: pySpatial.camera_center(E) "
         "(where a camera is), pySpatial.relative_pose(E1, E2), pySpatial.heading_angle(E1, E2) "
-        "(degrees turned, positive = right), pySpatial.distance_to_point(E, p).",
+        "(degrees turned, + = left), pySpatial.distance_to_point(E, p).",
     ),
     (
         re.compile(r"Last 2 dimensions of the array must be square|LinAlgError"),

@@ -86,6 +86,9 @@ class ChatModelConfig(BaseModel):
         "configure this model as text-only",
         description="What the operator should do when the server refuses content parts.",
     )
+    key_setting: str = Field(
+        "the model's API key setting", description="Where the operator sets the key, for a rejected one."
+    )
     backoff_base_s: float = Field(0.5, ge=0.0, description="First backoff; doubles each retry.")
     backoff_max_s: float = Field(20.0, ge=0.0, description="Longest backoff between two attempts.")
     max_retry_after_s: float = Field(60.0, ge=0.0, description="Longest Retry-After we are willing to wait.")
@@ -323,7 +326,7 @@ class ChatClient:
         label, status = self.config.label, error.status_code
         if status in (401, 403):
             raise ModelAuthError(
-                f"{label} rejected the API key (HTTP {status}); check the model's API key setting: {reason}"
+                f"{label} rejected the API key (HTTP {status}); check {self.config.key_setting}: {reason}"
             ) from None
         if status == 404:
             raise ModelNotFound(

@@ -49,6 +49,7 @@ def _model_config(settings: AgentSettings, role: str) -> ChatModelConfig | None:
         max_tokens=getattr(settings, f"{role}_model_max_tokens"),
         text_only=getattr(settings, f"{role}_model_text_only"),
         text_only_hint=f"set PYSPATIAL_{role.upper()}_MODEL_TEXT_ONLY=true",
+        key_setting=f"PYSPATIAL_{role.upper()}_MODEL_API_KEY",
     )
 
 
@@ -58,7 +59,9 @@ class SolvePipeline:
         recon_key = settings.recon_api_key.get_secret_value() if settings.recon_api_key else None
         # Recon calls are idempotent: retried with backoff on a reset or a 502/503, within a window.
         retry = RetryPolicy(attempts=settings.recon_attempts, window_s=settings.recon_retry_window_s)
-        self.recon = ReconClient(
+        # Private: every route reaches recon through `recon_for(tenant)` (routes/dependencies.py),
+        # so no request can read another tenant's scenes through a client that names none.
+        self._recon = ReconClient(
             settings.recon_url, timeout=settings.recon_timeout_s, api_key=recon_key, retry=retry
         )
         code = _model_config(settings, "code")
@@ -94,8 +97,17 @@ class SolvePipeline:
     def answer_model_name(self) -> str:
         return self.settings.answer_model or OFFLINE_ANSWERER
 
+    def recon_for(self, tenant: str) -> ReconClient:
+        """The recon client acting for `tenant`: recon serves that tenant's scenes only."""
+        return self._recon.for_tenant(tenant)
+
+    def readiness_probe(self) -> ReconClient:
+        """The client that names no tenant, for `/readyz` alone (recon's `/readyz` and `/v1/backbones`,
+        which read no scene)."""
+        return self._recon
+
     def close(self) -> None:
-        self.recon.close()
+        self._recon.close()
         for client in (self.code_client, self.answer_client):
             if client is not None:
                 client.close()
@@ -122,7 +134,7 @@ class SolvePipeline:
         with solve_cancellation.bound(log.cancellation):  # the model clients abandon their calls
             # The solve's deadline bounds its recon calls and their retries, not only each window.
             deadline = time.monotonic() + self.settings.solve_deadline_s
-            recon = self.recon.for_tenant(tenant).until(deadline)
+            recon = self.recon_for(tenant).until(deadline)
             return self._solve(log, recon, question, image_files, (scene_id, backbone, max_repairs))
 
     def _solve(
@@ -175,7 +187,7 @@ class SolvePipeline:
         """An unknown backbone is bad input (422), a known one that cannot run here is a 409 that
         says what to run; a sandbox that cannot run programs is a 503."""
         if backbone is not None:
-            menu = self.recon.backbones()
+            menu = self._recon.backbones()
             available = menu["available"]
             if backbone not in available:
                 reasons = {entry["name"]: entry.get("reason") for entry in menu.get("backbones", [])}

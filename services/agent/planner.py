@@ -15,7 +15,7 @@ person would write; the program then runs under the same sandbox as model-writte
 - "around": anything else plannable: render left, right and behind of the asked view (view 1 by default).
 
 Occlusion and object-perspective questions cannot be planned offline (see QuestionIntent.offline_reason):
-`UnplannableQuestion` says why. Views are 1-based in questions and 0-based in code.
+`UnplannableQuestion` says why. Views are 1-based in questions and tools; `recon.extrinsics[0]` is view 1.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from typing import Literal
 
 from pydantic import BaseModel
 
-from shared.questions.intent import PoseStep, QuestionIntent, view_references
+from shared.questions.intent import PoseStep, QuestionIntent, UnknownScale, view_references
 
 ProgramKind = Literal[
     "motion",
@@ -128,8 +128,25 @@ def _step_line(step: PoseStep) -> str:
         if step.side == "around":
             return "pose = pySpatial.turn_around(pose)"
         return f"pose = pySpatial.rotate_{step.side}(pose, angle={step.degrees:g})"
-    argument = f", distance={step.meters:g}" if step.meters is not None else ""
+    # Metres are scene units only in a metric reconstruction: `_metric_check` makes the program
+    # say so and stop on any other, so the distance here is the metric one.
+    distance = step.scene_units(METRIC)
+    argument = f", distance={distance:g}" if distance is not None else ""
     return f"pose = pySpatial.move_{step.side}(pose{argument})"
+
+
+METRIC = 1.0  # metres per scene unit of a metric reconstruction (recon.units == "metres")
+
+
+def _metric_check(steps: list[PoseStep]) -> list[str]:
+    """Program lines that stop with the reason when a step's metres cannot be placed: the
+    reconstruction the program gets has no metric scale (recon.units is not "metres")."""
+    for step in steps:
+        try:
+            step.scene_units(None)
+        except UnknownScale as error:
+            return ['if recon.units != "metres":', f"    return {str(error)!r}"]
+    return []
 
 
 def _turn_and_move_source(intent: QuestionIntent) -> str:
@@ -137,9 +154,9 @@ def _turn_and_move_source(intent: QuestionIntent) -> str:
     changes (with turns only, "before" is the view itself). A direction asked after the steps ("turn
     around: what is to your left?") is one more turn for the final look, rendered alone."""
     view = intent.view
-    lines: list[str] = []
+    lines: list[str] = _metric_check(intent.steps)
     if intent.direction is not None and intent.comparison is None:
-        lines = [_step_line(step) for step in intent.steps]
+        lines += [_step_line(step) for step in intent.steps]
         lines.append(f"look = {_LOOK[intent.direction]}  # what is {_direction_words(intent.direction)}")
         lines.append("return pySpatial.synthesize_novel_view(recon, look)")
         body = "\n".join("    " + line for line in lines)

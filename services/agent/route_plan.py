@@ -2,9 +2,10 @@
 
 The agent downloads the reconstruction from recon once per request and plans with
 ``shared.navigation`` (pure numpy, a fraction of a second). View numbers are 1-based here, as on
-the page and in the CLI; the library and the sandbox count from 0. Goals the planner cannot start
-from are the client's 422 (a pixel outside the image, on nothing reconstructed, inside an
-obstacle); a goal no route reaches is a 200 with ``reachable: false`` and the reason.
+the page, in the CLI and in the program API; ``shared.navigation`` takes indices (0-based) and its
+messages name views from 1. Goals the planner cannot start from are the client's 422 (a pixel
+outside the image, on nothing reconstructed, inside an obstacle); a goal no route reaches is a
+200 with ``reachable: false`` and the reason.
 """
 
 from __future__ import annotations
@@ -27,8 +28,9 @@ def _goal_point(recon: Reconstruction, goal: RouteGoal, start: int) -> np.ndarra
     if goal.point_world is not None:
         return np.asarray(goal.point_world, np.float64)
     if goal.point_start_camera is not None:
-        pose = recon.extrinsics[start]
-        return pose[:, :3].T @ (np.asarray(goal.point_start_camera, np.float64) - pose[:, 3])
+        cam_from_world = recon.extrinsics[start]
+        rotation, translation = cam_from_world[:, :3], cam_from_world[:, 3]
+        return rotation.T @ (np.asarray(goal.point_start_camera, np.float64) - translation)
     pixel = goal.pixel
     view = pixel.view - 1
     if view >= recon.num_views:
@@ -59,9 +61,9 @@ def _response(plan, scene_id: str, backbone: str, located: np.ndarray | None) ->
         sentences=plan.sentences,
         path_world=body["path_world"],
         path_start_camera=body["path_start_camera"],
-        clearance_m=plan.clearance,
-        length_m=plan.length,
-        straight_line_m=plan.straight_line_distance,
+        clearance=plan.clearance,
+        length=plan.length,
+        straight_line=plan.straight_line_distance,
         units=plan.units,
         metres_per_unit=plan.metres_per_unit,
         start_world=body["start_world"],

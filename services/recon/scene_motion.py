@@ -32,13 +32,10 @@ def describe_scene_motion(
     views = recon.num_views
     if views < 2:
         raise InvalidInput("camera motion needs at least two views; this scene has one")
-    for pair in pairs or []:
+    for pair in pairs or []:  # indices here; the request numbered them from 1
         for view in pair:
             if not 0 <= view < views:
-                raise InvalidInput(
-                    f"view index {view} is out of range: the scene has {views} views, at indices "
-                    f"0..{views - 1} (0-based: view 1 is index 0)"
-                )
+                raise InvalidInput(f"view {view + 1} does not exist: the scene has views 1..{views}")
     problems = view_pose_problems(recon)
     usable = [index for index, problem in enumerate(problems) if problem is None]
     up = estimate_up_axis(recon.extrinsics[usable]) if usable else None
@@ -88,13 +85,14 @@ def _target_point(
         return {"target": scene_centre(recon, usable), "target_name": target.name or "the scene's centre"}
     pixel = target.pixel
     assert pixel is not None
-    if pixel.view >= recon.num_views or problems[pixel.view] is not None:
-        why = problems[pixel.view] if pixel.view < recon.num_views else "it is out of range"
+    index = pixel.view - 1  # the request numbers views from 1
+    if index >= recon.num_views or problems[index] is not None:
+        why = problems[index] if index < recon.num_views else f"the scene has views 1..{recon.num_views}"
         raise InvalidInput(f"the target pixel's view {pixel.view} has no usable pose: {why}")
-    point = pixel_point(recon, pixel.view, pixel.u, pixel.v)
+    point = pixel_point(recon, index, pixel.u, pixel.v)
     if point is None:
         raise InvalidInput(
             f"no reconstructed point lies at pixel ({pixel.u:g}, {pixel.v:g}) of view {pixel.view}"
         )
-    name = target.name or f"the object at pixel ({pixel.u:g}, {pixel.v:g}) of view {pixel.view + 1}"
+    name = target.name or f"the object at pixel ({pixel.u:g}, {pixel.v:g}) of view {pixel.view}"
     return {"target": point, "target_name": name}

@@ -28,6 +28,7 @@ from services.recon.shared_scenes import SharedScenes
 from shared.wire.access import DEFAULT_TENANT
 
 _SCENE_ID = re.compile(r"^[0-9a-f]{24}$")
+POSED_RGBD, PHOTOS = "posed-rgbd", "photos"  # a scene's kind; a posed-rgbd scene's default backbone
 
 
 @dataclass
@@ -50,6 +51,12 @@ class SceneInput:
         if self.sizes is not None:
             return list(self.sizes)
         return [(image.shape[1], image.shape[0]) for image in self.images or []]
+
+    @property
+    def kind(self) -> str:
+        """What was uploaded: "posed-rgbd" (depths, poses and intrinsics of every view) or "photos"."""
+        posed = self.depths is not None and self.extrinsics is not None and has_all_intrinsics(self)
+        return POSED_RGBD if posed else PHOTOS
 
     def content_id(self) -> str:
         """Hash of the files in order (and any depths and cameras): same upload, same scene."""
@@ -201,6 +208,7 @@ class SceneStore:
                 "image_sizes": scene.image_sizes,
                 "has_depth": scene.depths is not None,
                 "has_cameras": scene.extrinsics is not None and has_all_intrinsics(scene),
+                "kind": scene.kind,  # read by every replica: the scene is reconstructed as uploaded
             }
             if tenant != DEFAULT_TENANT:  # scenes without it (and from before tenants) are the default's
                 meta["tenant"] = tenant
@@ -217,7 +225,7 @@ class SceneStore:
         return True
 
     def info(self, scene_id: str, tenant: str = DEFAULT_TENANT) -> dict:
-        """The scene's metadata: num_images, image_sizes, has_depth, has_cameras.
+        """The scene's metadata: num_images, image_sizes, has_depth, has_cameras, kind.
 
         Another tenant's scene is as unknown as one that does not exist (same 404, same message)."""
         path = self._path(scene_id)
@@ -227,6 +235,8 @@ class SceneStore:
         meta = json.loads((path / "meta.json").read_text())
         if meta.pop("tenant", DEFAULT_TENANT) != tenant:
             raise unknown
+        if "kind" not in meta:  # stored before kinds were recorded: what its files say
+            meta["kind"] = POSED_RGBD if meta["has_depth"] and meta["has_cameras"] else PHOTOS
         return meta
 
     def image_file(self, scene_id: str, index: int, tenant: str = DEFAULT_TENANT) -> bytes:

@@ -18,11 +18,12 @@ from services.recon.cache import ReconstructionCache
 from services.recon.camera_inputs import INPUTS_VERSION, view_intrinsics
 from services.recon.checkpoints import CATALOGUE, WEIGHTS_ABSENT, locate
 from services.recon.durable import DurableStore
-from services.recon.errors import BackboneNotInstalled, BackboneUnavailable, InvalidInput, SceneNotFound
+from services.recon.errors import BackboneNotInstalled, BackboneUnavailable, InvalidInput
 from services.recon.jobs import ReconstructionJobs
 from services.recon.offload import run_cpu, run_in_daemon_thread
 from services.recon.scene_motion import describe_scene_motion
 from services.recon.scene_store import (
+    POSED_RGBD,
     SceneInput,
     SceneStore,
     check_scene_id,
@@ -218,8 +219,9 @@ class ReconService:
         self, scene_id: str, backbone_name: str | None = None, tenant: str = DEFAULT_TENANT
     ) -> ReconstructOutcome:
         check_scene_id(scene_id)
-        if not await run_cpu(self.store.exists, scene_id, tenant):
-            raise SceneNotFound(f"scene {scene_id} is not known here: upload its images with POST /v1/scenes")
+        info = await run_cpu(self.store.info, scene_id, tenant)  # SceneNotFound for another tenant's
+        # A backbone the request names wins; else the scene is reconstructed as it was uploaded.
+        backbone_name = backbone_name or (POSED_RGBD if info["kind"] == POSED_RGBD else None)
         backbone = await anyio.to_thread.run_sync(self.backbone, backbone_name)
         ready, detail = backbone.ready()
         if not ready:
@@ -324,10 +326,10 @@ class ReconService:
 
         return await anyio.to_thread.run_sync(work)
 
-    async def render_warning(self, scene_id: str, backbone: str | None) -> str | None:
+    async def render_warning(self, scene_id: str, backbone: str | None, tenant: str) -> str | None:
         """What a render of this scene should say about its poses: the focal hypothesis it uses
         when the focal is unknown and the views cannot fix it, else None."""
-        hypotheses = (await self.reconstruct(scene_id, backbone)).reconstruction.focal_hypotheses
+        hypotheses = (await self.reconstruct(scene_id, backbone, tenant)).reconstruction.focal_hypotheses
         if hypotheses is None:
             return None
         return (

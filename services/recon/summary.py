@@ -27,7 +27,7 @@ def camera_infos(recon: Reconstruction) -> list[CameraInfo]:
     sources = recon.intrinsics_source or [None] * recon.num_views
     return [
         CameraInfo(
-            index=i,
+            view=i + 1,
             extrinsic=recon.extrinsics[i].tolist() if recon.registered[i] else None,
             intrinsic=recon.intrinsics[i].tolist() if np.all(np.isfinite(recon.intrinsics[i])) else None,
             intrinsics_source=sources[i],
@@ -38,6 +38,11 @@ def camera_infos(recon: Reconstruction) -> list[CameraInfo]:
         )
         for i in range(recon.num_views)
     ]
+
+
+def _numbered_from_one(pair: dict) -> dict:
+    """A pair's support as the wire names it: its views numbered from 1 (the geometry indexes from 0)."""
+    return {**pair, "first": pair["first"] + 1, "second": pair["second"] + 1}
 
 
 def scene_up(recon: Reconstruction) -> np.ndarray:
@@ -61,7 +66,7 @@ def reconstruction_summary(
         up=scene_up(recon).tolist(),
         units=recon.units or "relative",
         warnings=recon.warnings,
-        pairs=[finite_only(asdict(pair)) for pair in recon.pair_confidence],
+        pairs=[_numbered_from_one(finite_only(asdict(pair))) for pair in recon.pair_confidence],
         cached=cached,
         joined_in_flight=joined,
         timings_ms={k: round(v, 2) for k, v in timings.items()},

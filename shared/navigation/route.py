@@ -98,12 +98,10 @@ class RoutePlan:
 
 def _view_pixel_check(recon: Reconstruction, view: int, u: float, v: float) -> None:
     if not 0 <= view < recon.num_views:
-        raise ValueError(
-            f"view {view} does not exist: the reconstruction has {recon.num_views} views (0-based)"
-        )
+        raise ValueError(f"view {view + 1} does not exist: the reconstruction has views 1..{recon.num_views}")
     width, height = recon.image_sizes[view]
     if not (np.isfinite(u) and np.isfinite(v) and -0.5 <= u < width - 0.5 and -0.5 <= v < height - 0.5):
-        raise ValueError(f"pixel ({u}, {v}) is outside view {view}'s image of {width}x{height}")
+        raise ValueError(f"pixel ({u}, {v}) is outside view {view + 1}'s image of {width}x{height}")
 
 
 def _locate_by_depth(recon: Reconstruction, view: int, u: float, v: float) -> LocateResult | None:
@@ -116,7 +114,7 @@ def _locate_by_depth(recon: Reconstruction, view: int, u: float, v: float) -> Lo
     column = min(int(round(u * sx)), depth.shape[1] - 1)
     z = float(depth[row, column])
     if not (np.isfinite(z) and z > 0):
-        return LocateResult(None, f"view {view} has no depth at pixel ({u:g}, {v:g})", "depth")
+        return LocateResult(None, f"view {view + 1} has no depth at pixel ({u:g}, {v:g})", "depth")
     intrinsic, pose = recon.intrinsics[view], recon.extrinsics[view]
     in_camera = np.array(
         [(u - intrinsic[0, 2]) / intrinsic[0, 0] * z, (v - intrinsic[1, 2]) / intrinsic[1, 1] * z, z]
@@ -135,7 +133,7 @@ def _locate_by_points(recon: Reconstruction, view: int, u: float, v: float) -> L
     if not near.any():
         return LocateResult(
             None,
-            f"nothing is reconstructed within {radius:.0f} px of ({u:g}, {v:g}) in view {view}",
+            f"nothing is reconstructed within {radius:.0f} px of ({u:g}, {v:g}) in view {view + 1}",
             "points",
         )
     depths = in_camera[front][near, 2]
@@ -145,10 +143,13 @@ def _locate_by_points(recon: Reconstruction, view: int, u: float, v: float) -> L
 
 
 def locate(recon: Reconstruction, view: int, u: float, v: float) -> LocateResult:
-    """The world point seen at pixel (u, v) (column, row; pixel centres at integers) of a view."""
+    """The world point seen at pixel (u, v) (column, row; pixel centres at integers) of a view.
+
+    ``view`` is the view's index in the reconstruction (0-based); messages name it from 1, as people
+    and the APIs on top (``/v1/route``, the program API) count views."""
     _view_pixel_check(recon, view, u, v)
     if not recon.registered[view]:
-        return LocateResult(None, f"view {view} has no pose in this reconstruction")
+        return LocateResult(None, f"view {view + 1} has no pose in this reconstruction")
     by_depth = _locate_by_depth(recon, view, u, v)
     if by_depth is not None and (by_depth.point is not None or recon.backbone == "posed-rgbd"):
         return by_depth  # measured depth says what the view saw; a hole in it is nothing seen
@@ -189,10 +190,10 @@ def _scale(recon: Reconstruction, floor: Floor, centre: np.ndarray) -> tuple[flo
 def _setting(recon: Reconstruction, start_view: int, goal: np.ndarray, robot: Robot) -> _Setting:
     if not 0 <= start_view < recon.num_views:
         raise ValueError(
-            f"start view {start_view} does not exist: the reconstruction has {recon.num_views} views"
+            f"start view {start_view + 1} does not exist: the reconstruction has views 1..{recon.num_views}"
         )
     if not recon.registered[start_view]:
-        raise ValueError(f"start view {start_view} has no pose in this reconstruction")
+        raise ValueError(f"start view {start_view + 1} has no pose in this reconstruction")
     floor = estimate_floor(recon.points, recon.extrinsics[recon.registered])
     pose = recon.extrinsics[start_view]
     centre = -pose[:, :3].T @ pose[:, 3]
@@ -355,7 +356,8 @@ def plan_route(
     """A collision-free route from the floor below the start view's camera to the goal point.
 
     ``goal`` is a world point (on the floor or on something standing on it; its floor projection is
-    what the robot drives to). ``robot`` overrides ``robot_radius``. A goal that no route reaches
+    what the robot drives to). ``start_view`` is an index (0-based); messages name it from 1.
+    ``robot`` overrides ``robot_radius``. A goal that no route reaches
     gives ``reachable=False`` with the refusal's kind and reason. ``ValueError`` for a bad view.
     """
     robot = robot or Robot(radius=robot_radius)

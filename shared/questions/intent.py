@@ -42,19 +42,37 @@ Direction = Literal[
 Comparison = Literal["distance"]
 
 
+class UnknownScale(ValueError):
+    """A distance in metres asked of a reconstruction without a metric scale."""
+
+
 class PoseStep(BaseModel, frozen=True):
     """One turn or move, in the order the question makes them."""
 
     kind: Literal["turn", "move"]
     side: Literal["left", "right", "around", "forward", "backward"]
     degrees: float | None = None  # turns: stated angle (90 when unstated; 180 for "around")
-    meters: float | None = None  # moves: stated distance, None for the tool's default
+    metres: float | None = None  # moves: stated distance in metres, None for the tool's default
 
     @property
     def words(self) -> str:
         if self.kind == "turn":
             return "turn around" if self.side == "around" else f"turn {self.side} {self.degrees:g} degrees"
-        return f"move {self.side}" + (f" {self.meters:g} m" if self.meters is not None else "")
+        return f"move {self.side}" + (f" {self.metres:g} m" if self.metres is not None else "")
+
+    def scene_units(self, metres_per_unit: float | None) -> float | None:
+        """The stated distance in the reconstruction's units (None: the tool's default distance).
+
+        `metres_per_unit` is the reconstruction's scale: 1.0 for a metric one, None when it has no
+        metric scale, where a distance in metres cannot be placed: UnknownScale says so."""
+        if self.metres is None:
+            return None
+        if metres_per_unit is None or not metres_per_unit > 0:
+            raise UnknownScale(
+                f"the question moves {self.metres:g} m, but the reconstruction has no metric scale: "
+                "a distance in metres cannot be placed in it"
+            )
+        return self.metres / metres_per_unit
 
 
 class ViewRelation(BaseModel, frozen=True):
@@ -343,8 +361,8 @@ def pose_steps(text: str) -> list[PoseStep]:
             )
     for match in _MOVE_STEP.finditer(text):
         way = "backward" if match.group(1).lower().startswith("back") else "forward"
-        meters = float(match.group(2)) if match.group(2) else None
-        found.append((match.start(), PoseStep(kind="move", side=way, meters=meters)))
+        metres = float(match.group(2)) if match.group(2) else None
+        found.append((match.start(), PoseStep(kind="move", side=way, metres=metres)))
     return [step for _, step in sorted(found, key=lambda pair: pair[0])]
 
 

@@ -374,7 +374,8 @@ class ReconClient(_ServiceClient):
         from_view: int | None = None,
         to_view: int | None = None,
     ) -> CameraMotionResponse:
-        """`pairs` 0-based; or `from_view` and `to_view`, 1-based as the sentences count views."""
+        """`pairs` of views (from, to), or `from_view` and `to_view`: views numbered from 1, as the
+        sentences count them."""
         body: dict[str, object] = {
             "scene_id": scene_id,
             "pairs": [list(p) for p in pairs] if pairs else None,

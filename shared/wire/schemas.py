@@ -52,6 +52,12 @@ class SceneInfo(_Model):
     image_sizes: list[tuple[int, int]] = Field(..., description="(width, height) per image.")
     has_depth: bool
     has_cameras: bool
+    kind: Literal["photos", "posed-rgbd"] = Field(
+        "photos",
+        description="What was uploaded: posed-rgbd (every view's depth, pose and intrinsics) or photos. "
+        "A request that names no backbone reconstructs a posed-rgbd scene with posed-rgbd, on every "
+        "replica (the kind is stored with the scene).",
+    )
 
 
 class SceneCreated(SceneInfo):
@@ -79,14 +85,16 @@ class ViewConfidenceInfo(_Model):
     )
 
 
-# JSON index fields are 0-based; every text for people says "view 1" for the first photo, as
-# questions say "image 1" (docs/ARCHITECTURE.md, "View numbers").
-VIEW_NUMBERS = ' Texts (warnings, reasons, errors, sentences) count views from 1: index 0 is "view 1".'
+# One view numbering (docs/ARCHITECTURE.md, "View numbers"): every JSON field that names a view,
+# and every text for people, counts views from 1, as questions say "image 1"; only the positions of
+# JSON lists (cameras[0] is view 1) and the geometry inside the services are 0-based.
+VIEW_NUMBERS = " Views are numbered from 1 in every field and text; a JSON list's first item is view 1."
+ViewNumber = Annotated[int, Field(ge=1)]
 
 
 class PairConfidenceInfo(_Model):
-    first: int = Field(..., description="Index of the first view (0-based, as `cameras[].index`).")
-    second: int = Field(..., description="Index of the second view (0-based).")
+    first: int = Field(..., ge=1, description="The first view (1-based, as `cameras[].view`).")
+    second: int = Field(..., ge=1, description="The second view (1-based).")
     inliers: int = Field(..., description="Points both views see.")
     reprojection_error_px: float | None = None
     triangulation_angle_deg: float | None = Field(None, description="Median angle between their rays.")
@@ -104,9 +112,8 @@ class PairConfidenceInfo(_Model):
 
 
 class CameraInfo(_Model):
-    index: int = Field(
-        ...,
-        description="0-based position of the photo in the upload." + VIEW_NUMBERS,
+    view: int = Field(
+        ..., ge=1, description="The view: the photo's place in the upload, 1-based." + VIEW_NUMBERS
     )
     extrinsic: Matrix | None = Field(..., description="3x4 camera-from-world; null when not registered.")
     intrinsic: Matrix | None = Field(..., description="3x3 in pixels; null when the backbone has none.")
@@ -165,7 +172,7 @@ class RenderRequest(_Model):
 class PixelTarget(_Model):
     """An object located by a pixel of one photo: the nearest reconstructed surface there."""
 
-    view: Annotated[int, Field(ge=0, description="0-based view the pixel is in.")]
+    view: Annotated[int, Field(ge=1, description="The view the pixel is in (1-based).")]
     u: Annotated[float, Field(description="Column, in that photo's pixels.")]
     v: Annotated[float, Field(description="Row, in that photo's pixels.")]
 
@@ -181,8 +188,8 @@ class MotionTarget(_Model):
 
 class CameraMotionRequest(_Model):
     scene_id: str = Field(..., pattern=SCENE_ID_PATTERN, description="A scene id from POST /v1/scenes.")
-    pairs: list[tuple[int, int]] | None = Field(
-        None, description="0-based view pairs; consecutive if unset." + VIEW_NUMBERS
+    pairs: list[tuple[ViewNumber, ViewNumber]] | None = Field(
+        None, description="View pairs (from, to), 1-based; consecutive if unset." + VIEW_NUMBERS
     )
     from_view: int | None = Field(
         None,
@@ -207,10 +214,11 @@ class CameraMotionRequest(_Model):
         return self
 
     def requested_pairs(self) -> list[tuple[int, int]] | None:
-        """The 0-based pairs asked for; None: the default (consecutive) pairs."""
+        """The pairs asked for as indices (0-based, as the geometry takes them); None: the default
+        (consecutive) pairs."""
         if self.from_view is not None and self.to_view is not None:
             return [(self.from_view - 1, self.to_view - 1)]
-        return self.pairs
+        return None if self.pairs is None else [(first - 1, second - 1) for first, second in self.pairs]
 
 
 class FrameMotionItem(_Model):
@@ -273,7 +281,7 @@ class QuantityOverFocalItem(_Model):
     range: list[float] | None = Field(
         None,
         description="[min, max] over the hypotheses: degrees for turn (+ left), tilt (+ up), roll (+ "
-        "clockwise) and direction (heading, 0 forward, + right); for lateral (+ right), depth (+ "
+        "clockwise) and direction (heading, 0 forward, + = left); for lateral (+ right), depth (+ "
         "forward) and vertical (+ up), that component of the unit step; null for still.",
     )
     determined: bool = Field(..., description="True when every hypothesis gives the same word.")
@@ -295,7 +303,7 @@ class MotionOverFocalItem(_Model):
     direction_determined: bool
     heading_range_deg: list[float] | None = Field(
         None,
-        description="[min, max] heading of the step over the hypotheses (0 forward, + right); "
+        description="[min, max] heading of the step over the hypotheses (0 forward, + = left); "
         "null if none moved.",
     )
     vertical_directions: list[str] = Field(
@@ -325,14 +333,18 @@ class MotionOverFocalItem(_Model):
 class CameraMotionItem(_Model):
     """One pair of views: a description, or (described = false) the reason there is none."""
 
-    from_view: int = Field(..., description="0-based index of the first view." + VIEW_NUMBERS)
-    to_view: int = Field(..., description="0-based index of the second view.")
+    from_view: int = Field(..., ge=1, description="The first view (1-based)." + VIEW_NUMBERS)
+    to_view: int = Field(..., ge=1, description="The second view (1-based).")
     described: bool = Field(True, description="False when the motion is unknown; `reason` says why.")
     reason: str | None = Field(None, description="Why there is no description (unregistered view, ...).")
     direction: str | None = Field(None, description="Horizontal direction, or 'no significant movement'.")
     vertical_direction: str | None = Field(None, description="'up', 'down', or null when not significant.")
-    angle_deg: float | None = None
-    distance: float | None = None
+    angle_deg: float | None = Field(
+        None,
+        description="Heading of the horizontal step in the first view's image axes, degrees: 0 forward, "
+        "+90 = left, -90 = right (left-positive, as every horizontal angle here).",
+    )
+    distance: float | None = Field(None, description="Length of the step, in `units`.")
     displacement_in_first_camera: list[float] | None = None
     vertical: float | None = Field(None, description="Displacement along the up axis (positive = up).")
     yaw_deg: float | None = Field(None, description="Turn about the up axis between the views; + = left.")
@@ -479,7 +491,7 @@ class ClueView(_Model):
     """Where one clue image came from: a view rendered from a pose, or an input photo."""
 
     source: Literal["rendered", "input"]
-    input_index: int | None = Field(None, description="0-based input image, when source is input.")
+    input_view: int | None = Field(None, ge=1, description="The input view (1-based), when source is input.")
     extrinsic: Matrix | None = Field(
         None, description="3x4 camera-from-world it was rendered from (or the input camera's pose)."
     )
@@ -758,15 +770,22 @@ class RouteRequest(_Model):
     scene_id: str | None = Field(None, pattern=SCENE_ID_PATTERN)
     extrinsics: list[Matrix] | None = Field(None, description="Per view 3x4 camera-from-world (with depths).")
     intrinsics: list[Matrix | None] | None = Field(None, description="Per view 3x3 pixel intrinsics.")
-    backbone: str | None = None
+    backbone: str | None = Field(
+        None,
+        description="Wins when given; else an upload with depths runs posed-rgbd, and a scene_id is "
+        "reconstructed as it was uploaded (posed-rgbd for posed RGB-D). The response's backbone says "
+        "which ran.",
+    )
     start_view: int = Field(1, ge=1, description="1-based view whose camera stands above the robot's start.")
     goal: RouteGoal
     robot: RobotSpec = Field(default_factory=RobotSpec)
 
 
 class RouteStep(_Model):
-    turn_degrees: float = Field(..., description="Turn in place about up first; left-positive.")
-    move: float = Field(..., description="Then drive forward this far (metres when units is metres).")
+    turn_degrees: float = Field(
+        ..., description="Turn in place about up first, degrees; + = left (counter-clockwise from above)."
+    )
+    move: float = Field(..., description="Then drive forward this far, in `units` (metres or scene units).")
 
 
 class RouteResponse(_Model):
@@ -780,10 +799,14 @@ class RouteResponse(_Model):
     sentences: list[str]
     path_world: list[list[float]]
     path_start_camera: list[list[float]]
-    clearance_m: float | None = Field(None, description="Smallest gap between the robot and an obstacle.")
-    length_m: float | None
-    straight_line_m: float | None
-    units: Literal["metres", "scene units"]
+    clearance: float | None = Field(
+        None, description="Smallest gap between the robot and an obstacle, in `units`."
+    )
+    length: float | None = Field(..., description="The route's length, in `units`.")
+    straight_line: float | None = Field(..., description="Start to goal in a straight line, in `units`.")
+    units: Literal["metres", "scene units"] = Field(
+        ..., description="The unit of every length here: metres when the reconstruction is metric."
+    )
     metres_per_unit: float | None = Field(
         None, description="1 when metric; otherwise the estimate from an assumed 1.5 m camera height."
     )

@@ -25,7 +25,7 @@ def _on_app_state(name: str) -> Callable[[Request], Any]:
 
 def tenant_recon(request: Request) -> ReconClient:
     """The pipeline's recon client naming this caller's tenant: recon serves that tenant's scenes."""
-    return request.app.state.pipeline.recon.for_tenant(request_tenant(request.scope))
+    return request.app.state.pipeline.recon_for(request_tenant(request.scope))
 
 
 def tenant(request: Request) -> str:

@@ -21,7 +21,7 @@ router = health_router()  # GET /healthz; GET /readyz below
 @router.get("/readyz", response_model=AgentReadiness, responses=not_ready(AgentReadiness, "reason"))
 async def readyz(pipeline: PipelineDep, settings: SettingsDep) -> JSONResponse:
     """Ready when the recon service is; answers within `PYSPATIAL_READINESS_TIMEOUT_S`."""
-    recon, reason = await _recon_readiness(pipeline.recon, settings.readiness_timeout_s)
+    recon, reason = await _recon_readiness(pipeline.readiness_probe(), settings.readiness_timeout_s)
     recon_ok = recon is not None and reason is None
     sandbox = pipeline.jail
     if recon_ok and not sandbox.runs_programs:

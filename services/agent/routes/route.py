@@ -19,7 +19,7 @@ from starlette.datastructures import UploadFile
 
 from services.agent import route_plan
 from services.agent.errors import SolveError
-from services.agent.routes.dependencies import PipelineDep, SettingsDep
+from services.agent.routes.dependencies import SettingsDep, TenantReconDep
 from shared.imaging.codecs import decode_base64
 from shared.wire.bodies import read_body_limited
 from shared.wire.errors import error_responses, first_validation_message
@@ -66,10 +66,10 @@ router = APIRouter(tags=["route"])
     openapi_extra=_ROUTE_DOC,
     responses=error_responses(400, 401, 404, 409, 413, 422, 429, 502, 503, 504),
 )
-async def plan_a_route(request: Request, pipeline: PipelineDep, settings: SettingsDep) -> RouteResponse:
+async def plan_a_route(request: Request, recon: TenantReconDep, settings: SettingsDep) -> RouteResponse:
     """Plan turns and forward moves from the floor below the start view to the goal (left-positive turns)."""
     body, images, depths = await _read_route_request(request, settings)
-    return await anyio.to_thread.run_sync(route_plan.route, body, images, depths, pipeline.recon)
+    return await anyio.to_thread.run_sync(route_plan.route, body, images, depths, recon)
 
 
 async def _read_route_request(request: Request, settings: AgentSettings) -> tuple[RouteRequest, list, list]:

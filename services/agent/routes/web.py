@@ -16,7 +16,7 @@ import anyio
 from fastapi import APIRouter, Path, Query, Request
 from fastapi.responses import Response, StreamingResponse
 
-from services.agent.routes.dependencies import PipelineDep, TenantReconDep
+from services.agent.routes.dependencies import TenantReconDep
 from shared.wire.errors import error_responses
 from shared.wire.schemas import SCENE_ID_PATTERN, PointCloudPreview
 
@@ -46,10 +46,10 @@ async def points(
 
 
 @router.get("/v1/backbones", tags=["web"], responses=error_responses(401, 429, 502, 503, 504))
-async def backbones(pipeline: PipelineDep) -> dict:
+async def backbones(recon: TenantReconDep) -> dict:
     """The recon service's backbones: each with availability (and why not), units and device; the
     default, what `auto` stands for now, and the names a request may use (for the page's menu)."""
-    return await anyio.to_thread.run_sync(pipeline.recon.backbones)
+    return await anyio.to_thread.run_sync(recon.backbones)
 
 
 @router.get(

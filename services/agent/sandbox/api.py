@@ -279,6 +279,7 @@ class PySpatial(_Frozen):
     def synthesize_novel_view(
         self, recon: Reconstruction, new_extrinsic: Any, width: int = 512, height: int = 512
     ) -> Image:
+        """The scene rendered from `new_extrinsic` (camera-from-world), `width` x `height` pixels."""
         _require_reconstruction(recon, "synthesize_novel_view")
         pose = _extrinsic(new_extrinsic, "synthesize_novel_view", "new_extrinsic")[:3, :]
         for label, value in (("width", width), ("height", height)):
@@ -290,28 +291,33 @@ class PySpatial(_Frozen):
         return Image(str(reply["id"]), (int(reply["width"]), int(reply["height"])), self._channel)
 
     def rotate_left(self, extrinsic: Any, angle: float = 45.0) -> np.ndarray:
+        """The same camera turned left by `angle` degrees about the scene up, in place."""
         pose = _extrinsic(extrinsic, "rotate_left")
         return poses.rotate_left(pose, _number(angle, "angle"), up=self._up)
 
     def rotate_right(self, extrinsic: Any, angle: float = 45.0) -> np.ndarray:
+        """The same camera turned right by `angle` degrees about the scene up, in place."""
         pose = _extrinsic(extrinsic, "rotate_right")
         return poses.rotate_right(pose, _number(angle, "angle"), up=self._up)
 
     def move_forward(self, extrinsic: Any, distance: float = 0.3) -> np.ndarray:
-        """Move `distance` along the view, in the reconstruction's units (`recon.units`)."""
+        """Move `distance` along the view, in scene units (the reconstruction's own: `recon.units`)."""
         pose = _extrinsic(extrinsic, "move_forward")
         return poses.move_forward(pose, _number(distance, "distance"), up=self._up)
 
     def move_backward(self, extrinsic: Any, distance: float = 0.3) -> np.ndarray:
+        """Move `distance` against the view, in scene units (as move_forward)."""
         pose = _extrinsic(extrinsic, "move_backward")
         return poses.move_backward(pose, _number(distance, "distance"), up=self._up)
 
     def turn_around(self, extrinsic: Any) -> np.ndarray:
+        """The same camera turned by 180 degrees about the scene up, in place."""
         return poses.turn_around(_extrinsic(extrinsic, "turn_around"), up=self._up)
 
     def locate(self, recon: Reconstruction, view: int, u: float, v: float) -> dict:
-        """The world point seen at pixel (u, v) (column, row) of view `view` (0-based):
-        {"point": 3-vector or None, "reason": why there is none}."""
+        """The world point seen at pixel (u, v) (column, row, in pixels) of view `view` (1-based, as
+        the question counts images: view 1 is recon.extrinsics[0]):
+        {"point": 3-vector in world coordinates (scene units) or None, "reason": why there is none}."""
         _require_reconstruction(recon, "locate")
         index = _view_index(view, recon, "locate")
         reply = self._channel.call("locate", {"view": index, "u": _number(u, "u"), "v": _number(v, "v")})
@@ -324,9 +330,10 @@ class PySpatial(_Frozen):
     def plan_route(
         self, recon: Reconstruction, start_view: int, goal: Any, robot_radius: float = 0.25
     ) -> dict:
-        """A robot's route from the floor below view `start_view`'s camera to the world point `goal`:
-        {"reachable", "summary", "steps": [{"turn_degrees" (left-positive), "move"}], "sentences",
-        "length", "units", "reason", ...}."""
+        """A robot's route from the floor below view `start_view`'s camera (1-based, as the question
+        counts images) to the world point `goal` (scene units); `robot_radius` in metres:
+        {"reachable", "summary", "steps": [{"turn_degrees" (degrees, + = left), "move" (in "units")}],
+        "sentences", "length", "units" ("metres" or "scene units"), "reason", ...}."""
         _require_reconstruction(recon, "plan_route")
         index = _view_index(start_view, recon, "plan_route")
         radius = _number(robot_radius, "robot_radius")
@@ -340,7 +347,7 @@ class PySpatial(_Frozen):
     # ---- helpers code models reach for --------------------------------------------------------
 
     def camera_center(self, extrinsic: Any) -> np.ndarray:
-        """Where the camera is, in world coordinates: `-R.T @ t` (a 3-vector)."""
+        """Where the camera is, in world coordinates (scene units): `-R.T @ t` (a 3-vector)."""
         return poses.camera_center(_extrinsic(extrinsic, "camera_center"))
 
     def relative_pose(self, from_extrinsic: Any, to_extrinsic: Any) -> np.ndarray:
@@ -352,18 +359,19 @@ class PySpatial(_Frozen):
     def heading_angle(self, from_extrinsic: Any, to_extrinsic: Any) -> float:
         """How far the viewing direction turned from the first view to the second, about the scene up.
 
-        Degrees in (-180, 180]: positive = turned right, negative = turned left.
+        Degrees in (-180, 180], + = left (counter-clockwise seen from above), - = right: the sign of
+        every horizontal angle here (rotate_left, camera motion's turn, plan_route's turn_degrees).
         """
         first = _extrinsic(from_extrinsic, "heading_angle", "from_extrinsic")
         second = _extrinsic(to_extrinsic, "heading_angle", "to_extrinsic")
         up = self._up if self._up is not None else poses.estimate_up_axis(np.stack([first[:3], second[:3]]))
         forward_first = poses.horizontal_forward(first[:3, :3], up)
         forward_second = poses.horizontal_forward(second[:3, :3], up)
-        right_first = np.cross(forward_first, up)
-        return float(np.degrees(np.arctan2(forward_second @ right_first, forward_second @ forward_first)))
+        left_first = np.cross(up, forward_first)
+        return float(np.degrees(np.arctan2(forward_second @ left_first, forward_second @ forward_first)))
 
     def distance_to_point(self, extrinsic: Any, point: Any) -> float:
-        """Distance from the camera's centre to a world point (reconstruction units)."""
+        """Distance from the camera's centre to a world point, in scene units (the reconstruction's)."""
         centre = poses.camera_center(_extrinsic(extrinsic, "distance_to_point"))
         return float(np.linalg.norm(_point(point, "distance_to_point") - centre))
 
@@ -394,11 +402,15 @@ def _require_reconstruction(value: Any, tool: str) -> None:
 
 
 def _view_index(value: Any, recon: Reconstruction, tool: str) -> int:
+    """A view number (1-based, as the question counts images) as the index the parent takes."""
     if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise TypeError(f"{tool}: the view is an integer index (0-based), got {type(value).__name__}")
-    if not 0 <= int(value) < recon.num_views:
-        raise ValueError(f"{tool}: view {int(value)} does not exist; views are 0..{recon.num_views - 1}")
-    return int(value)
+        raise TypeError(f"{tool}: the view is a view number 1..{recon.num_views}, got {type(value).__name__}")
+    if not 1 <= int(value) <= recon.num_views:
+        raise ValueError(
+            f"{tool}: view {int(value)} does not exist; views are numbered 1..{recon.num_views} "
+            "(image 1 is view 1; recon.extrinsics[0] is view 1)"
+        )
+    return int(value) - 1
 
 
 def _number(value: Any, label: str) -> float:

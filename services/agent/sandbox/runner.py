@@ -52,10 +52,12 @@ class ToolProvider(Protocol):
         """PNG of input view `index` (0-based)."""
 
     def locate(self, view: int, u: float, v: float) -> dict:
-        """{"point": [x, y, z] or None, "reason": str or None} at pixel (u, v) of view `view`."""
+        """{"point": [x, y, z] or None, "reason": str or None} at pixel (u, v) of the view at index
+        `view` (0-based: sandbox/api.py turns the program's 1-based view number into it)."""
 
     def plan_route(self, start_view: int, goal: list[float], robot_radius: float) -> dict:
-        """A route plan as `shared.navigation.RoutePlan.to_dict()` plus "summary"."""
+        """A route plan as `shared.navigation.RoutePlan.to_dict()` plus "summary"; `start_view` is an
+        index (0-based), as for `locate`."""
 
 
 class _ToolBroker:
@@ -166,7 +168,7 @@ class _ToolBroker:
 
 def _checked_view(value: Any, num_images: int) -> int:
     if type(value) is not int or not 0 <= value < num_images:
-        raise ToolFailure(f"view index must be 0..{num_images - 1}")
+        raise ToolFailure(f"view index must be 0..{num_images - 1} (the API turns view numbers into indices)")
     return value
 
 

@@ -67,12 +67,12 @@ function showProgram(result) {
   }));
 }
 
-// The clue's views, each {png, source, input_index, extrinsic, width, height, index}.
+// The clue's views, each {png, source, input_view (1-based), extrinsic, width, height, index}.
 function showClue(result) {
   $("clue-text").textContent = result.clue.text || "";
   const views = result.clue.images.map((png, i) => ({ png, ...(result.clue.views[i] || {}), index: i }));
   $("clue-images").replaceChildren(...views.map((view) => {
-    const label = view.source === "input" ? `clue image ${view.index + 1}: input image ${view.input_index + 1}`
+    const label = view.source === "input" ? `clue image ${view.index + 1}: input image ${view.input_view}`
       : `clue image ${view.index + 1}: rendered view v${view.index + 1}`;
     return element("li", {}, element("img", { src: imageSrc(view.png), alt: label }),
       element("div", { textContent: label }),

@@ -69,7 +69,7 @@ function formOf(posed) {
 function showPlan(plan) {
   const unit = plan.units === "metres" ? "m" : "scene units";
   $("route-summary").textContent = plan.reachable
-    ? `${plan.steps.length} step(s), ${plan.length_m.toFixed(2)} ${unit} (straight line ${plan.straight_line_m.toFixed(2)}); turns are ${plan.turn_convention}.`
+    ? `${plan.steps.length} step(s), ${plan.length.toFixed(2)} ${unit} (straight line ${plan.straight_line.toFixed(2)}); turns are ${plan.turn_convention}.`
     : `No route: ${plan.reason}`;
   $("route-steps").replaceChildren(...plan.sentences.map((sentence) => element("li", { textContent: sentence })));
   $("route-warnings").replaceChildren(...plan.warnings.map((text) => element("li", { textContent: text })));

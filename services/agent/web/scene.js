@@ -102,7 +102,7 @@ export async function showScene(result, views) {
     return;
   }
   const preview = await response.json();
-  const unplaced = preview.cameras.filter((c) => !c.registered).map((c) => c.index + 1);
+  const unplaced = preview.cameras.filter((c) => !c.registered).map((c) => c.view);
   $("warnings").append(...unplaced.map((n) => element("li", {
     textContent: `${withFileNames(`image ${n}`)} could not be placed in the reconstruction, so it has no camera in the 3D view.`,
   })));
@@ -113,7 +113,7 @@ export async function showScene(result, views) {
   applyControls();
   status.textContent = `${preview.num_points} of ${preview.num_points_total} points · drag to orbit, right-drag to pan, wheel to zoom; keys: arrows, shift+arrows, + / -, Home.`;
   const buttons = [
-    ...preview.cameras.filter((c) => c.registered).map((c) => ({ kind: "input", index: c.index, label: `image ${c.index + 1}` })),
+    ...preview.cameras.filter((c) => c.registered).map((c) => ({ kind: "input", index: c.view - 1, label: `image ${c.view}` })),
     ...renderedViews.map((v) => ({ kind: "rendered", index: v.index, label: `view v${v.index + 1}` })),
   ];
   $("camera-buttons").replaceChildren(...buttons.map((b) => element("button", {

@@ -123,8 +123,8 @@ export class SceneViewer {
     const frustumDepth = size * 0.06;
     preview.cameras.forEach((c) => {
       if (!c.registered) return;
-      this.addFrustum(`${c.index + 1}`, INPUT_COLOR, c.extrinsic, c.intrinsic, c.width, c.height,
-        frustumDepth, { kind: "input", index: c.index });
+      this.addFrustum(`${c.view}`, INPUT_COLOR, c.extrinsic, c.intrinsic, c.width, c.height,
+        frustumDepth, { kind: "input", index: c.view - 1 });
     });
     const reference = registered[0];
     clueViews.forEach((view) => {

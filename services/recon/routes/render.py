@@ -46,6 +46,6 @@ async def render(http: Request, request: RenderRequest, service: ServiceDep, ten
             tenant,
         ),
     )
-    warning = await service.render_warning(request.scene_id, request.backbone)
+    warning = await service.render_warning(request.scene_id, request.backbone, tenant)
     headers = {RENDER_WARNING_HEADER: warning} if warning else None
     return Response(image, media_type=media_type(request.format), headers=headers)

@@ -37,6 +37,7 @@ async def create_scene(
         image_sizes=scene.image_sizes,
         has_depth=scene.depths is not None,
         has_cameras=scene.extrinsics is not None and has_all_intrinsics(scene),
+        kind=scene.kind,
         created=created,
     )
     return JSONResponse(body.model_dump(), status_code=201 if created else 200)
