@@ -11,7 +11,8 @@ long flat valley along which the rotation is poorly fixed even by a hundred sub-
 
 A pair is flagged when its rotation is uncertain by more than MAX_ROTATION_SIGMA_DEG, or its
 rays meet at an angle that is small against that uncertainty, or when a second model explains
-its matches about as well: a turn in place (near-pure rotation) or one homography (near-planar).
+its matches about as well: a turn in place (near-pure rotation), one homography (near-planar), or
+another pose of the essential matrix that the other views do not settle (pose_basins).
 The reason names the configuration.
 """
 
