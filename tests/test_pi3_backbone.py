@@ -11,6 +11,7 @@ import torch
 
 from services.recon.backbones import create_backbone
 from services.recon.backbones.base import BackboneError
+from services.recon.backbones.pi3.backbone import DEFAULT_CONFIDENCE
 from services.recon.backbones.pi3.cameras import extrinsics_from_poses, fit_focal
 from services.recon.backbones.pi3.preprocessing import ViewScale, preprocess, resize_depth, target_size
 from tests.support import pi3_fixtures as fx
@@ -25,7 +26,7 @@ TINY = {
         "config": str(fx.DATA / "tiny_pi3x_config.json"),
     },
 }
-FIXTURE_PIXELS = 70 * 98  # the fixture images' own size: preprocessing keeps them as they are
+FIXTURE_PIXELS = fx.input_pixels()  # the fixture images' own size: preprocessing keeps them as they are
 
 
 def fixture_images() -> list[np.ndarray]:
@@ -40,7 +41,8 @@ def pi3x():
 
 def test_target_size_follows_the_published_rule() -> None:
     assert target_size(640, 480) == (574, 434)  # 588 x 434 would pass 255,000 pixels
-    assert target_size(98, 70, FIXTURE_PIXELS) == (98, 70)
+    _views, height, width = fx.input_shape()
+    assert target_size(width, height, FIXTURE_PIXELS) == (width, height)
     assert target_size(1920, 1080) == (672, 378)
     for width, height in ((640, 480), (1920, 1080), (300, 1200), (3000, 40)):
         w, h = target_size(width, height)
@@ -100,7 +102,12 @@ def test_pi3x_reconstruction_is_metric_and_in_our_convention(pi3x) -> None:
         direct = model(batch)
     # Random weights: a view whose points fit no positive focal length is no camera, and says so.
     placed = recon.registered
-    assert placed.any() and recon.num_points > 0
+    confidence = torch.sigmoid(direct["conf"][0, ..., 0]).numpy()
+    fits = [
+        np.isfinite(fit_focal(points, np.where(weight >= DEFAULT_CONFIDENCE, weight, 0.0))[0]).all()
+        for points, weight in zip(direct["local_points"][0].numpy(), confidence, strict=True)
+    ]
+    assert placed.tolist() == fits and (recon.num_points > 0) == placed.any()
     for index in np.flatnonzero(~placed):
         assert np.isnan(recon.extrinsics[index]).all() and not recon.depths[index].any()
         assert f"view {index + 1} could not be registered: pi3x gave no usable camera" in recon.warnings
@@ -110,7 +117,7 @@ def test_pi3x_reconstruction_is_metric_and_in_our_convention(pi3x) -> None:
     np.testing.assert_allclose(np.stack(recon.depths)[placed], depth[placed], rtol=1e-5)
     for confidence in recon.depth_confidence:
         assert confidence.min() >= 0.0 and confidence.max() <= 1.0
-    assert recon.intrinsics_source == ["predicted"] * 3
+    assert recon.intrinsics_source == ["predicted"] * len(images)
 
 
 def test_pi3x_is_conditioned_on_given_intrinsics_and_posed_depth(pi3x) -> None:
@@ -121,10 +128,11 @@ def test_pi3x_is_conditioned_on_given_intrinsics_and_posed_depth(pi3x) -> None:
     poses = np.load(fx.DATA / "tiny_pi3x_poses.npy").astype(np.float64)
     depths = np.load(fx.DATA / "tiny_pi3x_depths.npy")
     extrinsics = extrinsics_from_poses(poses)
+    sources = [("uploaded", "exif")[index % 2] for index in range(len(images))]
     recon = pi3x.reconstruct(
         images,
         intrinsics=list(ours),
-        intrinsics_sources=["uploaded", "exif", "uploaded"],
+        intrinsics_sources=sources,
         depths=list(depths),
         extrinsics=extrinsics,
     )
@@ -139,7 +147,7 @@ def test_pi3x_is_conditioned_on_given_intrinsics_and_posed_depth(pi3x) -> None:
     np.testing.assert_allclose(
         recon.extrinsics, extrinsics_from_poses(direct["camera_poses"][0].numpy()), rtol=1e-4, atol=1e-4
     )
-    assert recon.intrinsics_source == ["uploaded", "exif", "uploaded"]
+    assert recon.intrinsics_source == sources
     np.testing.assert_allclose(recon.intrinsics, ours)
 
 
@@ -152,14 +160,16 @@ def test_depth_maps_are_resized_by_nearest_neighbour() -> None:
 
 def test_pi3_is_relative_and_ignores_cameras() -> None:
     backbone = create_backbone("pi3", **TINY["pi3"], pixel_limit=FIXTURE_PIXELS)
-    recon = backbone.reconstruct(fixture_images(), intrinsics=[np.eye(3)] * 3)
+    images = fixture_images()
+    recon = backbone.reconstruct(images, intrinsics=[np.eye(3)] * len(images))
     assert recon.units == "relative" and "pi3 ignores option 'intrinsics'" in recon.warnings
 
 
 def test_too_many_views_are_refused_before_the_model_runs() -> None:
-    backbone = create_backbone("pi3x", **TINY["pi3x"], max_views=2)
-    with pytest.raises(BackboneError, match="at most 2 views"):
-        backbone.reconstruct(fixture_images())
+    images = fixture_images()
+    backbone = create_backbone("pi3x", **TINY["pi3x"], max_views=len(images) - 1)
+    with pytest.raises(BackboneError, match=f"at most {len(images) - 1} views"):
+        backbone.reconstruct(images)
     assert backbone._model is None
 
 
@@ -170,7 +180,8 @@ def test_without_weights_the_backbone_says_what_to_run() -> None:
 
 
 def test_weights_that_do_not_fit_are_refused_when_the_backbone_is_built(tmp_path: Path) -> None:
-    with pytest.raises(BackboneError, match="does not fit pi3x: 177 missing tensors"):
+    missing, _unexpected = fx.pi3_weights_read_as_pi3x()
+    with pytest.raises(BackboneError, match=f"does not fit pi3x: {len(missing)} missing tensors"):
         create_backbone("pi3x", checkpoint=TINY["pi3"]["checkpoint"], config=TINY["pi3x"]["config"])
     with pytest.raises(BackboneError, match="describes pi3, not pi3x"):
         create_backbone("pi3x", config=TINY["pi3"]["config"])

@@ -124,7 +124,8 @@ def test_masks_default_to_every_view_of_a_given_condition(tiny_pi3x: Pi3X) -> No
 def test_a_single_posed_view_is_no_pose_constraint(tiny_pi3x: Pi3X) -> None:
     only_intrinsics = fx.expected("pi3x", "_intrinsics")
     given = fx.conditions("_intrinsics_poses", only_intrinsics)
-    one = torch.tensor([[True, False, False]])
+    views = fx.images().shape[1]
+    one = torch.tensor([[index == 0 for index in range(views)]])
     given["masks"] = (given["masks"][0], given["masks"][1], one)
     with torch.inference_mode():
         outputs = tiny_pi3x(fx.images(), **given)
@@ -141,10 +142,11 @@ def test_pi3_is_permutation_equivariant(tiny_pi3: Pi3) -> None:
 
 
 def test_images_must_be_batched_multiples_of_the_patch(tiny_pi3: Pi3) -> None:
+    patch = fx.tiny_config("pi3").patch_size
     with pytest.raises(ValueError, match="multiple of the patch size"):
-        tiny_pi3(torch.zeros(1, 2, 3, 70, 100))
+        tiny_pi3(torch.zeros(1, 2, 3, 5 * patch, 7 * patch + 2))
     with pytest.raises(ValueError, match=r"\(B, N, 3, H, W\)"):
-        tiny_pi3(torch.zeros(2, 3, 70, 98))
+        tiny_pi3(torch.zeros(2, 3, 5 * patch, 7 * patch))
 
 
 def test_rotation_from_9d_is_a_proper_rotation() -> None:
@@ -162,7 +164,8 @@ def test_missing_unexpected_and_misshaped_tensors_are_listed(tmp_path: Path) -> 
     state = dict(load_file(str(fx.DATA / "tiny_pi3.safetensors")))
     del state["camera_head.fc_t.bias"]
     state["point_head.extra"] = torch.zeros(2)
-    state["conf_head.proj.bias"] = torch.zeros(7)
+    wanted = tuple(state["conf_head.proj.bias"].shape)
+    state["conf_head.proj.bias"] = torch.zeros(wanted[0] + 1)
     path = tmp_path / "broken.safetensors"
     save_file(state, str(path))
     with pytest.raises(BackboneError) as caught:
@@ -170,7 +173,7 @@ def test_missing_unexpected_and_misshaped_tensors_are_listed(tmp_path: Path) -> 
     message = str(caught.value)
     assert "Pi3 checkpoint" in message and "1 missing tensors: camera_head.fc_t.bias" in message
     assert "1 unexpected tensors: point_head.extra" in message
-    assert "conf_head.proj.bias (7,) (model expects (196,))" in message
+    assert f"conf_head.proj.bias ({wanted[0] + 1},) (model expects {wanted})" in message
 
 
 def test_pi3x_without_its_conditioning_tensors_loads_images_only(tmp_path: Path, tiny_pi3x: Pi3X) -> None:
@@ -202,9 +205,11 @@ def test_pi3x_with_part_of_its_conditioning_branch_is_refused(tmp_path: Path) ->
 
 
 def test_pi3_weights_do_not_load_as_pi3x() -> None:
-    with pytest.raises(
-        BackboneError, match="177 missing tensors: conf_head.*4 unexpected tensors: conf_head.proj.bias"
-    ):
+    missing, unexpected = fx.pi3_weights_read_as_pi3x()
+    listing = (
+        f"{len(missing)} missing tensors: {missing[0]}.*{len(unexpected)} unexpected tensors: {unexpected[0]}"
+    )
+    with pytest.raises(BackboneError, match=listing):
         load_pi3(fx.DATA / "tiny_pi3.safetensors", fx.tiny_config("pi3x"))
 
 
@@ -213,10 +218,24 @@ def test_pi3_weights_do_not_load_as_pi3x() -> None:
 
 def test_tiny_configs_are_read_from_the_fixture_format() -> None:
     pi3, pi3x = fx.tiny_config("pi3"), fx.tiny_config("pi3x")
-    assert (pi3.arch, pi3.decoder_dim, pi3.decoder.depth, pi3.decoder.num_heads) == ("pi3", 32, 8, 2)
-    assert (pi3.head_decoder.embed_dim, pi3.head_decoder.num_heads, pi3.camera_decoder_out_dim) == (48, 3, 24)
-    assert pi3x.pose_inject_after == (1, 3, 5) and pi3x.conv_head.dim_upsample == (48, 32, 16)
-    assert pi3x.metric_out_dim == 20 and pi3x.conv_head.last_conv_channels == 8
+    stated, stated_x = fx.config_values("pi3"), fx.config_values("pi3x")
+    decoder, head = stated["decoder"], stated["head_decoder"]
+    assert (pi3.arch, pi3.decoder_dim, pi3.decoder.depth, pi3.decoder.num_heads) == (
+        "pi3",
+        decoder["embed_dim"],
+        decoder["depth"],
+        decoder["num_heads"],
+    )
+    assert (pi3.head_decoder.embed_dim, pi3.head_decoder.num_heads, pi3.camera_decoder_out_dim) == (
+        head["embed_dim"],
+        head["num_heads"],
+        stated["camera_decoder_out_dim"],
+    )
+    point_head = stated_x["point_head"]
+    assert pi3x.pose_inject_after == tuple(stated_x["multimodal"]["pose_inject_after_decoder_blocks"])
+    assert pi3x.conv_head.dim_upsample == tuple(point_head["dim_upsample"])
+    assert pi3x.metric_out_dim == stated_x["metric_decoder"]["out_dim"]
+    assert pi3x.conv_head.last_conv_channels == point_head["last_conv_channels"]
     assert len({pi3.fingerprint(), pi3x.fingerprint(), Pi3Config.full_size("pi3x").fingerprint()}) == 3
 
 

@@ -18,6 +18,7 @@ import pytest
 
 from shared.local.services import running_service
 from shared.wire.client import AgentClient, ReconClient, ServiceError
+from tests.support import pi3_fixtures
 from tests.support.hub_standin import HubStandIn
 from tests.support.scenes import orbit_views
 from tests.test_agent_service import motion_question
@@ -50,7 +51,7 @@ def recon_env(tmp_path: Path, hf_home: Path, backbone: str = "auto") -> dict[str
         "PYSPATIAL_BACKBONE": backbone,
         "PYSPATIAL_PI3X_CONFIG": str(PI3_DATA / "tiny_pi3x_config.json"),
         "PYSPATIAL_PI3_CONFIG": str(PI3_DATA / "tiny_pi3_config.json"),
-        "PYSPATIAL_PI3_PIXEL_LIMIT": str(70 * 98),  # tiny weights: small network images
+        "PYSPATIAL_PI3_PIXEL_LIMIT": str(pi3_fixtures.input_pixels()),  # tiny weights: small network images
         "HF_HOME": str(hf_home),
         "HF_HUB_OFFLINE": "1",  # the service never downloads; offline proves it
     }

@@ -1,9 +1,15 @@
 """The Pi3 / Pi3X reference fixtures (tests/data/pi3/, see its README.md) and a run of our models
 that records the same intermediate arrays the fixtures store (`debug_*`), through forward hooks.
+
+`PYSPATIAL_PI3_FIXTURES` points the tests at another fixture folder of the same format (other
+weights, view count, image size; `scripts/make_pi3_fixture.py` writes one): what the tests expect
+is read from the folder's files, never from the shipped fixture's numbers.
 """
 
 from __future__ import annotations
 
+import json
+import os
 from pathlib import Path
 from typing import Any
 
@@ -15,7 +21,8 @@ from services.recon.backbones.pi3.checkpoint import load_pi3
 from services.recon.backbones.pi3.config import Pi3Config
 from services.recon.backbones.pi3.config_file import read_pi3_config
 
-DATA = Path(__file__).resolve().parent.parent / "data" / "pi3"
+SHIPPED = Path(__file__).resolve().parent.parent / "data" / "pi3"
+DATA = Path(os.environ.get("PYSPATIAL_PI3_FIXTURES") or SHIPPED)
 # case suffix -> which conditions the fixture passed
 PI3X_CASES = {
     "": (),
@@ -36,6 +43,29 @@ def tiny_model(arch: str) -> Any:
 
 def images() -> torch.Tensor:
     return torch.from_numpy(np.load(DATA / "tiny_pi3_input.npy"))[None]
+
+
+def input_shape() -> tuple[int, int, int]:
+    """(views, height, width) of the fixture's images."""
+    views, _channels, height, width = np.load(DATA / "tiny_pi3_input.npy", mmap_mode="r").shape
+    return int(views), int(height), int(width)
+
+
+def input_pixels() -> int:
+    """The fixture images' own pixel count: a pixel limit at which preprocessing keeps them as they are."""
+    _views, height, width = input_shape()
+    return height * width
+
+
+def config_values(arch: str) -> dict[str, Any]:
+    return json.loads((DATA / f"tiny_{arch}_config.json").read_text())
+
+
+def tensor_names(arch: str) -> set[str]:
+    from safetensors import safe_open
+
+    with safe_open(str(DATA / f"tiny_{arch}.safetensors"), framework="pt") as handle:
+        return set(handle.keys())
 
 
 def expected(arch: str, case: str = "") -> dict[str, np.ndarray]:
@@ -109,3 +139,12 @@ def assert_matches(actual: dict[str, np.ndarray], reference: dict[str, np.ndarra
             continue
         assert np.isfinite(got).all(), name
         np.testing.assert_allclose(got, wanted, rtol=1e-4, atol=1e-4 * np.abs(wanted).max(), err_msg=name)
+
+
+def pi3_weights_read_as_pi3x() -> tuple[list[str], list[str]]:
+    """(missing, unexpected) tensor names when the Pi3 weights are loaded into the Pi3X model: with
+    no conditioning tensors the checkpoint is read as an images-only Pi3X, so those are not missing."""
+    conditioning = tiny_config("pi3x").multimodal_prefixes
+    pi3, pi3x = tensor_names("pi3"), tensor_names("pi3x")
+    images_only = {name for name in pi3x if not name.startswith(conditioning)}
+    return sorted(images_only - pi3), sorted(pi3 - pi3x)

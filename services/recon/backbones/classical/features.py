@@ -28,6 +28,9 @@ RATIO = 0.8  # Lowe's ratio: best match must be clearly better than the second b
 TILTS = (2.0,)  # horizontal compressions simulated besides the image itself
 MERGE_PX = 1.5  # a simulated-view keypoint this close to a kept one is that keypoint
 NEIGHBOURS = 4  # candidates examined per descriptor to find a runner-up from another keypoint
+BRIGHT_PERCENTILE = 99.5  # the image's "white": a few specular pixels do not set the exposure
+MIN_GAIN = 2.5  # a photo whose brightest pixels reach 40% of full scale is not dark: left as it is
+MAX_GAIN = 8.0
 
 
 @dataclass(frozen=True)
@@ -48,6 +51,7 @@ def sift_available() -> bool:
 def detect_features(gray: np.ndarray, max_features: int, kind: str = "sift") -> ViewFeatures:
     """Keypoints and descriptors of a uint8 grayscale image and of its simulated tilts."""
     kind = "sift" if kind == "sift" and sift_available() else "orb"
+    gray = exposure_normalized(gray)
     positions, descriptors = _detect(gray, max_features, kind)
     owners = np.arange(len(positions), dtype=np.int64)
     for tilt in TILTS:
@@ -61,6 +65,21 @@ def detect_features(gray: np.ndarray, max_features: int, kind: str = "sift") -> 
         descriptors = np.concatenate([descriptors, tilted_descriptors])
         owners = np.concatenate([owners, tilted_owners])
     return ViewFeatures(positions, descriptors, owners, kind)
+
+
+def exposure_normalized(gray: np.ndarray) -> np.ndarray:
+    """The image brightened so that its brightest pixels (BRIGHT_PERCENTILE) reach full scale.
+
+    SIFT's contrast threshold is a fraction of full scale, so a dark photo (a dark object on a
+    black background: everything below 50 of 255) loses most of its features to it; the same
+    scene exposed brighter keeps them (a synthetic dark ring: about 300 keypoints a view, 1,600-
+    2,000 once brightened). The gain is capped (MAX_GAIN) so a nearly black frame's sensor noise
+    is not made into texture; photos already using most of the range are left as they are."""
+    bright = float(np.percentile(gray, BRIGHT_PERCENTILE))
+    gain = min(MAX_GAIN, 255.0 / max(bright, 1.0))
+    if gain < MIN_GAIN:
+        return gray
+    return np.clip(gray.astype(np.float32) * gain, 0, 255).astype(np.uint8)
 
 
 def _detect(gray: np.ndarray, max_features: int, kind: str) -> tuple[np.ndarray, np.ndarray]:

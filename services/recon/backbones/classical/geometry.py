@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -55,3 +57,29 @@ def project(
     safe = np.where(np.abs(depth) < 1e-12, 1e-12, depth)
     pixels = (camera[:, :2] / safe[:, None]) * np.array([intrinsic[0, 0], intrinsic[1, 1]])
     return pixels + np.array([intrinsic[0, 2], intrinsic[1, 2]]), depth
+
+
+def sampson_distances(
+    n1: np.ndarray, n2: np.ndarray, rotation: np.ndarray, translation: np.ndarray
+) -> np.ndarray:
+    """Signed Sampson distances of the matches to the essential matrix [t]x R (normalized units)."""
+    essential = skew(translation) @ rotation
+    x1 = np.concatenate([n1, np.ones((len(n1), 1))], axis=1)
+    x2 = np.concatenate([n2, np.ones((len(n2), 1))], axis=1)
+    forward, backward = x1 @ essential.T, x2 @ essential
+    numerator = np.sum(x2 * forward, axis=1)
+    denominator = forward[:, 0] ** 2 + forward[:, 1] ** 2 + backward[:, 0] ** 2 + backward[:, 1] ** 2
+    return numerator / np.sqrt(np.maximum(denominator, 1e-24))
+
+
+def skew(vector: np.ndarray) -> np.ndarray:
+    x, y, z = vector
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def rotation_from_vector(rotation_vector: np.ndarray) -> np.ndarray:
+    angle = float(np.linalg.norm(rotation_vector))
+    if angle < 1e-15:
+        return np.eye(3) + skew(rotation_vector)
+    axis = skew(rotation_vector / angle)
+    return np.eye(3) + math.sin(angle) * axis + (1 - math.cos(angle)) * axis @ axis

@@ -1,6 +1,8 @@
 """How uncertain each pair's relative pose is, and which degenerate configuration makes it so.
 
-The uncertainty is the linearised covariance of the pair's relative pose (3 rotation and 2
+The uncertainty is the larger of two: the gap to another basin of the pose that the pair's own
+matches support nearly as well (pose_basins: the twisted pair, the mirrored solution, RANSAC
+restarts), and the linearised covariance of the pair's relative pose (3 rotation and 2
 direction parameters) under the Sampson errors of the matches both views share in the model,
 scaled by their measured noise: sigma^2 (J^T J)^-1 at the model's pose. It is cheap (a 5-column
 Jacobian by central differences) and it sees the ambiguity that fooled the pose: with a narrow
@@ -9,7 +11,8 @@ long flat valley along which the rotation is poorly fixed even by a hundred sub-
 
 A pair is flagged when its rotation is uncertain by more than MAX_ROTATION_SIGMA_DEG, or its
 rays meet at an angle that is small against that uncertainty, or when a second model explains
-its matches about as well: a turn in place (near-pure rotation) or one homography (near-planar).
+its matches about as well: a turn in place (near-pure rotation), one homography (near-planar), or
+another pose of the essential matrix that the other views do not settle (pose_basins).
 The reason names the configuration.
 """
 
@@ -23,7 +26,13 @@ import numpy as np
 
 from shared.geometry.reconstruction import PairConfidence
 
-from .geometry import normalized_coordinates, rotation_angle_deg
+from .geometry import (
+    normalized_coordinates,
+    rotation_angle_deg,
+    rotation_from_vector,
+    sampson_distances,
+)
+from .pose_basins import RivalBasin, rival_basin
 from .two_view import TwoViewGeometry
 
 MAX_ROTATION_SIGMA_DEG = 1.5  # one standard deviation; 3 sigma (4.5) stays under a 5-degree error
@@ -50,22 +59,49 @@ def assess_pairs(
     confidence: list[PairConfidence],
 ) -> list[PairConfidence]:
     """Each pair's confidence with its uncertainty and, when flagged, the reason."""
-    direct, planar_gaps = [], []
+    direct, planar_gaps, basins = [], [], []
     for pair in confidence:
         rays = _shared_rays(keypoints, intrinsics, extrinsics, tracks, pair.first, pair.second)
         rotation_sigma, direction_sigma = _pose_sigmas(*rays)
+        geometry = pairs.get((pair.first, pair.second))
+        basin = _rival_basin(keypoints, intrinsics, geometry, pair.first, pair.second, rays)
+        if basin is not None and math.isfinite(rotation_sigma):
+            rotation_sigma = max(rotation_sigma, basin.gap_deg)  # the other basin is as likely
+        basins.append(basin)
         direct.append(
             replace(pair, rotation_uncertainty_deg=rotation_sigma, direction_uncertainty_deg=direction_sigma)
         )
         wide = pair.triangulation_angle_deg >= MIN_PLANAR_ANGLE_DEG
-        planar_gaps.append(_planar_rival_gap(*rays, pairs.get((pair.first, pair.second))) if wide else 0.0)
+        planar_gaps.append(_planar_rival_gap(*rays, geometry) if wide else 0.0)
     through_model = _chained_sigmas(direct)
     result = []
-    for pair, planar_gap in zip(direct, planar_gaps, strict=True):
+    for pair, planar_gap, basin in zip(direct, planar_gaps, basins, strict=True):
         updated = replace(pair, rotation_uncertainty_deg=through_model[(pair.first, pair.second)])
-        reason = uncertain_reason(updated, pairs.get((pair.first, pair.second)), planar_gap)
+        # The other views settle a pair's basin when a chain through them is tighter than the gap.
+        unsettled = (
+            basin if basin is not None and updated.rotation_uncertainty_deg >= basin.gap_deg / 2 else None
+        )
+        reason = uncertain_reason(updated, pairs.get((pair.first, pair.second)), planar_gap, unsettled)
         result.append(replace(updated, uncertain_reason=reason))
     return result
+
+
+def _rival_basin(
+    keypoints: list[np.ndarray],
+    intrinsics: list[np.ndarray],
+    geometry: TwoViewGeometry | None,
+    first: int,
+    second: int,
+    rays: _Rays,
+) -> RivalBasin | None:
+    """Another pose the pair's own matches support nearly as well as the model's (pose_basins)."""
+    if geometry is None or geometry.candidates is None or geometry.model != "essential":
+        return None
+    matches = geometry.candidates
+    n1 = normalized_coordinates(keypoints[first][matches[:, 0]], intrinsics[first])
+    n2 = normalized_coordinates(keypoints[second][matches[:, 1]], intrinsics[second])
+    _, _, focal, rotation, translation = rays
+    return rival_basin(n1, n2, focal, rotation, translation)
 
 
 def _chained_sigmas(pairs: list[PairConfidence]) -> dict[tuple[int, int], float]:
@@ -116,14 +152,20 @@ def _shared_rays(
 
 
 def uncertain_reason(
-    pair: PairConfidence, geometry: TwoViewGeometry | None, planar_gap_deg: float = 0.0
+    pair: PairConfidence,
+    geometry: TwoViewGeometry | None,
+    planar_gap_deg: float = 0.0,
+    basin: RivalBasin | None = None,
 ) -> str | None:
     """Why a pair's relative pose is not confident, naming the configuration; None when it is.
 
     `planar_gap_deg`: how far the pose of a homography's other decomposition is, when that pose
-    explains the matches as well as the model's (0 when none does)."""
+    explains the matches as well as the model's (0 when none does). `basin`: another pose of the
+    essential matrix the matches support nearly as well, that the other views do not settle."""
     sigma, angle = pair.rotation_uncertainty_deg, pair.triangulation_angle_deg
     causes = [] if geometry is None or geometry.model != "essential" else _turn_rival(geometry)
+    if basin is not None and basin.gap_deg > RIVAL_GAP_DEG:
+        causes.append(basin.describe())
     if planar_gap_deg > RIVAL_GAP_DEG:
         causes.append(
             f"near-planar: one homography explains the matches as well with a pose {planar_gap_deg:.0f} "
@@ -169,14 +211,14 @@ def _planar_rival_gap(
     rivals = geometry.rivals
     if rivals.homography_inliers < RIVAL_SHARE * rivals.essential_inliers or not translation.any():
         return 0.0
-    own = _typical(_sampson(n1, n2, rotation, translation) * focal)
+    own = _typical(sampson_distances(n1, n2, rotation, translation) * focal)
     _, rotations, translations, _ = cv2.decomposeHomographyMat(rivals.homography, np.eye(3))
     widest = 0.0
     for other_rotation, other_translation in zip(rotations, translations, strict=True):
         length = float(np.linalg.norm(other_translation))
         if length < 1e-12:
             continue
-        fit = _typical(_sampson(n1, n2, other_rotation, other_translation.ravel() / length) * focal)
+        fit = _typical(sampson_distances(n1, n2, other_rotation, other_translation.ravel() / length) * focal)
         if fit <= RIVAL_FIT_RATIO * max(own, MIN_NOISE_PX):
             widest = max(widest, rotation_angle_deg(other_rotation @ rotation.T))
     return widest
@@ -197,9 +239,9 @@ def _pose_sigmas(
     across = np.linalg.svd(translation.reshape(1, 3))[2][1:]  # two unit vectors orthogonal to t
 
     def residuals(parameters: np.ndarray, keep: slice | np.ndarray = slice(None)) -> np.ndarray:
-        turned = _exp(parameters[:3]) @ rotation
+        turned = rotation_from_vector(parameters[:3]) @ rotation
         moved = translation + parameters[3:] @ across
-        return _sampson(n1[keep], n2[keep], turned, moved / np.linalg.norm(moved)) * focal
+        return sampson_distances(n1[keep], n2[keep], turned, moved / np.linalg.norm(moved)) * focal
 
     # Matches the model's pose does not explain (beyond OUTLIER_PX) would only inflate the noise.
     kept = np.abs(residuals(np.zeros(5))) < OUTLIER_PX
@@ -220,30 +262,6 @@ def _pose_sigmas(
     rotation_sigma = math.sqrt(max(float(np.linalg.eigvalsh(covariance[:3, :3])[-1]), 0.0))
     direction_sigma = math.sqrt(max(float(np.linalg.eigvalsh(covariance[3:, 3:])[-1]), 0.0))
     return math.degrees(rotation_sigma), math.degrees(direction_sigma)
-
-
-def _sampson(n1: np.ndarray, n2: np.ndarray, rotation: np.ndarray, translation: np.ndarray) -> np.ndarray:
-    """Signed Sampson distances of the matches to the essential matrix [t]x R (normalized units)."""
-    essential = _cross(translation) @ rotation
-    x1 = np.concatenate([n1, np.ones((len(n1), 1))], axis=1)
-    x2 = np.concatenate([n2, np.ones((len(n2), 1))], axis=1)
-    forward, backward = x1 @ essential.T, x2 @ essential
-    numerator = np.sum(x2 * forward, axis=1)
-    denominator = forward[:, 0] ** 2 + forward[:, 1] ** 2 + backward[:, 0] ** 2 + backward[:, 1] ** 2
-    return numerator / np.sqrt(np.maximum(denominator, 1e-24))
-
-
-def _cross(vector: np.ndarray) -> np.ndarray:
-    x, y, z = vector
-    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-
-
-def _exp(rotation_vector: np.ndarray) -> np.ndarray:
-    angle = float(np.linalg.norm(rotation_vector))
-    if angle < 1e-15:
-        return np.eye(3) + _cross(rotation_vector)
-    axis = _cross(rotation_vector / angle)
-    return np.eye(3) + math.sin(angle) * axis + (1 - math.cos(angle)) * axis @ axis
 
 
 MIN_MEASURED_POINTS = 15  # shared points with which a pair measures its own direction

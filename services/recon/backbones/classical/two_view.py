@@ -49,6 +49,9 @@ class TwoViewGeometry:
     model: str  # "essential" or "rotation"
     median_parallax_deg: float  # angle between the rays of a match after removing the rotation
     rivals: Rivals = field(default_factory=Rivals)
+    # Every match the pose was fitted to (inliers or not): other basins of the pose are searched
+    # on these (pose_basins), since a pose in the wrong basin keeps only the matches that fit it.
+    candidates: np.ndarray | None = None
 
     @property
     def is_rotation(self) -> bool:
@@ -91,11 +94,11 @@ def estimate_two_view(
     if rotation_fit is not None and rotation_count >= ROTATION_SHARE * essential_count:
         rotation, inliers, _, _ = rotation_fit
         parallax = _median_parallax_deg(n1[inliers], n2[inliers], rotation)
-        return TwoViewGeometry(matches[inliers], rotation, np.zeros(3), "rotation", parallax, rivals)
+        return TwoViewGeometry(matches[inliers], rotation, np.zeros(3), "rotation", parallax, rivals, matches)
     assert essential is not None
     rotation, translation, inliers, _ = essential
     return TwoViewGeometry(
-        matches[inliers], rotation, translation, "essential", rivals.essential_parallax_deg, rivals
+        matches[inliers], rotation, translation, "essential", rivals.essential_parallax_deg, rivals, matches
     )
 
 
