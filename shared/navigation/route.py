@@ -233,6 +233,10 @@ def _setting(
     forward = floor.to_plane(pose[2, :3])[0]
     plane, heights = floor.to_plane(recon.points), floor.height(recon.points)
     band = (robot.floor_clearance * per_metre, robot.height * per_metre)
+    # The map reaches at least a body (and a margin) around the start and the goal.
+    reach = (robot.radius + 2 * SAFETY_MARGIN_M) * per_metre + 2 * CELL_M * per_metre
+    ends = np.stack([start, floor.to_plane(goal)[0]])
+    keep = (ends[:, None, :] + reach * np.array([[0, 0], [1, 1], [-1, -1]])[None]).reshape(-1, 2)
     grid = build_grid(
         plane,
         heights,
@@ -240,7 +244,7 @@ def _setting(
         CELL_M * per_metre,
         _FLOOR_TOLERANCE_M * per_metre,
         _CLOSE_HOLES_M / CELL_M,
-        np.stack([start, floor.to_plane(goal)[0]]),
+        keep,
     )
     # The robot stands at the start: its own footprint is seen floor even if no view saw it.
     footprint = _cells_within(grid, start, (robot.radius + SAFETY_MARGIN_M) * per_metre + grid.cell)
