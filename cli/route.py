@@ -53,6 +53,15 @@ def _posed_inputs(depths: list[Path] | None, cameras: Path | None) -> dict:
     return {"depths": arrays, "extrinsics": given["extrinsics"], "intrinsics": given["intrinsics"]}
 
 
+def _scale_words(plan) -> str:
+    words = f"units: {plan.units}, scale from {plan.scale_from or 'unknown'}"
+    if plan.floor_residual_m is not None:
+        words += f" (floor fit residual {plan.floor_residual_m:.3f} m)"
+    if plan.scale_check is not None:
+        words += f"; reconstructed camera height / given: {plan.scale_check:.2f}"
+    return words
+
+
 def route(
     photos: list[Path] = typer.Argument(..., help="Image files, or one folder (sorted by name)."),
     start_view: int = typer.Option(1, help="The view (1-based) whose camera stands above the robot."),
@@ -64,6 +73,9 @@ def route(
     radius: float = typer.Option(0.25, help="The robot's radius, metres."),
     height: float = typer.Option(0.5, help="The top of the robot's body above the floor, metres."),
     floor_clearance: float = typer.Option(0.05, help="The bottom of its body: lower things are driven over."),
+    camera_height: float | None = typer.Option(
+        None, help="The robot's camera above the floor, metres: photos alone then give metres."
+    ),
     backbone: str | None = typer.Option(None, help="Reconstruction backbone (posed-rgbd with depths)."),
     out: Path | None = typer.Option(
         None, help="Where to write the plan [default: pyspatial-out/route/SCENE.json]."
@@ -80,6 +92,10 @@ def route(
         raise fail(str(error)) from None
     posed = _posed_inputs(depths, cameras)
     robot = {"radius": radius, "height": height, "floor_clearance": floor_clearance}
+    if camera_height is not None:
+        if not camera_height > 0:
+            raise fail(f"--camera-height must be a positive number of metres, got {camera_height}")
+        robot["camera_height_m"] = camera_height
     with service_errors(), AgentClient(agent_url, timeout=timeout, api_key=api_key) as client:
         with spinner(f"planning a route over {len(paths)} photos"):
             plan = client.route(
@@ -94,10 +110,13 @@ def route(
             console.print(f"{number}. {sentence}")
         console.print(
             f"length {plan.length_m:.2f} {unit} (straight line {plan.straight_line_m:.2f}), "
-            f"smallest clearance {plan.clearance_m:.2f} {unit}; turns are {plan.turn_convention}"
+            f"smallest clearance {plan.clearance_m:.2f} m; turns are {plan.turn_convention}"
         )
+        if plan.unseen_m:
+            console.print(f"[yellow]{plan.unseen_m:.2f} {unit} cross floor no photo shows[/]")
     else:
         console.print(f"[red]no route:[/] {plan.reason}")
+    console.print(_scale_words(plan))
     for warning in plan.warnings:
         console.print(f"[yellow]warning:[/] {warning}")
     console.print(f"plan written to {target}")

@@ -72,11 +72,17 @@ def narrowest_passage(
     plane = grid.to_plane(np.array(cells))
     centres = grid.to_plane(np.argwhere(blocked))
     distance = np.array([np.linalg.norm(centres - point, axis=1).min() for point in plane])
-    tightest = int(np.argmin(distance))
-    where = plane[tightest]
-    reach = distance[tightest] + 4 * grid.cell
-    near = grid.obstacle_points[np.linalg.norm(grid.obstacle_points - where, axis=1) <= reach]
-    pair = _closest_pair(near, where)
-    if pair is None:  # no points on one side (a cell closed by the grid): the cells' own gap
-        return Passage(where, max(2 * distance[tightest] - grid.cell, 0.0), None)
-    return Passage(where, float(np.linalg.norm(pair[0] - pair[1])), pair)
+    # Every cell as tight as the tightest (within a cell) may be the passage; one that is tight on
+    # one side only (the path hugging a corner) is not a passage, so it needs obstacles on both sides.
+    passages = []
+    for index in np.flatnonzero(distance <= distance.min() + grid.cell):
+        where = plane[index]
+        reach = distance[index] + 4 * grid.cell
+        near = grid.obstacle_points[np.linalg.norm(grid.obstacle_points - where, axis=1) <= reach]
+        pair = _closest_pair(near, where)
+        if pair is not None:
+            passages.append(Passage(where, float(np.linalg.norm(pair[0] - pair[1])), pair))
+    if passages:
+        return min(passages, key=lambda passage: passage.width)
+    tightest = int(np.argmin(distance))  # no seen points on both sides (the map's edge): the cells' gap
+    return Passage(plane[tightest], max(2 * distance[tightest] - grid.cell, 0.0), None)

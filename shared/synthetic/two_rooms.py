@@ -13,7 +13,8 @@ Kinds:
 ``varied=True`` draws the capture the way real ones vary (the route benchmark's scenes): 3-7 views,
 one camera height per scene in 1.0-1.8 m, a doorway ``coverage`` of ``full`` (views look through
 the doorway from both rooms), ``partial`` (from room A only, the doorway off-centre) or ``none``
-(no view looks at the doorway, room B's view stands with its back to it), and furniture allowed
+(room A's views look at the dividing wall beside the doorway, not through it; room B's view
+stands with its back to the doorway), and furniture allowed
 near the doorway. The default is the fixed capture (5-7 views at 1.5 m) the tests were written on.
 
 Besides the rendering mesh, every scene keeps its *solids*: the convex parts (wall slabs,
@@ -256,6 +257,11 @@ def _varied_views(rng: np.random.Generator, layout: _Layout, start: np.ndarray) 
         shift = 0.0 if coverage == "full" else float(rng.choice([-1, 1]) * rng.uniform(0.8, 1.6))
         eyes.append(np.array([divider - rng.uniform(1.8, 3.0), door_centre + rng.uniform(-0.5, 0.5)]))
         looks.append(np.array([divider + 1.5, door_centre + shift]))
+    if coverage == "none":  # room A's view of the dividing wall beside the doorway, not through it
+        offset = float(rng.choice([-1, 1]) * rng.uniform(1.3, 2.0))
+        target_y = float(np.clip(door_centre + offset, 0.5, width - 0.5))
+        eyes.append(np.array([divider - rng.uniform(1.8, 2.6), target_y - 0.3 * np.sign(offset)]))
+        looks.append(np.array([divider, target_y]))
     if coverage == "full":
         eyes.append(np.array([divider + rng.uniform(1.8, 3.0), door_centre + rng.uniform(-0.5, 0.5)]))
         looks.append(np.array([divider - 1.5, door_centre]))
