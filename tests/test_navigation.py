@@ -14,7 +14,13 @@ import pytest
 from shared.geometry.backprojection import reconstruction_from_rgbd
 from shared.navigation import Robot, estimate_floor, locate, plan_route
 from shared.navigation.route import _CLOSE_HOLES_M, CELL_M
-from shared.synthetic.two_rooms import WALL, execute_steps, generate_two_rooms, true_shortest
+from shared.synthetic.two_rooms import (
+    depths_without_floor_past_the_doorway,
+    execute_steps,
+    generate_two_rooms,
+    past_the_doorway,
+    true_shortest,
+)
 
 RADIUS = 0.25
 BAND = (0.05, 0.5)
@@ -86,26 +92,13 @@ def test_a_doorway_narrower_than_the_robot_is_refused_with_where_and_how_wide(na
     assert wide_enough.reachable, wide_enough.reason  # a small robot fits the same doorway
 
 
-def _beyond_the_doorway(two, depth_m: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
-    """The floor box (x, y low; x, y high) just past the doorway, the whole width of room B."""
-    low = np.array([two.divider_x + WALL / 2, two.scene.room_min[1]])
-    return low, np.array([low[0] + depth_m, two.scene.room_max[1]])
+def _beyond_the_doorway(two):
+    return past_the_doorway(two)
 
 
 def _without_floor_beyond_the_doorway(two, views):
-    """Posed RGB-D with every view's floor pixels past the doorway blanked (no depth there)."""
-    low, high = _beyond_the_doorway(two)
-    depths = []
-    for pose, view in zip(two.extrinsics, views, strict=True):
-        depth = view.depth.copy()
-        rows, columns = np.indices(depth.shape)
-        rays = np.stack([columns, rows, np.ones_like(rows)], axis=-1) @ np.linalg.inv(two.intrinsic).T
-        world = (rays * depth[..., None] - pose[:, 3]) @ pose[:, :3]
-        floor = (np.abs(world[..., 2]) < 0.03) & np.all(
-            (world[..., :2] >= low) & (world[..., :2] <= high), axis=-1
-        )
-        depth[floor] = 0.0
-        depths.append(depth)
+    """Posed RGB-D in which no view saw the floor just past the doorway."""
+    depths = depths_without_floor_past_the_doorway(two, views)
     return reconstruction_from_rgbd(
         [v.rgb for v in views], depths, two.extrinsics, [two.intrinsic] * len(views)
     )

@@ -237,6 +237,11 @@ class _Layout:
     door_keep_out: float = 1.4  # furniture keeps this far from the doorway's centre
 
 
+def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:
+    cosine = float(a @ b / (np.linalg.norm(a) * np.linalg.norm(b)))
+    return float(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
+
+
 def _varied_views(rng: np.random.Generator, layout: _Layout, start: np.ndarray) -> None:
     """Replace the fixed capture by a drawn one: 3-7 views, one height, a doorway coverage."""
     divider, width, length = layout.divider, layout.width, layout.length
@@ -249,7 +254,8 @@ def _varied_views(rng: np.random.Generator, layout: _Layout, start: np.ndarray) 
     eyes = [start]
     looks = [start + [np.cos(heading), np.sin(heading)]]
     if coverage == "none":  # room B's view stands near the dividing wall and looks away from it
-        eyes.append(np.array([divider + WALL / 2 + 0.6, float(rng.uniform(0.8, width - 0.8))]))
+        far_end = 0.8 if door_centre > width / 2 else width - 0.8  # the end of the wall away from the door
+        eyes.append(np.array([divider + WALL / 2 + 0.6, far_end]))
     else:
         eyes.append(_farthest_corner(layout.goal, divider + WALL / 2, length, width))
     looks.append(layout.goal)
@@ -258,9 +264,11 @@ def _varied_views(rng: np.random.Generator, layout: _Layout, start: np.ndarray) 
         eyes.append(np.array([divider - rng.uniform(1.8, 3.0), door_centre + rng.uniform(-0.5, 0.5)]))
         looks.append(np.array([divider + 1.5, door_centre + shift]))
     if coverage == "none":  # room A's view of the dividing wall beside the doorway, not through it
-        offset = float(rng.choice([-1, 1]) * rng.uniform(1.3, 2.0))
+        offset = float(rng.choice([-1, 1]) * rng.uniform(1.7, 2.3))
+        if not 0.5 <= door_centre + offset <= width - 0.5:
+            offset = -offset
         target_y = float(np.clip(door_centre + offset, 0.5, width - 0.5))
-        eyes.append(np.array([divider - rng.uniform(1.8, 2.6), target_y - 0.3 * np.sign(offset)]))
+        eyes.append(np.array([divider - rng.uniform(0.9, 1.3), target_y + 0.2 * np.sign(offset)]))
         looks.append(np.array([divider, target_y]))
     if coverage == "full":
         eyes.append(np.array([divider + rng.uniform(1.8, 3.0), door_centre + rng.uniform(-0.5, 0.5)]))
@@ -274,9 +282,16 @@ def _varied_views(rng: np.random.Generator, layout: _Layout, start: np.ndarray) 
         b_corner = np.array([length - 0.7, width / 2 - side * (width / 2 - 0.7)])
         extras.append((b_corner, np.array([(divider + length) / 2, width / 2])))
     wanted = int(rng.integers(max(0, 3 - len(eyes)), min(len(extras), 7 - len(eyes)) + 1))
+    door = np.array([divider, door_centre])
     for index in rng.permutation(len(extras))[:wanted]:
-        eyes.append(extras[index][0])
-        looks.append(extras[index][1])
+        eye, look = extras[index]
+        if coverage == "none" and _angle_deg(look - eye, door - eye) < 55.0:
+            continue  # it would look through the doorway
+        eyes.append(eye)
+        looks.append(look)
+    if len(eyes) < 3:  # the start area, seen from just behind the start
+        eyes.append(start - 0.8 * np.array([np.cos(heading), np.sin(heading)]))
+        looks.append(start + np.array([np.cos(heading), np.sin(heading)]))
     height = float(rng.uniform(1.0, 1.8))
     layout.heights = [height] + [
         float(np.clip(height + rng.uniform(-0.15, 0.15), 0.9, 1.9)) for _ in eyes[1:]
@@ -447,6 +462,30 @@ def generate_two_rooms(
         if _fits_its_kind(two, radius, band):
             return two
     raise ValueError(f"seed {seed}: no {kind} layout found")
+
+
+def past_the_doorway(two: TwoRoomScene, depth_m: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """The floor box (x, y low), (x, y high) just past the doorway, the whole width of room B."""
+    low = np.array([two.divider_x + WALL / 2, float(two.scene.room_min[1])])
+    return low, np.array([low[0] + depth_m, float(two.scene.room_max[1])])
+
+
+def depths_without_floor_past_the_doorway(two: TwoRoomScene, views, depth_m: float = 1.0) -> list[np.ndarray]:
+    """Every view's depth with its floor pixels past the doorway blanked (0: no depth there).
+
+    A capture in which no view saw the floor just beyond the doorway, everything else as rendered.
+    """
+    low, high = past_the_doorway(two, depth_m)
+    depths = []
+    for pose, view in zip(two.extrinsics, views, strict=True):
+        depth = view.depth.copy()
+        rows, columns = np.indices(depth.shape)
+        rays = np.stack([columns, rows, np.ones_like(rows)], axis=-1) @ np.linalg.inv(two.intrinsic).T
+        world = (rays * depth[..., None] - pose[:, 3]) @ pose[:, :3]
+        inside = np.all((world[..., :2] >= low) & (world[..., :2] <= high), axis=-1)
+        depth[(np.abs(world[..., 2]) < 0.03) & inside] = 0.0
+        depths.append(depth)
+    return depths
 
 
 @dataclass
