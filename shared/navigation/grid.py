@@ -25,11 +25,20 @@ class Grid:
     # (K, 2) floor coordinates of the points at body height: a passage is measured on these, not on
     # cell centres, so its width is what a tape measure between the seen surfaces would give.
     obstacle_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    # (H, W) bool: cells some view's line of sight passed over (``sight.looked_into``); None: unknown.
+    looked: np.ndarray | None = None
+
+    @property
+    def hidden(self) -> np.ndarray:
+        """(H, W) bool: unseen cells that no line of sight reached: outside the map."""
+        if self.looked is None:
+            return np.zeros(self.shape, bool)
+        return self.unseen & ~self.looked
 
     @property
     def blocked(self) -> np.ndarray:
-        """Occupied cells and the map's edge: the grid's outer ring, a few cells beyond anything seen."""
-        out = self.occupied.copy()
+        """Occupied cells and the map's edge: the grid's outer ring and the cells no view looked into."""
+        out = self.occupied | self.hidden
         out[[0, -1], :] = True
         out[:, [0, -1]] = True
         return out

@@ -26,7 +26,8 @@ from shared.navigation.floor import Floor, estimate_floor
 from shared.navigation.grid import Grid, build_grid, dilate
 from shared.navigation.passage import narrowest_passage
 from shared.navigation.scale import ASSUMED_CAMERA_HEIGHT_M, Scale, plan_scale  # noqa: F401 (re-exported)
-from shared.navigation.search import astar, shorten
+from shared.navigation.search import astar, reachable_from, shorten
+from shared.navigation.sight import looked_into
 from shared.navigation.steps import steps_and_sentences
 
 TURN_CONVENTION = "left-positive"
@@ -68,7 +69,8 @@ class RoutePlan:
     reachable: bool
     units: str  # "metres" or "scene units"
     reason: str | None = None
-    refusal: str | None = None  # start_blocked, goal_in_obstacle, goal_too_close, narrow_gap, enclosed
+    # start_blocked, goal_in_obstacle, goal_unseen, goal_too_close, narrow_gap, enclosed, unseen_space
+    refusal: str | None = None
     steps: list[dict] = field(default_factory=list)
     sentences: list[str] = field(default_factory=list)
     path_world: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
@@ -249,6 +251,11 @@ def _setting(
     # The robot stands at the start: its own footprint is seen floor even if no view saw it.
     footprint = _cells_within(grid, start, (robot.radius + SAFETY_MARGIN_M) * per_metre + grid.cell)
     grid.free |= footprint & ~grid.occupied
+    grid.looked = looked_into(recon, floor, grid)
+    if grid.looked is not None:  # the robot is there, and turns to look: twice its body around it
+        grid.looked |= _cells_within(
+            grid, start, 2 * (robot.radius + SAFETY_MARGIN_M) * per_metre + grid.cell
+        )
     passable = ~dilate(grid.blocked, (robot.radius + SAFETY_MARGIN_M) * per_metre / grid.cell)
     cost = np.where(grid.unseen, float(unseen_cost), 1.0)
     heading = float(np.arctan2(forward[1], forward[0]))
@@ -289,6 +296,8 @@ def _goal_cell(
     row, column = int(cell[0]), int(cell[1])
     if grid.occupied[row, column]:
         return None, "goal_in_obstacle", "the goal is inside an obstacle at the robot's body height"
+    if grid.hidden[row, column]:
+        return None, "goal_unseen", "no view looked at the goal's floor, nor over it"
     if setting.passable[row, column]:
         return (row, column), None, None
     near = _cells_within(grid, goal_plane, GOAL_TOLERANCE_M * setting.per_metre) & setting.passable
@@ -324,12 +333,25 @@ def _boundary(mask: np.ndarray) -> np.ndarray:
     return mask & ~inner
 
 
+def _joined_through_hidden(grid: Grid, start: tuple[int, int], goal: tuple[int, int]) -> bool:
+    """Whether start and goal would be joined if the cells no view looked into were open."""
+    open_ = ~(grid.occupied | (grid.blocked & ~grid.hidden & ~grid.occupied))
+    return bool(reachable_from(open_, start)[goal])
+
+
 def _why_unreachable(
     setting: _Setting, start: tuple[int, int], goal: tuple[int, int], robot: Robot
 ) -> tuple[str, str, float | None]:
     """Refusal kind, reason and the passage's width (metres by the plan's scale) when no path fits."""
     radius_cells = (robot.radius + SAFETY_MARGIN_M) * setting.per_metre / setting.grid.cell
     passage = narrowest_passage(setting.grid, start, goal, radius_cells)
+    if passage is None and _joined_through_hidden(setting.grid, start, goal):
+        return (
+            "unseen_space",
+            "every way to the goal passes where no view looked (not even over the floor): a wall or a "
+            "doorway no photo shows; add a photo of the way between",
+            None,
+        )
     if passage is None:
         return (
             "enclosed",
