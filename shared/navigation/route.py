@@ -345,7 +345,9 @@ def _why_unreachable(
     """Refusal kind, reason and the passage's width (metres by the plan's scale) when no path fits."""
     radius_cells = (robot.radius + SAFETY_MARGIN_M) * setting.per_metre / setting.grid.cell
     passage = narrowest_passage(setting.grid, start, goal, radius_cells)
-    if passage is None and _joined_through_hidden(setting.grid, start, goal):
+    # A passage with no seen points on a side is bounded by where no view looked: no width to tell.
+    off_the_map = passage is not None and passage.sides is None
+    if off_the_map or (passage is None and _joined_through_hidden(setting.grid, start, goal)):
         return (
             "unseen_space",
             "every way to the goal passes where no view looked (not even over the floor): a wall or a "
