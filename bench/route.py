@@ -230,6 +230,16 @@ def _photo_only(two: TwoRoomScene, views, backbone) -> tuple[Reconstruction | No
     except BackboneError as error:
         return None, None, f"reconstruction failed: {error}"
     placed = f"{int(np.count_nonzero(recon.registered))}/{recon.num_views} placed"
+    if 2 * np.count_nonzero(recon.registered) < recon.num_views:
+        confidence = recon.view_confidence or [None] * recon.num_views
+        placed += (
+            " (not placed: "
+            + "; ".join(
+                f"view {i + 1}: {getattr(confidence[i], 'unregistered_reason', None) or 'no reason given'}"
+                for i in np.flatnonzero(~np.asarray(recon.registered))
+            )
+            + ")"
+        )
     if not (recon.registered[0] and recon.registered[two.goal_view]):
         return None, None, f"{placed}; start or goal view not placed"
     pose = two.extrinsics[two.goal_view]
