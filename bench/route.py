@@ -1,13 +1,19 @@
 """Route plans on two-room scenes: success, length against the true shortest route, refusals.
 
-    .venv/bin/python -m bench.route [--scenes 45] [--seed 23] [--photo-scenes 8] [--json PATH]
+    .venv/bin/python -m bench.route [--scenes 60] [--seed 23] [--photo-scenes 8] [--json PATH]
 
 Scene i is kind ``reachable`` for i % 6 in 0..3, ``narrow_door`` for 4 and ``ring`` for 5
-(``shared/synthetic/two_rooms.py``). Every plan is driven on the *true* geometry from the true
+(``shared/synthetic/two_rooms.py``, ``varied=True``: 3-7 views, camera heights 1.0-1.8 m, doorway
+coverage full / partial / none, furniture near the doorway). Seed 23 is the tuning seed; seed 71
+is held out (nothing is tuned on it). Every plan is driven on the *true* geometry from the true
 start pose (a disc of the robot's radius, 0.25 m, swept every 2 cm along the steps; body band
 0.05-0.5 m). Success: no collision and the end within 0.3 m of the goal, on a reachable scene.
 Length ratio: the plan's driven length over the true shortest route (2.5 cm grid, string pulled),
-over the successes. A refusal is correct only on an unreachable scene, with a reason.
+over the successes. A refusal is correct only on an unreachable scene, with a true reason: a
+narrow doorway is ``narrow_gap`` with a width within 0.1 m of the doorway's, a pen is ``enclosed``.
+Unseen floor is checked independently of the planner: a path point is seen when some view's depth
+at its pixel is the floor point's own depth (within 3 cm); a plan whose path has >= 0.2 m unseen
+that way must report ``unseen_m > 0``.
 
 Methods on the same reconstruction:
 - ``plan_route``: the planner (``shared/navigation``);
@@ -15,10 +21,12 @@ Methods on the same reconstruction:
 - ``turn-then-go``: drive the goal's forward offset in the start camera's heading frame, turn
   90 degrees towards it, drive its sideways offset (how a reader of camera coordinates plans).
 
-Inputs: ``posed RGB-D`` (exact depth and cameras: metric; the goal is the true world point) and
-``photo-only (classical)`` (the RGB photos and their intrinsics only; the goal is the true
-goal's pixel in view 4, located in the reconstruction; moves are scene units turned into metres by
-the planner's assumed 1.5 m camera height, which is the true height here, a favourable case).
+Inputs: ``posed RGB-D`` (exact depth and cameras: metric; the goal is the true world point),
+``photos + camera height`` (the RGB photos and their intrinsics only, classical backbone; the goal
+is the true goal's pixel in the goal view, located in the reconstruction; the robot's true camera
+height makes the moves metres; scale error: the plan's straight-line distance against the true
+one, in metres) and ``photos alone`` (the same reconstruction in scene units: scored by direction
+only, the bearing of the plan's end from the start against the goal's, in the start's frame).
 """
 
 from __future__ import annotations
@@ -32,17 +40,19 @@ import numpy as np
 
 from shared.geometry.backprojection import reconstruction_from_rgbd
 from shared.geometry.reconstruction import Reconstruction
-from shared.navigation import locate, plan_route
+from shared.navigation import Robot, locate, plan_route
 from shared.navigation.floor import estimate_floor
-from shared.synthetic.two_rooms import TwoRoomScene, execute_steps, generate_two_rooms, true_shortest
+from shared.synthetic.two_rooms import WALL, TwoRoomScene, execute_steps, generate_two_rooms, true_shortest
 
 RADIUS = 0.25
 BAND = (0.05, 0.5)
 TOLERANCE_M = 0.3
+WIDTH_TOLERANCE_M = 0.1
+UNSEEN_CHECK_M = 0.2
 _KIND_CYCLE = ("reachable",) * 4 + ("narrow_door", "ring")
 METHODS = ("plan_route", "straight line", "turn-then-go")
 _NO_RECONSTRUCTION = "no reconstruction"
-GOAL_VIEW = 3  # the view that looks at the goal (two_rooms: the farthest corner of room B)
+POSED, WITH_HEIGHT, ALONE = "posed RGB-D", "photos + camera height", "photos alone"
 
 
 @dataclass
@@ -53,9 +63,15 @@ class Tally:
     collisions: int = 0
     short: int = 0  # ended farther than the tolerance from the goal
     false_refusals: int = 0
-    correct_refusals: int = 0
+    correct_refusals: int = 0  # refused with a true reason (kind and, for a doorway, its width)
+    wrong_reasons: int = 0  # an unreachable scene refused, but the reason is not true
     no_reconstruction: int = 0  # the backbone gave nothing to plan on (not a refusal with a reason)
+    crossing_unseen: int = 0  # plans whose path crosses floor no view saw (independent check)
+    said_unseen: int = 0  # ... of which the plan reports unseen_m > 0
     ratios: list[float] = field(default_factory=list)
+    width_errors: list[float] = field(default_factory=list)
+    scale_errors_m: list[float] = field(default_factory=list)
+    bearing_errors_deg: list[float] = field(default_factory=list)
     refusal_kinds: dict[str, int] = field(default_factory=dict)
 
     def row(self) -> dict:
@@ -70,8 +86,19 @@ class Tally:
             "false_refusals": self.false_refusals,
             "no_reconstruction": self.no_reconstruction,
             "unreachable_refused": f"{self.correct_refusals}/{self.unreachable}",
+            "wrong_reasons": self.wrong_reasons,
+            "max_width_error_m": max(self.width_errors) if self.width_errors else None,
+            "unseen_said": f"{self.said_unseen}/{self.crossing_unseen}",
+            "scale_error_m": _spread(self.scale_errors_m),
+            "bearing_error_deg": _spread(self.bearing_errors_deg),
             "refusal_kinds": self.refusal_kinds,
         }
+
+
+def _spread(values: list[float]) -> dict | None:
+    if not values:
+        return None
+    return {"median": float(np.median(values)), "max": float(np.max(values)), "n": len(values)}
 
 
 def _start_frame(recon: Reconstruction, goal: np.ndarray) -> tuple[float, float]:
@@ -99,20 +126,33 @@ def baseline_steps(method: str, recon: Reconstruction, goal: np.ndarray) -> list
     return [first, {"turn_degrees": turn, "move": abs(left)}]
 
 
-def _score(tally: Tally, two: TwoRoomScene, shortest: float | None, steps, refused: str | None, scale: float):
-    reachable = two.kind == "reachable"
-    if refused == _NO_RECONSTRUCTION:
-        tally.no_reconstruction += 1
+def _true_reason(two: TwoRoomScene, plan) -> tuple[bool, float | None]:
+    """Whether an unreachable scene's refusal says what truly blocks it (and the width's error)."""
+    if two.kind == "ring":
+        return plan.refusal == "enclosed", None
+    if plan.refusal != "narrow_gap" or plan.narrowest_passage_m is None:
+        return False, None
+    error = abs(plan.narrowest_passage_m - (two.door[1] - two.door[0]))
+    return error <= WIDTH_TOLERANCE_M, error
+
+
+def _score_refusal(tally: Tally, two: TwoRoomScene, plan) -> None:
+    kind = plan.refusal if plan.reason else ""
+    tally.refusal_kinds[kind] = tally.refusal_kinds.get(kind, 0) + 1
+    if two.kind == "reachable":
+        tally.false_refusals += 1
         return
-    if refused is not None:
-        tally.refusal_kinds[refused] = tally.refusal_kinds.get(refused, 0) + 1
-        if reachable:
-            tally.false_refusals += 1
-        else:
-            tally.correct_refusals += 1
-        return
-    if not reachable:
-        return  # a plan for an unreachable goal: never a success
+    true, error = _true_reason(two, plan)
+    tally.correct_refusals += int(true)
+    tally.wrong_reasons += int(not true)
+    if error is not None:
+        tally.width_errors.append(error)
+
+
+def _drive(tally: Tally, two: TwoRoomScene, shortest: float | None, steps, scale: float) -> str:
+    """Drive a plan on the true geometry; its verdict in words."""
+    if two.kind != "reachable":
+        return " (a plan for an unreachable goal)"
     moves = [{"turn_degrees": s["turn_degrees"], "move": s["move"] * scale} for s in steps]
     run = execute_steps(two, moves, RADIUS, BAND)
     tally.collisions += int(run.collided)
@@ -130,16 +170,55 @@ def _score(tally: Tally, two: TwoRoomScene, shortest: float | None, steps, refus
     return f"{where} ended {miss:.2f} m from the goal"
 
 
+def seen_floor(two: TwoRoomScene, views, points: np.ndarray) -> np.ndarray:
+    """Per floor point (z = 0), whether some view's depth at its pixel is that point (it was seen)."""
+    seen = np.zeros(len(points), bool)
+    width, height = two.size
+    for pose, view in zip(two.extrinsics, views, strict=True):
+        camera = points @ pose[:, :3].T + pose[:, 3]
+        pixels = camera @ two.intrinsic.T
+        front = camera[:, 2] > 1e-6
+        u = np.rint(pixels[:, 0] / np.where(front, pixels[:, 2], 1)).astype(int)
+        v = np.rint(pixels[:, 1] / np.where(front, pixels[:, 2], 1)).astype(int)
+        inside = front & (u >= 0) & (v >= 0) & (u < width) & (v < height)
+        depth = np.zeros(len(points))
+        depth[inside] = view.depth[v[inside], u[inside]]
+        seen |= inside & (np.abs(depth - camera[:, 2]) < 0.03)
+    return seen
+
+
+def unseen_along(two: TwoRoomScene, views, path_world: np.ndarray, spacing: float = 0.05) -> float:
+    """Metres of the path over floor that no view saw (the independent check)."""
+    samples = []
+    for a, b in zip(path_world[:-1], path_world[1:], strict=True):
+        count = max(int(np.ceil(np.linalg.norm(b - a) / spacing)), 1)
+        samples.append(a + np.linspace(0.0, 1.0, count, endpoint=False)[:, None] * (b - a))
+    if not samples:
+        return 0.0
+    points = np.concatenate(samples)
+    points[:, 2] = 0.0
+    return float(np.count_nonzero(~seen_floor(two, views, points)) * spacing)
+
+
+def doorway_coverage(two: TwoRoomScene, views) -> float:
+    """Share of the floor within 1 m past the doorway (room B's side) that some view saw."""
+    xs = np.arange(two.divider_x + WALL / 2 + 0.05, two.divider_x + WALL / 2 + 1.0, 0.05)
+    ys = np.arange(two.door[0], two.door[1], 0.05)
+    grid = np.array([[x, y, 0.0] for x in xs for y in ys])
+    return float(seen_floor(two, views, grid).mean())
+
+
 def _posed(two: TwoRoomScene, views) -> Reconstruction:
     return reconstruction_from_rgbd(
         [v.rgb for v in views], [v.depth for v in views], two.extrinsics, [two.intrinsic] * len(views)
     )
 
 
-def _photo_only(
-    two: TwoRoomScene, views, backbone
-) -> tuple[Reconstruction | None, np.ndarray | None, str | None]:
-    """The classical reconstruction and the goal located in it from its pixel, or why not."""
+def _photo_only(two: TwoRoomScene, views, backbone) -> tuple[Reconstruction | None, np.ndarray | None, str]:
+    """The classical reconstruction and the goal located in it from its pixel, or why not.
+
+    The third value says how many views were placed (and which were not, why).
+    """
     from services.recon.backbones.base import BackboneError
 
     try:
@@ -150,34 +229,94 @@ def _photo_only(
         )
     except BackboneError as error:
         return None, None, f"reconstruction failed: {error}"
-    if not (recon.registered[0] and recon.registered[GOAL_VIEW]):
-        return None, None, "start or goal view not placed"
-    pose = two.extrinsics[GOAL_VIEW]
+    placed = f"{int(np.count_nonzero(recon.registered))}/{recon.num_views} placed"
+    if 2 * np.count_nonzero(recon.registered) < recon.num_views:
+        confidence = recon.view_confidence or [None] * recon.num_views
+        placed += (
+            " (not placed: "
+            + "; ".join(
+                f"view {i + 1}: {getattr(confidence[i], 'unregistered_reason', None) or 'no reason given'}"
+                for i in np.flatnonzero(~np.asarray(recon.registered))
+            )
+            + ")"
+        )
+    if not (recon.registered[0] and recon.registered[two.goal_view]):
+        return None, None, f"{placed}; start or goal view not placed"
+    pose = two.extrinsics[two.goal_view]
     pixel = two.intrinsic @ (pose[:, :3] @ two.goal + pose[:, 3])
-    found = locate(recon, GOAL_VIEW, pixel[0] / pixel[2], pixel[1] / pixel[2])
+    found = locate(recon, two.goal_view, pixel[0] / pixel[2], pixel[1] / pixel[2])
     if found.point is None:
-        return None, None, found.reason
-    return recon, found.point, None
+        return None, None, f"{placed}; {found.reason}"
+    return recon, found.point, placed
 
 
-def _evaluate(tallies: dict, setting: str, two: TwoRoomScene, shortest, recon, goal, reason) -> str:
-    """Score the planner and the baselines on one reconstruction; the planner's verdict in words."""
-    for method in METHODS:
-        tally = tallies.setdefault((setting, method), Tally())
-        tally.reachable += int(two.kind == "reachable")
-        tally.unreachable += int(two.kind != "reachable")
-        if recon is None:
-            _score(tally, two, shortest, [], _NO_RECONSTRUCTION, 1.0)
-            continue
-        if method == "plan_route":
-            plan = plan_route(recon, 0, goal, robot_radius=RADIUS)
-            refused = None if plan.reachable else (plan.refusal if plan.reason else "")
-            note = _score(tally, two, shortest, plan.steps, refused, plan.metres_per_unit)
-            verdict = f"{plan.length:.2f} m{note or ''}" if plan.reachable else f"refused ({plan.refusal})"
-        else:
-            scale = 1.0 if recon.units == "metres" else _assumed_metres_per_unit(recon)
-            _score(tally, two, shortest, baseline_steps(method, recon, goal), None, scale)
-    return verdict if recon is not None else f"no reconstruction ({reason})"
+@dataclass
+class _Case:
+    """One scene's truth, shared by its inputs."""
+
+    two: TwoRoomScene
+    views: list
+    shortest: float | None
+
+
+def _count(tallies: dict, setting: str, method: str, two: TwoRoomScene) -> Tally:
+    tally = tallies.setdefault((setting, method), Tally())
+    tally.reachable += int(two.kind == "reachable")
+    tally.unreachable += int(two.kind != "reachable")
+    return tally
+
+
+def _evaluate_plan(tallies: dict, setting: str, case: _Case, recon, goal, robot: Robot) -> str:
+    """Score the planner on one reconstruction; its verdict in words."""
+    tally = _count(tallies, setting, "plan_route", case.two)
+    plan = plan_route(recon, 0, goal, robot=robot)
+    if plan.reachable and recon.units == "metres":
+        crossing = unseen_along(case.two, case.views, _to_true_world(recon, plan.path_world))
+        if crossing >= UNSEEN_CHECK_M:
+            tally.crossing_unseen += 1
+            tally.said_unseen += int((plan.unseen_m or 0.0) > 0)
+    if setting == WITH_HEIGHT:
+        true_distance = float(np.linalg.norm(case.two.goal[:2] - case.two.start_floor()[:2]))
+        tally.scale_errors_m.append(abs(plan.straight_line_distance - true_distance))
+    if not plan.reachable:
+        _score_refusal(tally, case.two, plan)
+        width = f" {plan.narrowest_passage_m:.2f} m" if plan.narrowest_passage_m is not None else ""
+        if case.two.kind == "narrow_door":
+            width += f", doorway {case.two.door[1] - case.two.door[0]:.2f} m"
+        return f"refused ({plan.refusal}{width})"
+    note = _drive(tally, case.two, case.shortest, plan.steps, 1.0 if plan.units == "metres" else 0.0)
+    return f"{plan.length:.2f} m, {plan.unseen_m:.2f} unseen{note}"
+
+
+def _to_true_world(recon: Reconstruction, points: np.ndarray) -> np.ndarray:
+    return points  # posed RGB-D: the reconstruction's world is the scene's
+
+
+def _bearing_error(case: _Case, recon, goal) -> str:
+    """Photos alone: the bearing of the plan's end from the start against the true goal's."""
+    plan = plan_route(recon, 0, goal, robot=Robot(radius=RADIUS))
+    if not plan.reachable:
+        return f"refused ({plan.refusal})"
+    heading, position = 0.0, np.zeros(2)
+    for step in plan.steps:
+        heading += np.radians(step["turn_degrees"])
+        position += step["move"] * np.array([np.cos(heading), np.sin(heading)])
+    pose = case.two.extrinsics[0]
+    forward = pose[2, :2] / np.linalg.norm(pose[2, :2])
+    offset = case.two.goal[:2] - case.two.start_floor()[:2]
+    truth = np.arctan2(forward[0] * offset[1] - forward[1] * offset[0], forward @ offset)
+    error = float(
+        np.degrees(abs((np.arctan2(position[1], position[0]) - truth + np.pi) % (2 * np.pi) - np.pi))
+    )
+    return f"bearing off by {error:.1f} deg"
+
+
+def _evaluate_baselines(tallies: dict, setting: str, case: _Case, recon, goal) -> None:
+    scale = 1.0 if recon.units == "metres" else _assumed_metres_per_unit(recon)
+    for method in METHODS[1:]:
+        tally = _count(tallies, setting, method, case.two)
+        if case.two.kind == "reachable":
+            _drive(tally, case.two, case.shortest, baseline_steps(method, recon, goal), scale)
 
 
 def _assumed_metres_per_unit(recon: Reconstruction) -> float:
@@ -186,13 +325,29 @@ def _assumed_metres_per_unit(recon: Reconstruction) -> float:
     return 1.5 / float(floor.height(-pose[:, :3].T @ pose[:, 3])[0])
 
 
+def _photo_modes(tallies: dict, case: _Case, backbone) -> str:
+    recon, goal, placed = _photo_only(case.two, case.views, backbone)
+    if recon is None:
+        for setting in (WITH_HEIGHT, ALONE):
+            _count(tallies, setting, "plan_route", case.two).no_reconstruction += 1
+        return f"  photos: {placed}"
+    robot = Robot(radius=RADIUS, camera_height=case.two.camera_height)
+    with_height = _evaluate_plan(tallies, WITH_HEIGHT, case, recon, goal, robot)
+    alone_tally = _count(tallies, ALONE, "plan_route", case.two)
+    words = _bearing_error(case, recon, goal)
+    if words.startswith("bearing"):
+        alone_tally.bearing_errors_deg.append(float(words.split()[3]))
+    return f"  photos ({placed}): with height {with_height}; alone {words}"
+
+
 def _table(tallies: dict) -> str:
     lines = [
         "| input | method | success (reachable) | length / shortest, mean and max | collisions |"
-        " ended > 0.3 m away | false refusals | no reconstruction | unreachable refused |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        " ended > 0.3 m away | false refusals | no reconstruction | unreachable refused (true reason) |"
+        " unseen crossings said |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
-    for (setting, method), tally in tallies.items():
+    for (setting, method), tally in sorted(tallies.items()):
         row = tally.row()
         cells = [
             setting,
@@ -203,17 +358,36 @@ def _table(tallies: dict) -> str:
             row["ended_short"],
             row["false_refusals"],
             row["no_reconstruction"],
-            row["unreachable_refused"],
+            row["unreachable_refused"] if method == "plan_route" else "-",
+            row["unseen_said"] if method == "plan_route" else "-",
         ]
         lines.append("| " + " | ".join(str(cell) for cell in cells) + " |")
     return "\n".join(lines)
 
 
+def _scene(options, index: int, tallies: dict, backbone) -> str:
+    kind = _KIND_CYCLE[index % len(_KIND_CYCLE)]
+    two = generate_two_rooms(options.seed * 1000 + index, kind, radius=RADIUS, band=BAND, varied=True)
+    views = two.render()
+    bounds = (two.scene.room_min, two.scene.room_max)
+    case = _Case(two, views, true_shortest(two.solids, two.start_floor(), two.goal, RADIUS, BAND, bounds))
+    recon = _posed(two, views)
+    verdict = _evaluate_plan(tallies, POSED, case, recon, two.goal, Robot(radius=RADIUS))
+    _evaluate_baselines(tallies, POSED, case, recon, two.goal)
+    line = (
+        f"scene {index:2d} {kind:11s} {len(views)} views h {two.camera_height:.2f} {two.coverage:7s} "
+        f"door seen {doorway_coverage(two, views):4.0%}  shortest {case.shortest or 0:5.2f}  posed: {verdict}"
+    )
+    if index < options.photo_scenes:
+        line += _photo_modes(tallies, case, backbone)
+    return line
+
+
 def main(args: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenes", type=int, default=45)
+    parser.add_argument("--scenes", type=int, default=60)
     parser.add_argument("--seed", type=int, default=23)
-    parser.add_argument("--photo-scenes", type=int, default=8, help="the first N scenes also photo-only")
+    parser.add_argument("--photo-scenes", type=int, default=8, help="the first N scenes also from photos")
     parser.add_argument("--json", default=None, help="write the figures here")
     options = parser.parse_args(args)
     tallies: dict = {}
@@ -224,23 +398,17 @@ def main(args: list[str] | None = None) -> None:
         backbone = ClassicalBackbone()
     started = time.perf_counter()
     for index in range(options.scenes):
-        kind = _KIND_CYCLE[index % len(_KIND_CYCLE)]
-        two = generate_two_rooms(options.seed * 1000 + index, kind, radius=RADIUS, band=BAND)
-        views = two.render()
-        bounds = (two.scene.room_min, two.scene.room_max)
-        shortest = true_shortest(two.solids, two.start_floor(), two.goal, RADIUS, BAND, bounds)
-        verdict = _evaluate(tallies, "posed RGB-D", two, shortest, _posed(two, views), two.goal, None)
-        line = (
-            f"scene {index:2d} {kind:11s} {len(views)} views  shortest {shortest or 0:5.2f}  posed: {verdict}"
-        )
-        if index < options.photo_scenes:
-            recon, goal, reason = _photo_only(two, views, backbone)
-            line += "  photo-only: " + _evaluate(
-                tallies, "photo-only (classical)", two, shortest, recon, goal, reason
-            )
-        print(line, flush=True)
+        print(_scene(options, index, tallies, backbone), flush=True)
     print(f"\n{options.scenes} scenes in {time.perf_counter() - started:.0f} s (seed {options.seed})\n")
     print(_table(tallies))
+    for (setting, method), tally in sorted(tallies.items()):
+        if method == "plan_route":
+            row = tally.row()
+            print(
+                f"{setting}: refusal kinds {row['refusal_kinds']}, wrong reasons {row['wrong_reasons']}, "
+                f"largest width error {row['max_width_error_m']}, scale error (m) {row['scale_error_m']}, "
+                f"bearing error (deg) {row['bearing_error_deg']}"
+            )
     if options.json:
         rows = [{"input": s, "method": m, **t.row()} for (s, m), t in tallies.items()]
         with open(options.json, "w") as handle:

@@ -116,6 +116,15 @@ def posed_inputs(depths: list[Path], cameras: Path | None, num_views: int) -> di
     }
 
 
+def _scale_words(plan) -> str:
+    words = f"units: {plan.units}, scale from {plan.scale_from or 'unknown'}"
+    if plan.floor_residual_m is not None:
+        words += f" (floor fit residual {plan.floor_residual_m:.3f} m)"
+    if plan.scale_check is not None:
+        words += f"; reconstructed camera height / given: {plan.scale_check:.2f}"
+    return words
+
+
 def route(
     photos: list[Path] = typer.Argument(..., help="Image files, or one folder (sorted by name)."),
     start_view: int = typer.Option(1, help="The view (1-based) whose camera stands above the robot."),
@@ -135,6 +144,9 @@ def route(
     radius: float = typer.Option(0.25, help="The robot's radius, metres."),
     height: float = typer.Option(0.5, help="The top of the robot's body above the floor, metres."),
     floor_clearance: float = typer.Option(0.05, help="The bottom of its body: lower things are driven over."),
+    camera_height: float | None = typer.Option(
+        None, help="The robot's camera above the floor, metres: photos alone then give metres."
+    ),
     backbone: str | None = typer.Option(None, help="Reconstruction backbone (posed-rgbd with depths)."),
     out: Path | None = typer.Option(
         None, help="Where to write the plan.", show_default="pyspatial-out/route/<scene id>.json"
@@ -152,6 +164,10 @@ def route(
         raise fail(str(error)) from None
     posed = posed_inputs(depth_files, cameras, len(paths))
     robot = {"radius": radius, "height": height, "floor_clearance": floor_clearance}
+    if camera_height is not None:
+        if not camera_height > 0:
+            raise fail(f"--camera-height must be a positive number of metres, got {camera_height}")
+        robot["camera_height_m"] = camera_height
     with service_errors(), AgentClient(agent_url, timeout=timeout, api_key=api_key) as client:
         with spinner(f"planning a route over {len(paths)} photos"):
             plan = client.route(
@@ -168,8 +184,11 @@ def route(
             f"length {plan.length:.2f} {unit} (straight line {plan.straight_line:.2f}), "
             f"smallest clearance {plan.clearance:.2f} {unit}; turns are {plan.turn_convention}"
         )
+        if plan.unseen_m:
+            console.print(f"[yellow]{plan.unseen_m:.2f} {unit} cross floor no photo shows[/]")
     else:
         console.print(f"[red]no route:[/] {plan.reason}")
+    console.print(_scale_words(plan))
     for warning in plan.warnings:
         console.print(f"[yellow]warning:[/] {warning}")
     console.print(f"plan written to {target}")

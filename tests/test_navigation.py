@@ -13,7 +13,14 @@ import pytest
 
 from shared.geometry.backprojection import reconstruction_from_rgbd
 from shared.navigation import Robot, estimate_floor, locate, plan_route
-from shared.synthetic.two_rooms import execute_steps, generate_two_rooms, true_shortest
+from shared.navigation.route import _CLOSE_HOLES_M, CELL_M
+from shared.synthetic.two_rooms import (
+    depths_without_floor_past_the_doorway,
+    execute_steps,
+    generate_two_rooms,
+    past_the_doorway,
+    true_shortest,
+)
 
 RADIUS = 0.25
 BAND = (0.05, 0.5)
@@ -80,22 +87,71 @@ def test_a_doorway_narrower_than_the_robot_is_refused_with_where_and_how_wide(na
     plan = plan_route(recon, 0, two.goal, robot_radius=RADIUS)
     assert not plan.reachable and plan.refusal == "narrow_gap"
     assert "wide" in plan.reason and plan.steps == [] and plan.length is None
+    assert abs(plan.narrowest_passage_m - (two.door[1] - two.door[0])) <= 0.1
     wide_enough = plan_route(recon, 0, two.goal, robot=Robot(radius=0.1))
     assert wide_enough.reachable, wide_enough.reason  # a small robot fits the same doorway
 
 
-def test_unknown_space_is_not_free(reachable):
-    two, views, _ = reachable
-    # With only the views standing in room A, room B's floor is unknown: no route may cross it.
-    seen_from_a = [0, 1]
-    partial = reconstruction_from_rgbd(
-        [views[i].rgb for i in seen_from_a],
-        [views[i].depth for i in seen_from_a],
-        two.extrinsics[seen_from_a],
-        [two.intrinsic] * len(seen_from_a),
+def _beyond_the_doorway(two):
+    return past_the_doorway(two)
+
+
+def _without_floor_beyond_the_doorway(two, views):
+    """Posed RGB-D in which no view saw the floor just past the doorway."""
+    depths = depths_without_floor_past_the_doorway(two, views)
+    return reconstruction_from_rgbd(
+        [v.rgb for v in views], depths, two.extrinsics, [two.intrinsic] * len(views)
     )
-    plan = plan_route(partial, 0, two.goal)
-    assert not plan.reachable and plan.refusal in {"goal_unseen", "unseen_space"}, plan.reason
+
+
+def _length_inside(path: np.ndarray, low: np.ndarray, high: np.ndarray, spacing: float = 0.01) -> float:
+    samples = [
+        a + t * (b - a)
+        for a, b in zip(path[:-1], path[1:], strict=True)
+        for t in np.arange(0.0, 1.0, spacing / max(np.linalg.norm(b - a), 1e-9))
+    ]
+    inside = [np.all((p[:2] >= low) & (p[:2] <= high)) for p in samples]
+    return float(np.count_nonzero(inside) * spacing)
+
+
+def test_floor_unseen_past_the_doorway_is_crossed_and_said(reachable):
+    two, views, _ = reachable
+    recon = _without_floor_beyond_the_doorway(two, views)
+    plan = plan_route(recon, 0, two.goal, robot_radius=RADIUS)
+    assert plan.reachable, plan.reason
+    run = execute_steps(two, plan.steps, RADIUS, BAND)
+    assert not run.collided and np.linalg.norm(run.end - two.goal[:2]) <= 0.3
+    # Every way into room B crosses the blanked box; the planner's unseen metres are that crossing,
+    # give or take the closing of small holes at the box's two sides and the sampling.
+    low, high = _beyond_the_doorway(two)
+    crossing = _length_inside(plan.path_world, low, high)
+    assert crossing >= high[0] - low[0] - 0.02
+    slack = 2 * _CLOSE_HOLES_M + CELL_M
+    assert crossing - slack <= plan.unseen_m <= crossing + CELL_M, (plan.unseen_m, crossing)
+    assert plan.unseen_m == pytest.approx(sum(step["unseen_m"] for step in plan.steps), abs=1e-3)
+    assert plan.unseen_m == pytest.approx(sum(s["length"] for s in plan.unseen_stretches), abs=1e-3)
+    for stretch in plan.unseen_stretches:
+        step = plan.steps[stretch["step"] - 1]
+        assert step["unseen_m"] > 0 and "floor no photo shows" in plan.sentences[stretch["step"] - 1]
+        for end in (stretch["start_world"], stretch["end_world"]):
+            assert np.all(np.array(end[:2]) >= low - slack) and np.all(np.array(end[:2]) <= high + slack)
+    said = [s for s, step in zip(plan.sentences, plan.steps, strict=True) if step["unseen_m"] > 0]
+    assert said and all("go slowly and look again" in s for s in said)
+    assert not any(
+        "no photo" in s for s, step in zip(plan.sentences, plan.steps, strict=True) if not step["unseen_m"]
+    )
+
+
+def test_a_narrow_doorway_is_measured_between_its_seen_jambs_even_with_the_floor_past_it_unseen(narrow):
+    two, views, recon = narrow
+    door = two.door[1] - two.door[0]
+    for reconstruction in (recon, _without_floor_beyond_the_doorway(two, views)):
+        plan = plan_route(reconstruction, 0, two.goal, robot_radius=RADIUS)
+        assert not plan.reachable and plan.refusal == "narrow_gap", plan.reason
+        assert abs(plan.narrowest_passage_m - door) <= 0.1, (plan.narrowest_passage_m, door)
+        assert f"{plan.narrowest_passage_m:.2f} m wide" in plan.reason
+        where = [float(part) for part in plan.reason.split("near (")[1].split(")")[0].split(",")]
+        assert abs(where[0] - two.divider_x) <= 0.3 and two.door[0] - 0.1 <= where[1] <= two.door[1] + 0.1
 
 
 def test_locate_reads_depth_or_points_and_says_when_nothing_is_there(reachable):

@@ -218,3 +218,69 @@ def test_how_do_i_get_there_through_solve_uses_the_same_tools(recon_and_agent, p
         result = client.solve(question, scene_id=planned.scene_id, backbone="posed-rgbd")
     assert result.attempts[-1].error is None, result.attempts[-1].error
     assert all(sentence in result.clue.text for sentence in planned.sentences), result.clue.text
+
+
+@pytest.fixture(scope="module")
+def photos_only():
+    """Photos the classical backbone places (its own test's arc), their true cameras and a floor goal."""
+    from shared.synthetic import generate_scene, render_view
+    from tests.test_classical_backbone import HEIGHT, SCENE_SEED, WIDTH, K, arc_cameras
+
+    scene = generate_scene(SCENE_SEED)
+    cameras = arc_cameras(scene)
+    views = [render_view(scene, camera, K, WIDTH, HEIGHT) for camera in cameras]
+    u, v = WIDTH / 2, round(0.85 * HEIGHT)
+    in_camera = np.linalg.inv(K) @ [u, v, 1.0] * views[1].depth[v, int(u)]
+    goal = cameras[1][:, :3].T @ (in_camera - cameras[1][:, 3])
+    return cameras, views, {"pixel": {"view": 2, "u": u, "v": v}}, goal
+
+
+def test_photos_with_the_camera_height_plan_in_metres(agent, photos_only):
+    cameras, views, goal_pixel_of_view_2, goal = photos_only
+    centres = np.array([-pose[:, :3].T @ pose[:, 3] for pose in cameras])
+    height = float(centres[0, 2])  # the true start camera's height above the floor (z = 0)
+    true_distance = float(np.linalg.norm(goal[:2] - centres[0, :2]))
+    with AgentClient(agent.url, timeout=600) as client:
+        metric = client.route(
+            goal_pixel_of_view_2,
+            images=[view.rgb for view in views],
+            backbone="classical",
+            robot={"radius": 0.2, "camera_height_m": height},
+        )
+        plain = client.route(goal_pixel_of_view_2, scene_id=metric.scene_id, backbone="classical")
+    assert metric.units == "metres" and metric.scale_from == "camera height", metric.warnings
+    assert metric.floor_residual_m is not None and metric.floor_residual_m < 0.05 * height
+    # Without the height: scene units, and the two plans differ by exactly the two scales.
+    assert plain.units == "scene units" and plain.scale_from == "assumed camera height"
+    assert any("no metric scale" in warning for warning in plain.warnings)
+    metres_per_unit = metric.straight_line / plain.straight_line
+    assert metres_per_unit == pytest.approx(plain.metres_per_unit * height / 1.5, rel=1e-3)
+    assert abs(metric.straight_line - true_distance) <= 0.1 * true_distance, (
+        metric.straight_line,
+        true_distance,
+    )
+    assert metric.reachable and sum(step.move for step in metric.steps) == pytest.approx(
+        metric.length, abs=1e-3
+    )
+
+
+def test_a_metric_reconstruction_with_a_camera_height_reports_their_ratio(agent, scenes):
+    two, views = scenes["reachable"]
+    height = float(two.camera_height)
+    with AgentClient(agent.url) as client:
+        agreeing = client.route(
+            {"point_world": two.goal.tolist()},
+            robot={"radius": 0.25, "camera_height_m": height},
+            **_upload_arguments(two, views),
+        )
+        off = client.route(
+            {"point_world": two.goal.tolist()},
+            scene_id=agreeing.scene_id,
+            robot={"radius": 0.25, "camera_height_m": 1.25 * height},
+        )
+    assert agreeing.units == "metres" and agreeing.scale_from == "metric reconstruction"
+    assert agreeing.scale_check == pytest.approx(1.0, abs=0.02) and not any(
+        "ratio" in w for w in agreeing.warnings
+    )
+    assert off.scale_check == pytest.approx(1 / 1.25, abs=0.02) and any("ratio" in w for w in off.warnings)
+    assert off.length == pytest.approx(agreeing.length, abs=1e-6)  # the metric scale stays

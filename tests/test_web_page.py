@@ -638,19 +638,28 @@ def test_the_viewer_draws_200k_points_and_its_frame_time_is_measured(recon, stac
     assert csp_violations(browser) == []
 
 
-def _posed_route_files(kind: str, seed: int, folder: Path) -> tuple:
-    """A two-room scene (bench.route's generator) as a user has it: photos, .npy depths, cameras JSON."""
+def _posed_route_files(kind: str, seed: int, folder: Path, unseen_past_the_doorway: bool = False) -> tuple:
+    """A two-room scene (bench.route's generator) as a user has it: photos, .npy depths, cameras JSON.
+
+    ``unseen_past_the_doorway``: no depth map shows the floor just past the doorway.
+    """
     from shared.synthetic.photo import save_photo
-    from shared.synthetic.two_rooms import generate_two_rooms
+    from shared.synthetic.two_rooms import depths_without_floor_past_the_doorway, generate_two_rooms
 
     two = generate_two_rooms(seed, kind)
     folder.mkdir()
     photos, depths = [], []
-    for index, view in enumerate(two.render()):
+    views = two.render()
+    depth_maps = (
+        depths_without_floor_past_the_doorway(two, views)
+        if unseen_past_the_doorway
+        else [v.depth for v in views]
+    )
+    for index, (view, depth) in enumerate(zip(views, depth_maps, strict=True)):
         photos.append(folder / f"view_{index + 1}.png")
         save_photo(photos[-1], view.rgb, two.intrinsic)
         depths.append(folder / f"depth_{index + 1}.npy")
-        np.save(depths[-1], view.depth)
+        np.save(depths[-1], depth)
     cameras = folder / "cameras.json"
     intrinsics = [two.intrinsic.tolist()] * len(photos)
     cameras.write_text(json.dumps({"extrinsics": two.extrinsics.tolist(), "intrinsics": intrinsics}))
@@ -694,7 +703,7 @@ def _plan_in_the_page(browser, shots: Path, name: str) -> None:
     assert not _text(browser, "error"), _text(browser, "error")
 
 
-def _same_plan_over_http(agent, photos, depths, cameras, pixel: dict) -> dict:
+def _same_plan_over_http(agent, photos, depths, cameras, pixel: dict, robot: dict | None = None) -> dict:
     """What POST /v1/route answers for the files and the goal the page sent."""
     import httpx
 
@@ -704,7 +713,7 @@ def _same_plan_over_http(agent, photos, depths, cameras, pixel: dict) -> dict:
     data = {
         "start_view": "1",
         "goal": json.dumps({"pixel": pixel}),
-        "robot": json.dumps({"radius": 0.25}),
+        "robot": json.dumps(robot or {"radius": 0.25}),
         "extrinsics": json.dumps(given["extrinsics"]),
         "intrinsics": json.dumps(given["intrinsics"]),
     }
@@ -713,11 +722,11 @@ def _same_plan_over_http(agent, photos, depths, cameras, pixel: dict) -> dict:
     return response.json()
 
 
-def _route_green_pixels(browser) -> int:
-    """Pixels of the route viewer in the path's green (PATH_COLOR in route.js: #1a7f37)."""
+def _route_green_pixels(browser, rgb=(26, 127, 55)) -> int:
+    """Pixels of the route viewer in the path's green (PATH_COLOR in route.js: #1a7f37), or ``rgb``."""
     png = browser.find_element(By.ID, "route-viewer").screenshot_as_png
     pixels = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(np.int16)
-    return int(np.sum(np.all(np.abs(pixels - np.array([26, 127, 55])) <= 40, axis=2)))
+    return int(np.sum(np.all(np.abs(pixels - np.array(rgb)) <= 40, axis=2)))
 
 
 def _choose_route_inputs(browser, photos, depths, cameras) -> None:
@@ -800,4 +809,38 @@ def test_route_mode_shows_why_a_goal_cannot_be_reached(offline_agent, browser, s
     browser.execute_script("document.getElementById('route-cameras').value = ''")
     browser.find_element(By.ID, "plan-route").click()
     WebDriverWait(browser, 10).until(lambda d: "go together" in _text(d, "error"))
+    assert csp_violations(browser) == []
+
+
+def test_route_mode_draws_unseen_floor_in_amber_and_sends_the_camera_height(
+    offline_agent, browser, shots, tmp_path
+):
+    """No depth map shows the floor past the doorway: the page's plan crosses it, says so, and draws
+    those stretches in amber (UNSEEN_COLOR in route.js: #d97706); the camera height typed in goes
+    with the plan (a metric scene: reported as the ratio of the two heights)."""
+    two, photos, depths, cameras = _posed_route_files(
+        "reachable", 2, tmp_path / "unseen", unseen_past_the_doorway=True
+    )
+    _viewport(browser, 1280, 900)
+    browser.get(offline_agent.url + "/")
+    _choose_route_inputs(browser, photos, depths, cameras)
+    browser.find_element(By.ID, "route-camera-height").send_keys(f"{two.camera_height:.2f}")
+    pixel = _click_the_goal(browser, two, photos)
+    _plan_in_the_page(browser, shots, "route-unseen")
+    robot = {"radius": 0.25, "camera_height_m": round(two.camera_height, 2)}
+    plan = _same_plan_over_http(offline_agent, photos, depths, cameras, pixel, robot)
+    assert plan["reachable"] and plan["unseen_m"] > 0 and plan["unseen_stretches"], plan
+    assert plan["scale_check"] == pytest.approx(1.0, abs=0.02)
+    summary = _text(browser, "route-summary")
+    assert f"{plan['unseen_m']:.2f} m cross floor no photo shows" in summary, summary
+    assert "scale from metric reconstruction" in _text(browser, "route-scale")
+    assert f"given: {plan['scale_check']:.2f}" in _text(browser, "route-scale")
+    steps = [e.text for e in browser.find_elements(By.CSS_SELECTOR, "#route-steps li")]
+    assert steps == plan["sentences"] and any("floor no photo shows" in step for step in steps)
+    viewer = browser.find_element(By.ID, "route-viewer")
+    assert int(viewer.get_attribute("data-unseen-stretches")) == len(plan["unseen_stretches"])
+    assert "in amber" in _text(browser, "route-viewer-status")
+    browser.execute_script("arguments[0].scrollIntoView({block: 'center'})", viewer)
+    assert _route_green_pixels(browser, (217, 119, 6)) > 10, "the unseen stretches are not drawn in amber"
+    browser.save_screenshot(str(shots / "route-unseen.png"))
     assert csp_violations(browser) == []

@@ -15,6 +15,7 @@ import numpy as np
 from services.agent.errors import SolveError
 from shared.geometry.reconstruction import Reconstruction
 from shared.navigation import Robot, locate, plan_route
+from shared.navigation.route import DEFAULT_UNSEEN_COST
 from shared.wire.client import ReconClient
 from shared.wire.schemas import RouteGoal, RouteRequest, RouteResponse
 
@@ -70,21 +71,36 @@ def _response(plan, scene_id: str, backbone: str, located: np.ndarray | None) ->
         goal_world=body["goal_world"],
         up=body["up"],
         warnings=plan.warnings,
+        scale_from=plan.scale_from,
+        floor_residual_m=plan.floor_residual_m,
+        scale_check=plan.scale_check,
+        unseen_m=plan.unseen_m,
+        unseen_stretches=plan.unseen_stretches,
+        narrowest_passage_m=plan.narrowest_passage_m,
         goal_located=None if located is None else np.round(located, 4).tolist(),
     )
 
 
-def plan_for_scene(recon: Reconstruction, scene_id: str, backbone: str, body: RouteRequest) -> RouteResponse:
+def plan_for_scene(
+    recon: Reconstruction,
+    scene_id: str,
+    backbone: str,
+    body: RouteRequest,
+    unseen_cost: float = DEFAULT_UNSEEN_COST,
+) -> RouteResponse:
     """The plan on one reconstruction; a SolveError (422) for a bad start view or goal."""
     start = body.start_view - 1
     if start >= recon.num_views or not recon.registered[start]:
         raise SolveError(422, f"start view {body.start_view} does not exist or has no pose")
     goal = _goal_point(recon, body.goal, start)
     robot = Robot(
-        radius=body.robot.radius, height=body.robot.height, floor_clearance=body.robot.floor_clearance
+        radius=body.robot.radius,
+        height=body.robot.height,
+        floor_clearance=body.robot.floor_clearance,
+        camera_height=body.robot.camera_height_m,
     )
     try:
-        plan = plan_route(recon, start, goal, robot=robot)
+        plan = plan_route(recon, start, goal, robot=robot, unseen_cost=unseen_cost)
     except ValueError as error:
         raise SolveError(422, str(error)) from error
     if plan.refusal == "goal_in_obstacle":
@@ -93,7 +109,11 @@ def plan_for_scene(recon: Reconstruction, scene_id: str, backbone: str, body: Ro
 
 
 def route(
-    body: RouteRequest, images: list[bytes], depths: list[np.ndarray], client: ReconClient
+    body: RouteRequest,
+    images: list[bytes],
+    depths: list[np.ndarray],
+    client: ReconClient,
+    unseen_cost: float = DEFAULT_UNSEEN_COST,
 ) -> RouteResponse:
     """Upload (or look up) the scene, reconstruct it, download it and plan."""
     if images and body.scene_id:
@@ -111,4 +131,4 @@ def route(
     backbone = body.backbone or ("posed-rgbd" if depths else None)
     summary = client.reconstruct(scene_id, backbone)
     recon = client.reconstruction(scene_id, summary.backbone)
-    return plan_for_scene(recon, scene_id, summary.backbone, body)
+    return plan_for_scene(recon, scene_id, summary.backbone, body, unseen_cost)

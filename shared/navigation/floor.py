@@ -15,6 +15,10 @@ from shared.geometry.poses import estimate_up_axis
 
 _BINS_PER_CAMERA_HEIGHT = 100  # histogram resolution: 1.5 cm for cameras 1.5 m above the floor
 _MAX_TILT_DEG = 15.0  # a fitted normal further than this from the cameras' up is not the floor
+_REFITS = 4
+_VOTERS = 20_000  # points sampled for the plane vote
+_TRIALS = 300
+_PLANE_TOLERANCE = 0.01  # of the cameras' height above the points: an inlier's distance to a plane
 
 
 @dataclass(frozen=True)
@@ -62,13 +66,8 @@ def _floor_height(heights: np.ndarray, top: float) -> tuple[float, float]:
     return float(0.5 * (edges[chosen] + edges[chosen + 1])), width
 
 
-def estimate_floor(points: np.ndarray, extrinsics: np.ndarray) -> Floor:
-    """The floor plane of a reconstruction from its points and (registered) cameras."""
-    points = np.asarray(points, np.float64).reshape(-1, 3)
-    points = points[np.all(np.isfinite(points), axis=1)]
-    up = estimate_up_axis(extrinsics)
-    rotations, translations = extrinsics[:, :3, :3], extrinsics[:, :3, 3]
-    centres = -np.einsum("vji,vj->vi", rotations, translations)
+def _refit(points: np.ndarray, centres: np.ndarray, up: np.ndarray, cameras_up: np.ndarray):
+    """One refinement: the floor height along ``up``, then a plane fit of the points near it."""
     heights = points @ up
     floor, width = _floor_height(heights, float(np.min(centres @ up)))
     near = points[np.abs(heights - floor) < 2 * width]
@@ -76,8 +75,67 @@ def estimate_floor(points: np.ndarray, extrinsics: np.ndarray) -> Floor:
         middle = near.mean(axis=0)
         _, _, vt = np.linalg.svd(near - middle, full_matrices=False)
         normal = vt[-1] if vt[-1] @ up >= 0 else -vt[-1]
-        if np.degrees(np.arccos(np.clip(normal @ up, -1.0, 1.0))) < _MAX_TILT_DEG:
+        if np.degrees(np.arccos(np.clip(normal @ cameras_up, -1.0, 1.0))) < _MAX_TILT_DEG:
             up = normal / np.linalg.norm(normal)
             floor = float(np.median(near @ up))
+    return up, floor
+
+
+def _plane_votes(points: np.ndarray, centres: np.ndarray, cameras_up: np.ndarray) -> np.ndarray:
+    """Up from the best supported plane below every camera, near the cameras' up (RANSAC).
+
+    Few views pitched alike leave the cameras' up some degrees off; then no height bin holds the
+    floor, which spans a slope of heights. A plane voted on by the points does not depend on that.
+    Of the planes with at least half the best support, the lowest is the floor (a big table top
+    can outvote a partly seen floor).
+    """
+    rng = np.random.default_rng(0)
+    sample = points[rng.choice(len(points), min(len(points), _VOTERS), replace=False)]
+    depth = float(np.min(centres @ cameras_up) - np.percentile(sample @ cameras_up, 1))
+    tolerance = _PLANE_TOLERANCE * max(depth, 1e-9)
+    candidates = []
+    for _ in range(_TRIALS):
+        a, b, c = sample[rng.choice(len(sample), 3, replace=False)]
+        normal = np.cross(b - a, c - a)
+        if np.linalg.norm(normal) < 1e-12:
+            continue
+        normal = normal / np.linalg.norm(normal)
+        normal = normal if normal @ cameras_up >= 0 else -normal
+        if np.degrees(np.arccos(np.clip(normal @ cameras_up, -1.0, 1.0))) >= _MAX_TILT_DEG:
+            continue
+        offset = float(normal @ a)
+        if np.min(centres @ normal) <= offset:
+            continue
+        candidates.append(
+            (int(np.count_nonzero(np.abs(sample @ normal - offset) < tolerance)), offset, normal)
+        )
+    if not candidates:
+        return cameras_up
+    best = max(count for count, _, _ in candidates)
+    strong = [
+        (np.min(centres @ normal) - offset, normal)
+        for count, offset, normal in candidates
+        if count >= 0.5 * best
+    ]
+    return max(strong, key=lambda item: item[0])[1]
+
+
+def estimate_floor(points: np.ndarray, extrinsics: np.ndarray) -> Floor:
+    """The floor plane of a reconstruction from its points and (registered) cameras.
+
+    The fit is repeated from its own normal: when the cameras' up is a few degrees off (few views,
+    all pitched alike), the first band of "floor" points is a slanted slice, and the next is flat.
+    """
+    points = np.asarray(points, np.float64).reshape(-1, 3)
+    points = points[np.all(np.isfinite(points), axis=1)]
+    cameras_up = estimate_up_axis(extrinsics)
+    rotations, translations = extrinsics[:, :3, :3], extrinsics[:, :3, 3]
+    centres = -np.einsum("vji,vj->vi", rotations, translations)
+    up = _plane_votes(points, centres, cameras_up) if len(points) >= 3 else cameras_up
+    for _ in range(_REFITS):
+        previous = up
+        up, floor = _refit(points, centres, up, cameras_up)
+        if np.degrees(np.arccos(np.clip(up @ previous, -1.0, 1.0))) < 0.05:
+            break
     first, second = _floor_axes(up)
     return Floor(up=up, offset=floor, first=first, second=second)

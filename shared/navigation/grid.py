@@ -3,12 +3,12 @@
 Cells are square, ``cell`` scene units wide, indexed (row, column) = (second axis, first axis)
 of the floor plane (``Floor.to_plane``). Three kinds: occupied (points at body height), free
 (floor seen and nothing at body height) and unknown (no view saw the floor there). Unknown is
-never free: the planner treats it like an obstacle.
+not an obstacle: the planner may cross it, at a higher cost, and says where it did.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -22,6 +22,31 @@ class Grid:
     cell: float  # cell width in scene units
     occupied: np.ndarray  # (H, W) bool
     free: np.ndarray  # (H, W) bool: floor seen, nothing at body height
+    # (K, 2) floor coordinates of the points at body height: a passage is measured on these, not on
+    # cell centres, so its width is what a tape measure between the seen surfaces would give.
+    obstacle_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    # (H, W) bool: cells some view's line of sight passed over (``sight.looked_into``); None: unknown.
+    looked: np.ndarray | None = None
+
+    @property
+    def hidden(self) -> np.ndarray:
+        """(H, W) bool: unseen cells that no line of sight reached: outside the map."""
+        if self.looked is None:
+            return np.zeros(self.shape, bool)
+        return self.unseen & ~self.looked
+
+    @property
+    def blocked(self) -> np.ndarray:
+        """Occupied cells and the map's edge: the grid's outer ring and the cells no view looked into."""
+        out = self.occupied | self.hidden
+        out[[0, -1], :] = True
+        out[:, [0, -1]] = True
+        return out
+
+    @property
+    def unseen(self) -> np.ndarray:
+        """(H, W) bool: no view saw the floor and nothing was seen at body height."""
+        return ~self.free & ~self.occupied
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -82,6 +107,26 @@ def _counts(cells: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return np.bincount(flat, minlength=shape[0] * shape[1]).reshape(shape)
 
 
+def _walls_above(grid: Grid, plane: np.ndarray, heights: np.ndarray, top: float) -> np.ndarray:
+    """Cells where a vertical surface was seen just above the body: a wall whose foot no view saw.
+
+    Its seen part starts within ``top`` above the body and rises at least ``top`` more. A table top
+    is flat and a lintel starts far higher, so neither closes the floor below it; a doorway between
+    seen walls stays open.
+    """
+    above = (heights > top) & (heights <= 3 * top)
+    cells = grid.to_cell(plane[above])
+    inside = grid.inside(cells)
+    flat = cells[inside, 0] * grid.shape[1] + cells[inside, 1]
+    size = grid.shape[0] * grid.shape[1]
+    low = np.full(size, np.inf)
+    high = np.full(size, -np.inf)
+    np.minimum.at(low, flat, heights[above][inside])
+    np.maximum.at(high, flat, heights[above][inside])
+    wall = (low <= 2 * top) & (high - low >= top)
+    return wall.reshape(grid.shape)
+
+
 def build_grid(
     plane: np.ndarray,
     heights: np.ndarray,
@@ -104,8 +149,15 @@ def build_grid(
     while np.prod(np.ceil((high - low) / cell) + 1) > _MAX_CELLS:
         cell *= 1.25
     shape = tuple(int(n) for n in (np.ceil((high - low) / cell) + 1)[::-1])
-    grid = Grid(origin=low, cell=cell, occupied=np.zeros(shape, bool), free=np.zeros(shape, bool))
+    grid = Grid(
+        origin=low,
+        cell=cell,
+        occupied=np.zeros(shape, bool),
+        free=np.zeros(shape, bool),
+        obstacle_points=plane[in_band],
+    )
     occupied = _counts(grid.to_cell(plane[in_band]), shape) >= _OCCUPIED_MIN_POINTS
+    occupied |= _walls_above(grid, plane, heights, band[1])
     # Only surfaces are seen: the inside of a thin obstacle (a wall between its two faces) is closed.
     grid.occupied = occupied | erode(dilate(occupied, 1.5), 1.5)
     seen = _counts(grid.to_cell(plane[on_floor]), shape) > 0

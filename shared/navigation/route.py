@@ -4,9 +4,15 @@ A plan is a list of steps ``{turn_degrees, move}``: turn in place about the floo
 (``left-positive``: counter-clockwise seen from above), then drive forward ``move``. It starts on
 the floor below the start view's camera, facing that camera's horizontal heading.
 
-Distances are in metres when the reconstruction is metric. Otherwise they are scene units, and
-the robot's size is turned into scene units by assuming the start camera was held at
-``ASSUMED_CAMERA_HEIGHT_M`` above the floor (a warning says so).
+Distances are in metres when the reconstruction is metric, or when the robot's camera height is
+given (``shared.navigation.scale``). Otherwise they are scene units, and the robot's size is turned
+into scene units by assuming the start camera was held at ``ASSUMED_CAMERA_HEIGHT_M`` above the
+floor (a warning says so).
+
+The floor has three kinds of cells: seen free, seen blocked and unseen. A route may cross unseen
+floor, which costs ``unseen_cost`` times as much per metre as seen floor, so it does so only where
+it must or where that saves a lot; each step says how much of its move is unseen, and a refusal
+means that *seen* obstacles (or the edge of the map) close every way.
 """
 
 from __future__ import annotations
@@ -18,16 +24,19 @@ import numpy as np
 from shared.geometry.reconstruction import Reconstruction
 from shared.navigation.floor import Floor, estimate_floor
 from shared.navigation.grid import Grid, build_grid, dilate
+from shared.navigation.passage import narrowest_passage
+from shared.navigation.scale import ASSUMED_CAMERA_HEIGHT_M, Scale, plan_scale  # noqa: F401 (re-exported)
 from shared.navigation.search import astar, reachable_from, shorten
+from shared.navigation.sight import looked_into
+from shared.navigation.steps import steps_and_sentences
 
 TURN_CONVENTION = "left-positive"
-ASSUMED_CAMERA_HEIGHT_M = 1.5
+DEFAULT_UNSEEN_COST = 1.5  # a metre over unseen floor costs as much as this many over seen floor
 CELL_M = 0.05
 SAFETY_MARGIN_M = 0.05  # added to the radius: the grid's half cell must not become a collision
 GOAL_TOLERANCE_M = 0.3
 _FLOOR_TOLERANCE_M = 0.03
 _CLOSE_HOLES_M = 0.15
-_MIN_TURN_DEG = 0.5
 
 
 @dataclass(frozen=True)
@@ -35,10 +44,17 @@ class Robot:
     radius: float = 0.25  # metres
     height: float = 0.5  # top of the body above the floor, metres
     floor_clearance: float = 0.05  # bottom of the body: lower things (a rug, a cable) are driven over
+    camera_height: float | None = None  # metres above the floor: scales a scene-unit reconstruction
 
     def __post_init__(self) -> None:
         if not (self.radius > 0 and self.height > self.floor_clearance >= 0):
             raise ValueError(f"robot needs radius > 0 and height > floor_clearance >= 0, got {self}")
+        if self.camera_height is not None and not (
+            np.isfinite(self.camera_height) and self.camera_height > 0
+        ):
+            raise ValueError(
+                f"the camera height must be a positive number of metres, got {self.camera_height}"
+            )
 
 
 @dataclass
@@ -53,9 +69,8 @@ class RoutePlan:
     reachable: bool
     units: str  # "metres" or "scene units"
     reason: str | None = None
-    refusal: str | None = (
-        None  # start_blocked, goal_in_obstacle, goal_unseen, narrow_gap, enclosed, unseen_space
-    )
+    # start_blocked, goal_in_obstacle, goal_unseen, goal_too_close, narrow_gap, enclosed, unseen_space
+    refusal: str | None = None
     steps: list[dict] = field(default_factory=list)
     sentences: list[str] = field(default_factory=list)
     path_world: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
@@ -68,8 +83,15 @@ class RoutePlan:
     up: np.ndarray | None = None
     warnings: list[str] = field(default_factory=list)
     turn_convention: str = TURN_CONVENTION
-    # Metres per unit of the moves: 1 when metric, else the estimate from the assumed camera height.
+    # Metres per unit of the moves: 1 when they are metres, else the estimate from the assumed height.
     metres_per_unit: float | None = None
+    scale_from: str | None = None  # "metric reconstruction", "camera height", "assumed camera height"
+    floor_residual_m: float | None = None  # RMS of the floor points about the fitted plane, start view
+    scale_check: float | None = None  # metric reconstruction and a camera height: their heights' ratio
+    unseen_m: float | None = None  # of the length, this much crosses floor no view saw
+    # Each {"step": 1-based, "start_world", "end_world", "length"}: a run of a move over unseen floor.
+    unseen_stretches: list[dict] = field(default_factory=list)
+    narrowest_passage_m: float | None = None  # a narrow_gap refusal: the passage's measured width
 
     def to_dict(self) -> dict:
         def listed(array):
@@ -93,6 +115,12 @@ class RoutePlan:
             "up": listed(self.up),
             "warnings": self.warnings,
             "metres_per_unit": self.metres_per_unit,
+            "scale_from": self.scale_from,
+            "floor_residual_m": self.floor_residual_m,
+            "scale_check": self.scale_check,
+            "unseen_m": self.unseen_m,
+            "unseen_stretches": self.unseen_stretches,
+            "narrowest_passage_m": self.narrowest_passage_m,
         }
 
 
@@ -166,28 +194,32 @@ class _Setting:
 
     floor: Floor
     grid: Grid
-    passable: np.ndarray
+    passable: np.ndarray  # the robot's centre keeps its radius (and a margin) from seen obstacles
+    cost: np.ndarray  # per unit length: 1 on seen floor, ``unseen_cost`` on unseen floor
     start: np.ndarray  # (2,) floor coordinates below the start camera
     heading: float  # radians in the floor frame, counter-clockwise from the first axis
-    per_metre: float  # scene units per metre
-    units: str
-    warnings: list[str]
+    scale: Scale
+
+    @property
+    def per_metre(self) -> float:
+        return self.scale.per_metre
+
+    @property
+    def per_output(self) -> float:
+        """Scene units per unit of the moves (per metre when they are metres)."""
+        return self.scale.per_metre if self.scale.units == "metres" else 1.0
+
+    def is_unseen(self, plane: np.ndarray) -> np.ndarray:
+        cells = self.grid.to_cell(plane)
+        inside = self.grid.inside(cells)
+        out = np.ones(len(cells), bool)
+        out[inside] = self.grid.unseen[cells[inside, 0], cells[inside, 1]]
+        return out
 
 
-def _scale(recon: Reconstruction, floor: Floor, centre: np.ndarray) -> tuple[float, str, list[str]]:
-    if recon.units == "metres":
-        return 1.0, "metres", []
-    camera_height = float(floor.height(centre)[0])
-    if camera_height <= 0:
-        raise ValueError("the start camera is not above the estimated floor")
-    warning = (
-        "the reconstruction has no metric scale: distances are in scene units, and the robot's size "
-        f"was scaled assuming the start camera was {ASSUMED_CAMERA_HEIGHT_M} m above the floor"
-    )
-    return camera_height / ASSUMED_CAMERA_HEIGHT_M, "scene units", [warning]
-
-
-def _setting(recon: Reconstruction, start_view: int, goal: np.ndarray, robot: Robot) -> _Setting:
+def _setting(
+    recon: Reconstruction, start_view: int, goal: np.ndarray, robot: Robot, unseen_cost: float
+) -> _Setting:
     if not 0 <= start_view < recon.num_views:
         raise ValueError(
             f"start view {start_view + 1} does not exist: the reconstruction has views 1..{recon.num_views}"
@@ -197,28 +229,55 @@ def _setting(recon: Reconstruction, start_view: int, goal: np.ndarray, robot: Ro
     floor = estimate_floor(recon.points, recon.extrinsics[recon.registered])
     pose = recon.extrinsics[start_view]
     centre = -pose[:, :3].T @ pose[:, 3]
-    per_metre, units, warnings = _scale(recon, floor, centre)
+    scale = plan_scale(recon.units == "metres", floor, recon.points, centre, robot.camera_height)
+    scale.warnings[:0] = _placement_warnings(recon)
+    per_metre = scale.per_metre
     start = floor.to_plane(centre)[0]
     forward = floor.to_plane(pose[2, :3])[0]
     plane, heights = floor.to_plane(recon.points), floor.height(recon.points)
     band = (robot.floor_clearance * per_metre, robot.height * per_metre)
-    cell = CELL_M * per_metre
+    # The map reaches at least a body (and a margin) around the start and the goal.
+    reach = (robot.radius + 2 * SAFETY_MARGIN_M) * per_metre + 2 * CELL_M * per_metre
+    ends = np.stack([start, floor.to_plane(goal)[0]])
+    keep = (ends[:, None, :] + reach * np.array([[0, 0], [1, 1], [-1, -1]])[None]).reshape(-1, 2)
     grid = build_grid(
         plane,
         heights,
         band,
-        cell,
+        CELL_M * per_metre,
         _FLOOR_TOLERANCE_M * per_metre,
         _CLOSE_HOLES_M / CELL_M,
-        np.stack([start, floor.to_plane(goal)[0]]),
+        keep,
     )
-    # The robot stands at the start: its own footprint is free floor even if no view saw it.
+    # The robot stands at the start: its own footprint is seen floor even if no view saw it.
     footprint = _cells_within(grid, start, (robot.radius + SAFETY_MARGIN_M) * per_metre + grid.cell)
     grid.free |= footprint & ~grid.occupied
-    radius_cells = (robot.radius + SAFETY_MARGIN_M) * per_metre / grid.cell
-    passable = ~dilate(~grid.free, radius_cells)
+    grid.looked = looked_into(recon, floor, grid)
+    if grid.looked is not None:  # the robot is there, and turns to look: twice its body around it
+        grid.looked |= _cells_within(
+            grid, start, 2 * (robot.radius + SAFETY_MARGIN_M) * per_metre + grid.cell
+        )
+    passable = ~dilate(grid.blocked, (robot.radius + SAFETY_MARGIN_M) * per_metre / grid.cell)
+    cost = np.where(grid.unseen, float(unseen_cost), 1.0)
     heading = float(np.arctan2(forward[1], forward[0]))
-    return _Setting(floor, grid, passable, start, heading, per_metre, units, warnings)
+    return _Setting(floor, grid, passable, cost, start, heading, scale)
+
+
+def _placement_warnings(recon: Reconstruction) -> list[str]:
+    """Which views the backbone did not place and why, when it placed fewer than half of them."""
+    placed = int(np.count_nonzero(recon.registered))
+    if placed * 2 >= recon.num_views:
+        return []
+    confidence = recon.view_confidence or [None] * recon.num_views
+    missing = [
+        f"view {index + 1} ({getattr(confidence[index], 'unregistered_reason', None) or 'not placed'})"
+        for index in np.flatnonzero(~np.asarray(recon.registered))
+    ]
+    return [
+        f"the backbone placed only {placed} of {recon.num_views} views (numbered from 1); not placed: "
+        + "; ".join(missing)
+        + ". The map holds only what the placed views saw: add photos that overlap those views"
+    ]
 
 
 def _cells_within(grid: Grid, centre: np.ndarray, radius: float) -> np.ndarray:
@@ -238,8 +297,8 @@ def _goal_cell(
     row, column = int(cell[0]), int(cell[1])
     if grid.occupied[row, column]:
         return None, "goal_in_obstacle", "the goal is inside an obstacle at the robot's body height"
-    if not grid.free[row, column]:
-        return None, "goal_unseen", "no view saw the floor at the goal"
+    if grid.hidden[row, column]:
+        return None, "goal_unseen", "no view looked at the goal's floor, nor over it"
     if setting.passable[row, column]:
         return (row, column), None, None
     near = _cells_within(grid, goal_plane, GOAL_TOLERANCE_M * setting.per_metre) & setting.passable
@@ -248,8 +307,8 @@ def _goal_cell(
             None,
             "goal_too_close",
             (
-                f"the goal is closer to an obstacle than the robot's radius ({robot.radius:g} m) and no "
-                f"free spot within {GOAL_TOLERANCE_M} m of it fits the robot"
+                f"the goal is closer to a seen obstacle than the robot's radius ({robot.radius:g} m) and "
+                f"no spot within {GOAL_TOLERANCE_M} m of it fits the robot"
             ),
         )
     candidates = np.argwhere(near)
@@ -275,63 +334,62 @@ def _boundary(mask: np.ndarray) -> np.ndarray:
     return mask & ~inner
 
 
+def _joined_through_hidden(grid: Grid, start: tuple[int, int], goal: tuple[int, int]) -> bool:
+    """Whether start and goal would be joined if the cells no view looked into were open."""
+    open_ = ~(grid.occupied | (grid.blocked & ~grid.hidden & ~grid.occupied))
+    return bool(reachable_from(open_, start)[goal])
+
+
 def _why_unreachable(
     setting: _Setting, start: tuple[int, int], goal: tuple[int, int], robot: Robot
-) -> tuple[str, str]:
-    """Refusal kind and reason when no path fits the inflated grid."""
-    grid = setting.grid
-    cells = astar(grid.free, start, goal)
-    if cells is not None:
-        # Free floor joins them, but somewhere it is narrower than the robot: say where and how wide.
-        plane = grid.to_plane(np.array(cells))
-        blocked = grid.to_plane(np.argwhere(_boundary(~grid.free)))
-        distance = _distance_to(plane, blocked)
-        narrowest = int(np.argmin(distance))
-        width = (2 * distance[narrowest] - grid.cell) / setting.per_metre
-        where = setting.floor.to_world(plane[narrowest])[0]
-        unit = "m" if setting.units == "metres" else "scene units (scaled)"
-        return "narrow_gap", (
-            f"the narrowest passage on the way, near ({where[0]:.2f}, {where[1]:.2f}, {where[2]:.2f}), is "
-            f"about {max(width, 0.0):.2f} {unit} wide; the robot needs {2 * robot.radius:.2f} m plus a margin"
+) -> tuple[str, str, float | None]:
+    """Refusal kind, reason and the passage's width (metres by the plan's scale) when no path fits."""
+    radius_cells = (robot.radius + SAFETY_MARGIN_M) * setting.per_metre / setting.grid.cell
+    passage = narrowest_passage(setting.grid, start, goal, radius_cells)
+    # A passage with no seen points on a side is bounded by where no view looked: no width to tell.
+    off_the_map = passage is not None and passage.sides is None
+    if off_the_map or (passage is None and _joined_through_hidden(setting.grid, start, goal)):
+        return (
+            "unseen_space",
+            "every way to the goal passes where no view looked (not even over the floor): a wall or a "
+            "doorway no photo shows; add a photo of the way between",
+            None,
         )
-    if reachable_from(~grid.occupied, start)[goal]:
-        return "unseen_space", "every way to the goal passes through floor that no view saw"
-    return "enclosed", "the goal is enclosed: obstacles close every way from the start to it"
-
-
-def _turn_words(turn: float) -> str:
-    return f"turn {'left' if turn > 0 else 'right'} {abs(turn):.0f}°"
-
-
-def _steps(corners: np.ndarray, heading: float, units: str) -> tuple[list[dict], list[str]]:
-    steps, sentences = [], []
-    unit = "m" if units == "metres" else "scene units"
-    for a, b in zip(corners[:-1], corners[1:], strict=True):
-        offset = b - a
-        move = float(np.linalg.norm(offset))
-        if move <= 1e-9:
-            continue
-        direction = float(np.arctan2(offset[1], offset[0]))
-        turn = float(np.degrees((direction - heading + np.pi) % (2 * np.pi) - np.pi))
-        heading = direction
-        steps.append({"turn_degrees": round(turn, 2), "move": round(move, 4)})
-        go = f"go forward {move:.2f} {unit}"
-        sentences.append(f"{_turn_words(turn)}, then {go}" if abs(turn) >= _MIN_TURN_DEG else go.capitalize())
-    return steps, [sentence[0].upper() + sentence[1:] for sentence in sentences]
+    if passage is None:
+        return (
+            "enclosed",
+            "the goal is enclosed: seen obstacles (or the edge of what the views cover) close every way "
+            "from the start to it",
+            None,
+        )
+    width = passage.width / setting.per_metre
+    where = setting.floor.to_world(passage.where)[0]
+    unit = "m" if setting.scale.units == "metres" else "m (by the assumed camera height)"
+    return (
+        "narrow_gap",
+        f"the narrowest passage on the way, near ({where[0]:.2f}, {where[1]:.2f}, {where[2]:.2f}), is "
+        f"about {width:.2f} {unit} wide between the seen obstacles on both sides; the robot needs "
+        f"{2 * robot.radius:.2f} m plus a {2 * SAFETY_MARGIN_M:.2f} m margin",
+        width,
+    )
 
 
 def _refusal(setting: _Setting, kind: str, reason: str, goal_plane: np.ndarray) -> RoutePlan:
+    scale = setting.scale
     return RoutePlan(
         reachable=False,
-        units=setting.units,
+        units=scale.units,
         reason=reason,
         refusal=kind,
         start_world=setting.floor.to_world(setting.start)[0],
         goal_world=setting.floor.to_world(goal_plane)[0],
-        straight_line_distance=float(np.linalg.norm(goal_plane - setting.start)),
+        straight_line_distance=float(np.linalg.norm(goal_plane - setting.start)) / setting.per_output,
         up=setting.floor.up,
-        warnings=setting.warnings,
-        metres_per_unit=1.0 / setting.per_metre,
+        warnings=list(scale.warnings),
+        metres_per_unit=1.0 / setting.per_metre if scale.units == "scene units" else 1.0,
+        scale_from=scale.scale_from,
+        floor_residual_m=None if scale.floor_residual_m is None else round(scale.floor_residual_m, 4),
+        scale_check=None if scale.check is None else round(scale.check, 4),
     )
 
 
@@ -346,47 +404,80 @@ def _clearance(setting: _Setting, corners: np.ndarray, robot: Robot) -> float:
     return nearest / setting.per_metre - robot.radius
 
 
+def _describe(plan: RoutePlan, setting: _Setting, corners: np.ndarray, pose: np.ndarray) -> None:
+    """Fill a reachable plan's steps, sentences, path and unseen stretches from its corners."""
+    steps, sentences, stretches = steps_and_sentences(
+        corners,
+        setting.heading,
+        setting.scale.units,
+        setting.per_output,
+        setting.is_unseen,
+        0.5 * setting.grid.cell,
+    )
+    world = setting.floor.to_world(corners)
+    plan.steps, plan.sentences, plan.path_world = steps, sentences, world
+    plan.path_start_camera = world @ pose[:, :3].T + pose[:, 3]
+    plan.length = float(sum(step["move"] for step in steps))
+    plan.unseen_m = round(float(sum(step["unseen_m"] for step in steps)), 4)
+    plan.unseen_stretches = [
+        {
+            "step": stretch.step,
+            "start_world": np.round(setting.floor.to_world(stretch.start_plane)[0], 4).tolist(),
+            "end_world": np.round(setting.floor.to_world(stretch.end_plane)[0], 4).tolist(),
+            "length": round(float(stretch.end - stretch.start), 4),
+        }
+        for stretch in stretches
+    ]
+    if plan.unseen_m > 0:
+        unit = "m" if setting.scale.units == "metres" else "scene units"
+        plan.warnings.append(
+            f"{plan.unseen_m:.2f} {unit} of the route cross floor that no view saw (assumed free): "
+            "drive those stretches slowly and look again"
+        )
+
+
 def plan_route(
     recon: Reconstruction,
     start_view: int,
     goal: np.ndarray,
     robot_radius: float = 0.25,
     robot: Robot | None = None,
+    unseen_cost: float = DEFAULT_UNSEEN_COST,
 ) -> RoutePlan:
-    """A collision-free route from the floor below the start view's camera to the goal point.
+    """A route from the floor below the start view's camera to the goal, clear of seen obstacles.
 
     ``goal`` is a world point (on the floor or on something standing on it; its floor projection is
     what the robot drives to). ``start_view`` is an index (0-based); messages name it from 1.
-    ``robot`` overrides ``robot_radius``. A goal that no route reaches
-    gives ``reachable=False`` with the refusal's kind and reason. ``ValueError`` for a bad view.
+    ``robot`` overrides ``robot_radius``. Unseen floor may be crossed at ``unseen_cost`` (>= 1) per
+    unit length; the plan says where. A goal that no route reaches gives ``reachable=False`` with the
+    refusal's kind and reason. ``ValueError`` for a bad view.
     """
     robot = robot or Robot(radius=robot_radius)
     goal = np.asarray(goal, np.float64).reshape(-1)
     if goal.shape != (3,) or not np.all(np.isfinite(goal)):
         raise ValueError(f"goal must be 3 finite numbers, got {goal.tolist()}")
-    setting = _setting(recon, start_view, goal, robot)
+    if not (np.isfinite(unseen_cost) and unseen_cost >= 1.0):
+        raise ValueError(f"unseen_cost must be at least 1 (seen floor costs 1), got {unseen_cost}")
+    setting = _setting(recon, start_view, goal, robot, unseen_cost)
     goal_plane = setting.floor.to_plane(goal)[0]
     start_cell = tuple(int(i) for i in setting.grid.to_cell(setting.start)[0])
     if not setting.passable[start_cell]:
         return _refusal(
-            setting, "start_blocked", "an obstacle is within the robot's radius of its start", goal_plane
+            setting, "start_blocked", "a seen obstacle is within the robot's radius of its start", goal_plane
         )
     goal_cell, kind, reason = _goal_cell(setting, goal_plane, robot)
     if goal_cell is None:
         return _refusal(setting, kind, reason, goal_plane)
-    cells = astar(setting.passable, start_cell, goal_cell)
+    cells = astar(setting.passable, start_cell, goal_cell, setting.cost)
     if cells is None:
-        return _refusal(setting, *_why_unreachable(setting, start_cell, goal_cell, robot), goal_plane)
-    corners = np.array(shorten(setting.passable, cells))
-    corners = setting.grid.to_plane(corners)
+        kind, reason, width = _why_unreachable(setting, start_cell, goal_cell, robot)
+        plan = _refusal(setting, kind, reason, goal_plane)
+        plan.narrowest_passage_m = None if width is None else round(width, 3)
+        return plan
+    corners = setting.grid.to_plane(np.array(shorten(setting.passable, cells, setting.cost)))
     corners[0] = setting.start  # the cell centre is up to half a cell off; the robot starts exactly here
-    steps, sentences = _steps(corners, setting.heading, setting.units)
-    world = setting.floor.to_world(corners)
-    pose = recon.extrinsics[start_view]
     plan = _refusal(setting, "", "", goal_plane)
     plan.reachable, plan.reason, plan.refusal = True, None, None
-    plan.steps, plan.sentences, plan.path_world = steps, sentences, world
-    plan.path_start_camera = world @ pose[:, :3].T + pose[:, 3]
-    plan.length = float(sum(step["move"] for step in steps))
+    _describe(plan, setting, corners, recon.extrinsics[start_view])
     plan.clearance = _clearance(setting, corners, robot)
     return plan

@@ -1,4 +1,9 @@
-"""Shortest paths on a boolean grid: 8-connected A*, then string pulling by line of sight."""
+"""Cheapest paths on a grid: 8-connected A* (a per-cell cost), then string pulling by line of sight.
+
+A cell's cost is what a unit of length through it costs (1 on seen floor, more on unseen floor);
+string pulling keeps a shortcut only when it costs no more than the cells it replaces, so a pulled
+path does not cut across unseen floor that the search went round.
+"""
 
 from __future__ import annotations
 
@@ -17,14 +22,19 @@ def _octile(a: tuple[int, int], b: tuple[int, int]) -> float:
 
 
 def astar(
-    passable: np.ndarray, start: tuple[int, int], goal: tuple[int, int]
+    passable: np.ndarray,
+    start: tuple[int, int],
+    goal: tuple[int, int],
+    cost: np.ndarray | None = None,
 ) -> list[tuple[int, int]] | None:
-    """Cells of a shortest 8-connected path from start to goal over ``passable``, or None.
+    """Cells of a cheapest 8-connected path from start to goal over ``passable``, or None.
 
-    A diagonal step needs both cells beside it passable, so a path never squeezes between two
-    obstacles that touch at a corner.
+    ``cost`` (H, W) >= 1 per unit length through a cell (a step costs its length times the mean of
+    its two cells' costs); None: every cell 1, the shortest path. A diagonal step needs both cells
+    beside it passable, so a path never squeezes between two obstacles that touch at a corner.
     """
     height, width = passable.shape
+    weights = cost.tolist() if cost is not None else None
     if not (passable[start] and passable[goal]):
         return None
     best = {start: 0.0}
@@ -46,6 +56,8 @@ def astar(
             if dr and dc and not (passable[r, nc] and passable[nr, c]):
                 continue
             step = _SQRT2 if dr and dc else 1.0
+            if weights is not None:
+                step *= 0.5 * (weights[r][c] + weights[nr][nc])
             new_cost = cost + step
             if new_cost < best.get((nr, nc), math.inf):
                 best[(nr, nc)] = new_cost
@@ -92,17 +104,43 @@ def segment_is_clear(passable: np.ndarray, a: np.ndarray, b: np.ndarray) -> bool
     return bool(passable[cells[:, 0], cells[:, 1]].all())
 
 
-def shorten(passable: np.ndarray, path: list[tuple[int, int]]) -> list[np.ndarray]:
-    """Corners of the path after string pulling: from each corner, the farthest cell in sight."""
+def segment_cost(cost: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """Cost of the straight segment a -> b (cell coordinates): its length times the mean cell cost."""
+    length = float(np.linalg.norm(b - a))
+    samples = max(int(np.ceil(length * 4)), 1)
+    t = np.linspace(0.0, 1.0, samples + 1)[:, None]
+    cells = np.rint(a + t * (b - a)).astype(np.int64)
+    return length * float(cost[cells[:, 0], cells[:, 1]].mean())
+
+
+def _path_costs(cost: np.ndarray, cells: list[np.ndarray]) -> np.ndarray:
+    """Cumulative cost along the path's cells (the same per-step rule as the search)."""
+    steps = [segment_cost(cost, a, b) for a, b in zip(cells[:-1], cells[1:], strict=True)]
+    return np.concatenate([[0.0], np.cumsum(steps)])
+
+
+def shorten(
+    passable: np.ndarray, path: list[tuple[int, int]], cost: np.ndarray | None = None
+) -> list[np.ndarray]:
+    """Corners of the path after string pulling: from each corner, the farthest cell in sight.
+
+    With ``cost``, a shortcut must also cost no more than the stretch of path it replaces.
+    """
     cells = [np.asarray(cell, np.float64) for cell in path]
+    along = _path_costs(cost, cells) if cost is not None else None
     corners = [cells[0]]
     anchor = 0
     while anchor < len(cells) - 1:
         reach = anchor + 1
         for candidate in range(len(cells) - 1, anchor, -1):
-            if segment_is_clear(passable, cells[anchor], cells[candidate]):
-                reach = candidate
-                break
+            if not segment_is_clear(passable, cells[anchor], cells[candidate]):
+                continue
+            if along is not None and segment_cost(cost, cells[anchor], cells[candidate]) > (
+                along[candidate] - along[anchor] + 1e-6
+            ):
+                continue
+            reach = candidate
+            break
         corners.append(cells[reach])
         anchor = reach
     return corners

@@ -10,6 +10,13 @@ Kinds:
 - ``narrow_door``: the doorway is narrower than the robot;
 - ``ring``: the goal is inside a closed pen of low partitions.
 
+``varied=True`` draws the capture the way real ones vary (the route benchmark's scenes): 3-7 views,
+one camera height per scene in 1.0-1.8 m, a doorway ``coverage`` of ``full`` (views look through
+the doorway from both rooms), ``partial`` (from room A only, the doorway off-centre) or ``none``
+(room A's views look at the dividing wall beside the doorway, not through it; room B's view
+stands with its back to the doorway), and furniture allowed
+near the doorway. The default is the fixed capture (5-7 views at 1.5 m) the tests were written on.
+
 Besides the rendering mesh, every scene keeps its *solids*: the convex parts (wall slabs,
 furniture parts, partitions) as vertex sets, so the true footprint at the robot's body height is
 exact polygons (``footprints``), and ``disc_collides`` / ``true_shortest`` work on those.
@@ -52,6 +59,9 @@ class TwoRoomScene:
     goal: np.ndarray  # (3,) floor point in room B
     door: tuple[float, float]  # (y low, y high) of the doorway in the dividing wall
     divider_x: float
+    goal_view: int = 3  # the view that looks at the goal
+    camera_height: float = EYE_HEIGHT  # the start view's camera above the floor, metres
+    coverage: str = "fixed"  # the capture's doorway coverage: fixed, full, partial or none
 
     def start_floor(self) -> np.ndarray:
         pose = self.extrinsics[0]
@@ -204,8 +214,8 @@ def _add_shell(
             _box_solid(builder, solids, divider_material, (WALL, y1 - y0, height), (divider, 0.5 * (y0 + y1)))
 
 
-def _view(eye_xy, look_xy) -> np.ndarray:
-    eye = np.array([eye_xy[0], eye_xy[1], EYE_HEIGHT])
+def _view(eye_xy, look_xy, height: float = EYE_HEIGHT) -> np.ndarray:
+    eye = np.array([eye_xy[0], eye_xy[1], height])
     horizontal = np.asarray(look_xy, float) - eye[:2]
     horizontal /= np.linalg.norm(horizontal)
     drop = np.tan(np.radians(_PITCH_DOWN_DEG))
@@ -221,9 +231,76 @@ class _Layout:
     eyes: list[np.ndarray]  # (2,) floor positions of the cameras
     looks: list[np.ndarray]  # (2,) where each camera looks
     goal: np.ndarray  # (2,)
+    heights: list[float] | None = None  # per view camera height; None: EYE_HEIGHT
+    goal_view: int = 3
+    coverage: str = "fixed"
+    door_keep_out: float = 1.4  # furniture keeps this far from the doorway's centre
 
 
-def _layout(rng: np.random.Generator, kind: str) -> _Layout:
+def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:
+    cosine = float(a @ b / (np.linalg.norm(a) * np.linalg.norm(b)))
+    return float(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
+
+
+def _varied_views(rng: np.random.Generator, layout: _Layout, start: np.ndarray) -> None:
+    """Replace the fixed capture by a drawn one: 3-7 views, one height, a doorway coverage."""
+    divider, width, length = layout.divider, layout.width, layout.length
+    door_centre = 0.5 * sum(layout.door)
+    coverage = str(rng.choice(["full", "partial", "none"]))
+    if coverage == "none":  # the start view faces away from the dividing wall
+        heading = float(rng.uniform(0.6 * np.pi, 1.4 * np.pi))
+    else:
+        heading = float(rng.uniform(0, 2 * np.pi))
+    eyes = [start]
+    looks = [start + [np.cos(heading), np.sin(heading)]]
+    if coverage == "none":  # room B's view stands near the dividing wall and looks away from it
+        far_end = 0.8 if door_centre > width / 2 else width - 0.8  # the end of the wall away from the door
+        eyes.append(np.array([divider + WALL / 2 + 0.6, far_end]))
+    else:
+        eyes.append(_farthest_corner(layout.goal, divider + WALL / 2, length, width))
+    looks.append(layout.goal)
+    if coverage in ("full", "partial"):
+        shift = 0.0 if coverage == "full" else float(rng.choice([-1, 1]) * rng.uniform(0.8, 1.6))
+        eyes.append(np.array([divider - rng.uniform(1.8, 3.0), door_centre + rng.uniform(-0.5, 0.5)]))
+        looks.append(np.array([divider + 1.5, door_centre + shift]))
+    if coverage == "none":  # room A's view of the dividing wall beside the doorway, not through it
+        offset = float(rng.choice([-1, 1]) * rng.uniform(1.7, 2.3))
+        if not 0.5 <= door_centre + offset <= width - 0.5:
+            offset = -offset
+        target_y = float(np.clip(door_centre + offset, 0.5, width - 0.5))
+        eyes.append(np.array([divider - rng.uniform(0.9, 1.3), target_y + 0.2 * np.sign(offset)]))
+        looks.append(np.array([divider, target_y]))
+    if coverage == "full":
+        eyes.append(np.array([divider + rng.uniform(1.8, 3.0), door_centre + rng.uniform(-0.5, 0.5)]))
+        looks.append(np.array([divider - 1.5, door_centre]))
+    side = float(rng.choice([-1.0, 1.0]))
+    extras = [
+        (_farthest_corner(start, 0.0, divider - WALL / 2, width), start),
+        (np.array([divider - 0.8, width / 2 + side * (width / 2 - 0.7)]), np.array([divider / 2, width / 2])),
+    ]
+    if coverage != "none":  # a view from room B's far end would see the floor past the doorway
+        b_corner = np.array([length - 0.7, width / 2 - side * (width / 2 - 0.7)])
+        extras.append((b_corner, np.array([(divider + length) / 2, width / 2])))
+    wanted = int(rng.integers(max(0, 3 - len(eyes)), min(len(extras), 7 - len(eyes)) + 1))
+    door = np.array([divider, door_centre])
+    for index in rng.permutation(len(extras))[:wanted]:
+        eye, look = extras[index]
+        if coverage == "none" and _angle_deg(look - eye, door - eye) < 55.0:
+            continue  # it would look through the doorway
+        eyes.append(eye)
+        looks.append(look)
+    if len(eyes) < 3:  # the start area, seen from just behind the start
+        eyes.append(start - 0.8 * np.array([np.cos(heading), np.sin(heading)]))
+        looks.append(start + np.array([np.cos(heading), np.sin(heading)]))
+    height = float(rng.uniform(1.0, 1.8))
+    layout.heights = [height] + [
+        float(np.clip(height + rng.uniform(-0.15, 0.15), 0.9, 1.9)) for _ in eyes[1:]
+    ]
+    layout.eyes, layout.looks, layout.goal_view, layout.coverage = eyes, looks, 1, coverage
+    layout.door_keep_out = float(rng.uniform(0.5, 1.4))
+
+
+def _layout(rng: np.random.Generator, kind: str, varied: bool = False) -> _Layout:
     length, width = float(rng.uniform(9.5, 11.0)), float(rng.uniform(4.6, 5.3))
     divider = length * float(rng.uniform(0.45, 0.55))
     door_width = float(rng.uniform(0.3, 0.42)) if kind == "narrow_door" else float(rng.uniform(0.9, 1.2))
@@ -256,7 +333,10 @@ def _layout(rng: np.random.Generator, kind: str) -> _Layout:
     for index in rng.permutation(len(extras))[: int(rng.integers(0, len(extras) + 1))]:
         eyes.append(extras[index][0])
         looks.append(extras[index][1])
-    return _Layout(length, width, divider, door, eyes, looks, goal)
+    layout = _Layout(length, width, divider, door, eyes, looks, goal)
+    if varied:
+        _varied_views(rng, layout, start)
+    return layout
 
 
 def _farthest_corner(point: np.ndarray, x0: float, x1: float, width: float) -> np.ndarray:
@@ -288,7 +368,7 @@ def _add_furniture(
     builder: _Builder, solids: list, rng: np.random.Generator, layout: _Layout, objects: list[SceneObject]
 ) -> None:
     keep_out = [(eye, 0.7) for eye in layout.eyes] + [(layout.goal, 1.1)]
-    keep_out.append((np.array([layout.divider, 0.5 * sum(layout.door)]), 1.4))
+    keep_out.append((np.array([layout.divider, 0.5 * sum(layout.door)]), layout.door_keep_out))
     rooms = [(0.0, layout.divider - WALL / 2), (layout.divider + WALL / 2, layout.length)]
     for entry_index in rng.permutation(len(CATALOGUE))[: int(rng.integers(4, 7))]:
         entry = CATALOGUE[entry_index]
@@ -321,16 +401,19 @@ def _add_furniture(
         objects.append(SceneObject(entry.name, (low + high) / 2, high - low, yaw))
 
 
-def _build(seed: int, kind: str, size: tuple[int, int]) -> TwoRoomScene:
+def _build(seed: int, kind: str, size: tuple[int, int], varied: bool = False) -> TwoRoomScene:
     rng = np.random.default_rng(seed)
-    layout = _layout(rng, kind)
+    layout = _layout(rng, kind, varied)
     builder, solids, objects = _Builder(rng), [], []
     _add_shell(builder, solids, layout.length, layout.width, layout.door, layout.divider)
     if kind == "ring":
         _add_pen(builder, solids, layout.goal)
     _add_furniture(builder, solids, rng, layout, objects)
     scene = builder.scene(seed, objects, np.array([layout.length, layout.width, 2.8]), has_ceiling=False)
-    extrinsics = np.array([_view(eye, look) for eye, look in zip(layout.eyes, layout.looks, strict=True)])
+    heights = layout.heights or [EYE_HEIGHT] * len(layout.eyes)
+    extrinsics = np.array(
+        [_view(eye, look, h) for eye, look, h in zip(layout.eyes, layout.looks, heights, strict=True)]
+    )
     return TwoRoomScene(
         scene=scene,
         kind=kind,
@@ -341,6 +424,9 @@ def _build(seed: int, kind: str, size: tuple[int, int]) -> TwoRoomScene:
         goal=np.append(layout.goal, 0.0),
         door=layout.door,
         divider_x=layout.divider,
+        goal_view=layout.goal_view,
+        camera_height=heights[0],
+        coverage=layout.coverage,
     )
 
 
@@ -361,8 +447,9 @@ def generate_two_rooms(
     size: tuple[int, int] = (320, 240),
     radius: float = 0.25,
     band: tuple[float, float] = (0.05, 0.5),
+    varied: bool = False,
 ) -> TwoRoomScene:
-    """A two-room scene of this kind (``KINDS``), deterministic for a seed.
+    """A two-room scene of this kind (``KINDS``), deterministic for a seed (``varied``: see above).
 
     Layouts are drawn until one is what its kind says on the true geometry for a robot of this
     radius and body band (a reachable scene has a route; the others have none).
@@ -371,10 +458,34 @@ def generate_two_rooms(
         raise ValueError(f"unknown kind {kind!r}; expected one of {KINDS}")
     for attempt in range(40):
         sub_seed = int(np.random.SeedSequence([seed, KINDS.index(kind), attempt]).generate_state(1)[0])
-        two = _build(sub_seed, kind, size)
+        two = _build(sub_seed, kind, size, varied)
         if _fits_its_kind(two, radius, band):
             return two
     raise ValueError(f"seed {seed}: no {kind} layout found")
+
+
+def past_the_doorway(two: TwoRoomScene, depth_m: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """The floor box (x, y low), (x, y high) just past the doorway, the whole width of room B."""
+    low = np.array([two.divider_x + WALL / 2, float(two.scene.room_min[1])])
+    return low, np.array([low[0] + depth_m, float(two.scene.room_max[1])])
+
+
+def depths_without_floor_past_the_doorway(two: TwoRoomScene, views, depth_m: float = 1.0) -> list[np.ndarray]:
+    """Every view's depth with its floor pixels past the doorway blanked (0: no depth there).
+
+    A capture in which no view saw the floor just beyond the doorway, everything else as rendered.
+    """
+    low, high = past_the_doorway(two, depth_m)
+    depths = []
+    for pose, view in zip(two.extrinsics, views, strict=True):
+        depth = view.depth.copy()
+        rows, columns = np.indices(depth.shape)
+        rays = np.stack([columns, rows, np.ones_like(rows)], axis=-1) @ np.linalg.inv(two.intrinsic).T
+        world = (rays * depth[..., None] - pose[:, 3]) @ pose[:, :3]
+        inside = np.all((world[..., :2] >= low) & (world[..., :2] <= high), axis=-1)
+        depth[(np.abs(world[..., 2]) < 0.03) & inside] = 0.0
+        depths.append(depth)
+    return depths
 
 
 @dataclass

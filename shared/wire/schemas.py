@@ -761,6 +761,13 @@ class RobotSpec(_Model):
     floor_clearance: float = Field(
         0.05, ge=0, le=2, description="Bottom of the body: anything lower is driven over, metres."
     )
+    camera_height_m: float | None = Field(
+        None,
+        gt=0,
+        le=10,
+        description="The robot's camera above the floor, metres: makes a scene-unit reconstruction metric "
+        "(scaled from the floor plane under the start view); with a metric one, checked against it.",
+    )
 
 
 class RouteRequest(_Model):
@@ -786,14 +793,28 @@ class RouteStep(_Model):
         ..., description="Turn in place about up first, degrees; + = left (counter-clockwise from above)."
     )
     move: float = Field(..., description="Then drive forward this far, in `units` (metres or scene units).")
+    unseen_m: float = Field(
+        0.0, description="Of the move, this much crosses floor no view saw (move's units)."
+    )
+
+
+class UnseenStretch(_Model):
+    step: int = Field(..., ge=1, description="1-based step whose move crosses it.")
+    start_world: list[float]
+    end_world: list[float]
+    length: float = Field(..., description="In the moves' units.")
 
 
 class RouteResponse(_Model):
     scene_id: str
     backbone: str
     reachable: bool
-    reason: str | None = Field(None, description="Why no route was planned (which gap, enclosed, unseen).")
-    refusal: str | None = Field(None, description="narrow_gap, enclosed, unseen_space, goal_unseen, ...")
+    reason: str | None = Field(
+        None, description="Why no route was planned (which gap and how wide, enclosed)."
+    )
+    refusal: str | None = Field(
+        None, description="narrow_gap, enclosed, start_blocked, goal_too_close, goal_unseen (outside the map)"
+    )
     turn_convention: Literal["left-positive"] = "left-positive"
     steps: list[RouteStep]
     sentences: list[str]
@@ -809,6 +830,21 @@ class RouteResponse(_Model):
     )
     metres_per_unit: float | None = Field(
         None, description="1 when metric; otherwise the estimate from an assumed 1.5 m camera height."
+    )
+    scale_from: Literal["metric reconstruction", "camera height", "assumed camera height"] | None = None
+    floor_residual_m: float | None = Field(
+        None, description="RMS of the floor points about the fitted floor plane near the start, metres."
+    )
+    scale_check: float | None = Field(
+        None,
+        description="Metric reconstruction and a camera height: the reconstructed height over the given.",
+    )
+    unseen_m: float | None = Field(
+        None, description="Of the length, this much crosses floor no view saw (assumed free: go slowly)."
+    )
+    unseen_stretches: list[UnseenStretch] = Field(default_factory=list)
+    narrowest_passage_m: float | None = Field(
+        None, description="narrow_gap: the passage's width between the seen obstacles on both sides."
     )
     start_world: list[float] | None
     goal_world: list[float] | None = Field(None, description="The goal projected on the floor.")

@@ -205,6 +205,12 @@ class AgentSettings(ServiceSettings):
         ge=1000,
         description="Longest code-model reply that is parsed; longer ones are refused unread.",
     )
+    route_unseen_cost: float = Field(
+        1.5,
+        ge=1.0,
+        le=100.0,
+        description="Route plans: a metre over floor no view saw costs as much as this many over seen floor.",
+    )
     sandbox_cpu_s: int = Field(20, ge=1, description="CPU seconds a program may use.")
     sandbox_wall_s: int = Field(
         120, ge=1, description="Wall-clock seconds a program may take, its tool calls included."

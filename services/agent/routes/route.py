@@ -69,7 +69,9 @@ router = APIRouter(tags=["route"])
 async def plan_a_route(request: Request, recon: TenantReconDep, settings: SettingsDep) -> RouteResponse:
     """Plan turns and forward moves from the floor below the start view to the goal (left-positive turns)."""
     body, images, depths = await _read_route_request(request, settings)
-    return await anyio.to_thread.run_sync(route_plan.route, body, images, depths, recon)
+    return await anyio.to_thread.run_sync(
+        route_plan.route, body, images, depths, recon, settings.route_unseen_cost
+    )
 
 
 async def _read_route_request(request: Request, settings: AgentSettings) -> tuple[RouteRequest, list, list]:

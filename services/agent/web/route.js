@@ -1,6 +1,7 @@
 // The route mode: click a point on one of the chosen photos to set the goal, then POST /v1/route
 // plans turns and forward moves from the floor below the start view's camera to it. The steps are
-// listed, the path is drawn in a 3D view of its own, and the plan downloads as JSON.
+// listed, the path is drawn in a 3D view of its own (its stretches over floor no photo shows in
+// amber), and the plan downloads as JSON. A camera height makes a photos-only plan metric.
 import * as THREE from "three";
 import { $, element } from "/web/dom.js";
 import { apiFetch, problemOf } from "/web/api.js";
@@ -9,6 +10,7 @@ import { photos, withFileNames } from "/web/photos.js";
 import { SceneViewer, webglAvailable } from "/web/viewer.js";
 
 const PATH_COLOR = 0x1a7f37;
+const UNSEEN_COLOR = 0xd97706; // amber: stretches over floor no photo shows (go slowly, look again)
 const state = { goal: null, plan: null, viewer: null };
 
 function goalPhotos() {
@@ -61,7 +63,10 @@ function formOf(posed) {
   }
   form.append("start_view", $("route-start").value || "1");
   form.append("goal", JSON.stringify({ pixel: state.goal }));
-  form.append("robot", JSON.stringify({ radius: Number($("route-radius").value) || 0.25 }));
+  const robot = { radius: Number($("route-radius").value) || 0.25 };
+  const height = Number($("route-camera-height").value);
+  if (height > 0) robot.camera_height_m = height;
+  form.append("robot", JSON.stringify(robot));
   if ($("backbone").value) form.append("backbone", $("backbone").value);
   return form;
 }
@@ -69,8 +74,12 @@ function formOf(posed) {
 function showPlan(plan) {
   const unit = plan.units === "metres" ? "m" : "scene units";
   $("route-summary").textContent = plan.reachable
-    ? `${plan.steps.length} step(s), ${plan.length.toFixed(2)} ${unit} (straight line ${plan.straight_line.toFixed(2)}); turns are ${plan.turn_convention}.`
+    ? `${plan.steps.length} step(s), ${plan.length.toFixed(2)} ${unit} (straight line ${plan.straight_line.toFixed(2)}); turns are ${plan.turn_convention}.` +
+      (plan.unseen_m > 0 ? ` ${plan.unseen_m.toFixed(2)} ${unit} cross floor no photo shows (amber).` : "")
     : `No route: ${plan.reason}`;
+  $("route-scale").textContent = `Units: ${plan.units}, scale from ${plan.scale_from || "unknown"}` +
+    (plan.floor_residual_m != null ? ` (floor fit residual ${plan.floor_residual_m.toFixed(3)} m)` : "") +
+    (plan.scale_check != null ? `; reconstructed camera height / given: ${plan.scale_check.toFixed(2)}` : "") + ".";
   $("route-steps").replaceChildren(...plan.sentences.map((sentence) => element("li", { textContent: sentence })));
   $("route-warnings").replaceChildren(...plan.warnings.map((text) => element("li", { textContent: text })));
   $("route-result").hidden = false;
@@ -102,9 +111,26 @@ async function drawPath(plan) {
     state.viewer.content.add(line);
     drawn = line.geometry.attributes.position.count;
   }
+  const unseen = drawUnseen(plan.unseen_stretches || []);
   state.viewer.draw();
   canvas.dataset.pathPoints = String(drawn); // the drawn line's vertex count, for tests and tools
-  $("route-viewer-status").textContent = points.length > 1 ? "The route is drawn in green from the start to the goal." : "No path to draw.";
+  canvas.dataset.unseenStretches = String(unseen);
+  $("route-viewer-status").textContent = points.length > 1
+    ? "The route is drawn in green from the start to the goal" + (unseen ? ", its stretches over floor no photo shows in amber." : ".")
+    : "No path to draw.";
+}
+
+// Each unseen stretch as its own amber line over the green path (drawn later, so on top of it).
+function drawUnseen(stretches) {
+  const material = new THREE.LineBasicMaterial({ color: UNSEEN_COLOR, depthTest: false });
+  for (const stretch of stretches) {
+    const ends = [stretch.start_world, stretch.end_world].map(([x, y, z]) => new THREE.Vector3(x, y, z));
+    const line = new THREE.Line(new THREE.BufferGeometry().setFromPoints(ends), material);
+    line.name = "route-unseen";
+    line.renderOrder = 6;
+    state.viewer.content.add(line);
+  }
+  return stretches.length;
 }
 
 function downloadPlan() {

@@ -1,0 +1,88 @@
+"""The narrowest passage between start and goal, measured on the seen obstacles.
+
+The widest way through the seen obstacles is found by growing the obstacles until start and goal
+come apart (a bisection on the growth radius); its tightest cell is the passage. The width is then
+measured on the obstacle *points* around it, the closest pair on opposite sides (the two jambs of
+a doorway), so it is what a tape measure between the seen surfaces would read, not a count of
+cells and not the edge of the seen floor.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from shared.navigation.grid import Grid, dilate
+from shared.navigation.search import astar, reachable_from
+
+_BISECTIONS = 8
+
+
+@dataclass(frozen=True)
+class Passage:
+    where: np.ndarray  # (2,) floor coordinates of the tightest point of the widest way
+    width: float  # scene units between the seen obstacles on both sides
+    sides: tuple[np.ndarray, np.ndarray] | None  # the two obstacle points the width is measured on
+
+
+def _connected(occupied: np.ndarray, radius_cells: float, start, goal) -> bool:
+    passable = ~dilate(occupied, radius_cells)
+    return bool(passable[start] and passable[goal] and reachable_from(passable, start)[goal])
+
+
+def _widest_radius(occupied: np.ndarray, start, goal, most: float) -> float:
+    """The largest obstacle growth (cells) that still leaves start and goal joined (0 when joined)."""
+    low, high = 0.0, most
+    for _ in range(_BISECTIONS):
+        middle = 0.5 * (low + high)
+        if _connected(occupied, middle, start, goal):
+            low = middle
+        else:
+            high = middle
+    return low
+
+
+def _closest_pair(points: np.ndarray, at: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """The closest obstacle points on the two sides of ``at`` (near one, then alternately nearest)."""
+    if len(points) < 2:
+        return None
+    first = points[int(np.argmin(np.linalg.norm(points - at, axis=1)))]
+    opposite = (points - at) @ (first - at) < 0
+    if not opposite.any() or opposite.all():
+        return None
+    other_side, same_side = points[opposite], points[~opposite]
+    second = other_side[int(np.argmin(np.linalg.norm(other_side - first, axis=1)))]
+    first = same_side[int(np.argmin(np.linalg.norm(same_side - second, axis=1)))]
+    second = other_side[int(np.argmin(np.linalg.norm(other_side - first, axis=1)))]
+    return first, second
+
+
+def narrowest_passage(
+    grid: Grid, start: tuple[int, int], goal: tuple[int, int], most_cells: float
+) -> Passage | None:
+    """The passage that limits the widest way from start to goal; None when no way exists at all."""
+    blocked = grid.blocked
+    if not _connected(blocked, 0.0, start, goal):
+        return None
+    radius = _widest_radius(blocked, start, goal, most_cells)
+    cells = astar(~dilate(blocked, radius), start, goal)
+    if cells is None:  # the bisection's lower end is always joined; guard the 4- vs 8-connected edge
+        cells = astar(~blocked, start, goal)
+    plane = grid.to_plane(np.array(cells))
+    centres = grid.to_plane(np.argwhere(blocked))
+    distance = np.array([np.linalg.norm(centres - point, axis=1).min() for point in plane])
+    # Every cell as tight as the tightest (within a cell) may be the passage; one that is tight on
+    # one side only (the path hugging a corner) is not a passage, so it needs obstacles on both sides.
+    passages = []
+    for index in np.flatnonzero(distance <= distance.min() + grid.cell):
+        where = plane[index]
+        reach = distance[index] + 4 * grid.cell
+        near = grid.obstacle_points[np.linalg.norm(grid.obstacle_points - where, axis=1) <= reach]
+        pair = _closest_pair(near, where)
+        if pair is not None:
+            passages.append(Passage(where, float(np.linalg.norm(pair[0] - pair[1])), pair))
+    if passages:
+        return min(passages, key=lambda passage: passage.width)
+    tightest = int(np.argmin(distance))  # no seen points on both sides (the map's edge): the cells' gap
+    return Passage(plane[tightest], max(2 * distance[tightest] - grid.cell, 0.0), None)
