@@ -95,7 +95,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"shift\w*|slid\w*|translat\w*|displac\w*|relocat\w*|reposition\w*|glid\w*|drift\w*|step\w*|walk\w*|"
      r"dolly|dollied|carr(?:y|ied)|travel\w*|head(?:ed|ing)? (?=left|right|up|down|forward|back)",
      Sense(_STEP)),
-    (r"mov\w*|motion|went|go(?:es|ing|ne)?|came|come|got|change[ds]?", Sense("weak")),
+    (r"mov\w*|motion|went|go(?:es|ing|ne)?|came|come|got", Sense("weak")),
+    (r"chang\w*|differ\w*|happen\w*", Sense("weak", "any")),
     # ---- directions
     (r"(?:to |toward |towards |on |at )?(?:the |its |their |his |her |your |my )?left(?:ward|wards)?(?: hand)?(?: side| edge)?",
      Sense("way", "left")),
@@ -200,7 +201,7 @@ def _parts(found: list[Token]) -> list[_Part]:
             joins = open_ is not None and open_.verb is None and not open_.negated
             part = open_ if joins else _Part()
             part.verb, part.negated = token.sense, negate
-            if part.verb.value:
+            if part.verb.value and part.verb.value != "any":
                 part.ways.append(part.verb.value)
             part.words.append(token.words)
             if not joins:
@@ -286,7 +287,8 @@ def _part_claim(part: _Part, degrees: float | None, source: str) -> Claim:
 # "closer to the lamp", "farther away from the red sofa": the object's name is not the lexicon's.
 _TARGET = re.compile(
     r"^(?:(?:it|the camera|camera)\s+)?(?:(?:came|got|moved|went|is|was|ended up)\s+)?"
-    r"(?P<change>closer|nearer|farther|further)\s+(?:away\s+)?(?:to|from)\s+(?P<object>(?:the|a|an)\s+[a-z ]+)$"
+    r"(?P<change>closer|nearer|farther|further)\s+(?:away\s+)?(?:to|from)\s+"
+    r"(?P<object>(?!the scene\b|the subject\b)(?:the|a|an)\s+[a-z ]+)$"
 )
 
 

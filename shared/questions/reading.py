@@ -121,8 +121,11 @@ def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
         return "rotation", True, words
     if translation:
         return "translation", True, words
-    if "weak" in kinds or "still" in kinds:
-        return "translation", False, words
+    senses = stem_senses(words)
+    if any(s.kind == "weak" and s.value is None for s in senses) or "still" in kinds:
+        return "translation", False, words  # "which way did it move? Left": a step
+    if "weak" in kinds:
+        return "motion", False, words  # "how did it change?": any motion
     return None, False, ""
 
 

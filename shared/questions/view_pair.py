@@ -37,7 +37,7 @@ _ORDINAL_WORDS = {
 _NUM = r"(?:\d+|" + "|".join(_NUMBER_WORDS) + r")"
 _ORD = r"(?:" + "|".join(_ORDINAL_WORDS) + r"|\d+(?:st|nd|rd|th))"
 _NUMBERED = re.compile(
-    rf"\b{_NOUN}\s*(?:number\s+|no\s+|#\s*)?(?P<n>{_NUM})\b(?P<more>(?:\s*(?:and|to|through|or|vs|versus)\s*{_NUM}\b)*)"
+    rf"\b{_NOUN}\s*(?:number\s+|no\s+|#\s*)?(?P<n>{_NUM})\b(?P<more>(?:(?:\s*(?:and|to|through|or|vs|versus)\s*|\s+){_NUM}\b)*)"
 )
 _ORDINAL_NOUN = re.compile(rf"\b(?P<o>{_ORD})\s+(?:(?:[a-z]+)\s+)?(?:{_NOUN}|one)\b")
 _BARE_ORDINAL = re.compile(
@@ -97,9 +97,14 @@ def _mentions(text: str, image_count: int | None) -> list[tuple[int, int, int | 
     return sorted(found)
 
 
+_COMPARED_BEFORE = re.compile(r"\b(?P<when>earlier|sooner|later) than\s*$")
+
+
 def _role(text: str, start: int, end: int) -> str | None:
     before = _SKIP_BEFORE.sub("", text[:start])
     after = text[end:]
+    if compared := _COMPARED_BEFORE.search(before):  # "earlier than X": X is the later photo
+        return "from" if compared.group("when") == "later" else "to"
     if _FROM_BEFORE.search(before) or _FROM_AFTER.match(after):
         return "from"
     if _TO_BEFORE.search(before) or _TO_AFTER.match(after):
