@@ -108,7 +108,8 @@ def test_compounds_are_read_part_by_part() -> None:
     [
         ("glimmered sideways", "not in the motion lexicon"),
         ("back and forth", "both forward and backward"),
-        ("moved left or right", "both left and right"),
+        ("moved left or right", "joined by 'or'"),
+        ("moved left then right", "both left and right"),
         ("turned", "no side"),
         ("not left", "negated"),
     ],
