@@ -88,6 +88,12 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     # ---- position of one camera relative to another
     (r"locat\w*|position\w*|plac(?:e|ed)|situat\w*|lies|lay|lying|sits|sat|stands|stood|"
      r"(?:was |were |is )?taken from|shot from|captured from|set up", Sense("place")),
+    # ---- a step toward an edge of the photo: the frame's own directions
+    (r"(?:toward|towards|to) (?:the )?(?:frame|image|picture|photo|view)(?: s)? (?:upper|top) edge", Sense(_STEP, "up")),
+    (r"(?:toward|towards|to) (?:the )?(?:frame|image|picture|photo|view)(?: s)? (?:lower|bottom) edge",
+     Sense(_STEP, "down")),
+    (r"(?:toward|towards|to) (?:the )?(?:frame|image|picture|photo|view)(?: s)? left edge", Sense(_STEP, "left")),
+    (r"(?:toward|towards|to) (?:the )?(?:frame|image|picture|photo|view)(?: s)? right edge", Sense(_STEP, "right")),
     # ---- translation verbs that carry their way
     (r"sidestep\w*|strafe\w*|truck(?:ed|ing)?|crab(?:bed|bing)?", Sense(_STEP)),
     (r"climb\w*|ascen\w*|rose|ris(?:e|en|es|ing)|rais\w*|lift\w*|elevat\w*|gain(?:ed|s|ing)? height|"
@@ -312,7 +318,7 @@ def _part_claim(part: _Part, degrees: float | None, source: str) -> Claim:
     ways = [w for w in dict.fromkeys(part.ways) if w != "around"]
     conflict = _conflict(ways)
     if conflict:
-        return Unread(source=source, why=conflict)
+        return Unread(source=source, why=conflict, two_claims=True)
     if not ways:
         return Unread(source=source, why="a motion with no direction")
     typed: tuple[Way, ...] = tuple(ways)  # type: ignore[assignment]
@@ -344,7 +350,7 @@ def read_phrase(text: str) -> Claim:
     if not found:
         return Unread(source=text)
     if any(token.sense.kind == "or" for token in found):
-        return Unread(source=text, why="it offers two claims joined by 'or'")
+        return Unread(source=text, why="it offers two claims joined by 'or'", two_claims=True)
     stated = _DEGREES.search(words)
     degrees = float(stated.group(1)) if stated else None
     claims = [_part_claim(part, degrees, " ".join(part.words)) for part in _parts(found)]

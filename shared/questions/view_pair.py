@@ -39,9 +39,12 @@ _ORD = r"(?:" + "|".join(_ORDINAL_WORDS) + r"|\d+(?:st|nd|rd|th))"
 _NUMBERED = re.compile(
     rf"\b{_NOUN}\s*(?:number\s+|no\s+|#\s*)?(?P<n>{_NUM})\b(?P<more>(?:(?:\s*(?:and|to|through|or|vs|versus)\s*|\s+){_NUM}\b)*)"
 )
-_ORDINAL_NOUN = re.compile(rf"\b(?P<o>{_ORD})\s+(?:(?:[a-z]+)\s+)?(?:{_NOUN}|one)\b")
+_ADJECTIVE = (
+    r"(?:captured|taken|input|given|original|camera|photographed|still|video|key|shown|reference|numbered)"
+)
+_ORDINAL_NOUN = re.compile(rf"\b(?P<o>{_ORD})\s+(?:{_ADJECTIVE}\s+)?(?:{_NOUN}|one)\b")
 _BARE_ORDINAL = re.compile(
-    rf"\bthe\s+(?P<o>{_ORD})\b(?!\s+(?:[a-z]+\s+)?(?:{_NOUN}|one)\b)(?=\s*(?:$|and|to|[a-z]+ (?:was|is)|[?,.]|\b))"
+    rf"\bthe\s+(?P<o>{_ORD})\b(?!\s+(?:{_ADJECTIVE}\s+)?(?:{_NOUN}|one)\b)(?=\s*(?:$|and|to|[a-z]+ (?:was|is)|[?,.]|\b))"
 )
 _OTHER = re.compile(rf"\bthe other\s+(?:{_NOUN}|one)\b")
 
@@ -63,6 +66,9 @@ _TO_AFTER = re.compile(
     r"^\s*(?:s\s+)?(?:(?:was|is|were|came)\s+)?(?:(?:taken|shot|captured|made|snapped)\s+)?"
     r"(?:after|later|afterwards|next|second|followed)\b|^\s*followed\b"
 )
+
+
+_SENTENCES = re.compile(r"(?<=[.!?;])\s+(?=[A-Z])|;\s*")
 
 
 class PairReading(BaseModel, frozen=True):
@@ -102,6 +108,7 @@ def _mentions(text: str, image_count: int | None) -> list[tuple[int, int, int | 
 def _role(text: str, start: int, end: int, previous_end: int) -> str | None:
     """ "from", "to" or None for the mention text[start:end], from the last cue before it (back to the
     previous mention) or, failing that, the words right after it ("shot 3 was taken earlier")."""
+    previous_end = max(previous_end, text.rfind(" . ", 0, start) + 1)
     cues = list(_CUES.finditer(text, previous_end, start))
     if cues:
         last = cues[-1]
@@ -116,7 +123,8 @@ def _role(text: str, start: int, end: int, previous_end: int) -> str | None:
 
 def read_pair(text: str, image_count: int | None = None, default_two: bool = False) -> PairReading:
     """The ordered pair a text names (see the module docstring)."""
-    words = normalized(text)
+    # Sentence by sentence, with " . " between them: a cue never reaches across a sentence.
+    words = " . ".join(normalized(sentence) for sentence in _SENTENCES.split(text or ""))
     mentions = _mentions(words, image_count)
     if any(view is None for _, _, view in mentions):
         return PairReading(doubt="it names the last photo, and the number of photos is not known")
