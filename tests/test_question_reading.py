@@ -6,7 +6,6 @@ geometry writes for cameras built to move one way, exactly and over focal hypoth
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 from services.agent.answering import answer_offline
@@ -171,7 +170,8 @@ def test_a_pair_that_reads_two_ways_is_not_guessed(text: str, count: int | None,
 
 def test_options_lead_whatever_the_stem_says() -> None:
     reading = read_question(
-        "Looking at photo 1 and photo 2, what about the camera? A. Rolled clockwise B. Rolled counterclockwise",
+        "Looking at photo 1 and photo 2, what about the camera? "
+        "A. Rolled clockwise B. Rolled counterclockwise",
         2,
     )
     assert reading.quantity == "rotation" and reading.views == (1, 2) and reading.options_lead

@@ -105,7 +105,9 @@ _POSITION_ASK = re.compile(
 )
 _OBJECT_ASK = re.compile(
     r"\b(?:what|which (?:object|item|thing))\s+(?:is|was|would be|will be|lies|appears)\b|"
-    r"\bwhere (?:is|was|are) (?:the|a|an) (?!camera|photographer|shooter|viewer|second|first|third|last|"
+    r"\bwhere (?:is|was|are) (?:the|a|an) (?!camera|photographer|shooter|viewer|second|first|third|"
+    r"fourth|fifth|"
+    r"last|final|initial|latter|former|next|previous|other|earlier|later|\d|"
     r"shooting|position|viewpoint|vantage|location|spot|place|capture|image|photo|picture|view|frame|shot|"
     r"snapshot)\w+"
 )
@@ -145,7 +147,8 @@ def asking_sentences(ask: str) -> str:
 
 _ROTATING = ("aim", "aimnoun", "yaw", "pitch", "roll")
 _PLACE_NOUN = re.compile(
-    r"\b(?:location|position|spot|(?<!\btook )(?<!\btake )(?<!\btakes )(?<!\btaking )place|whereabouts|standpoint)\b"
+    r"\b(?:location|position|spot|(?<!\btook )(?<!\btake )(?<!\btakes )(?<!\btaking )place|"
+    r"whereabouts|standpoint)\b"
 )
 
 
@@ -247,12 +250,14 @@ _ROOM = re.compile(
 )
 _VIEW_AXES = re.compile(
     r"\b(?:in|from|using|relative to|with respect to|according to|as seen (?:in|from))\s+(?:the\s+)?"
-    r"(?P<view>[\w ]{1,25}?)\s*(?:s\s+)?(?:own\s+)?(?:axes|directions|coordinates|coordinate (?:frame|system)|"
+    r"(?P<view>[\w ]{1,25}?)\s*(?:s\s+)?(?:own\s+)?(?:axes|directions|coordinates|"
+    r"coordinate (?:frame|system)|"
     r"frame of reference|reference frame|orientation|point of view|viewpoint|perspective|side)\b"
 )
 _SHOOTER = re.compile(r"\b(?:shooter|photographer|camera operator|camera person|viewer|camera)\b")
 _OBJECT_FRAME = re.compile(
-    r"\b(?:facing|from|at) the (?P<object>(?!camera|photographer|shooter|viewer)\w+)\s+(?:s\s+)?(?:perspective|point of view|position)\b"
+    r"\b(?:facing|from|at) the (?P<object>(?!camera|photographer|shooter|"
+    r"viewer)\w+)\s+(?:s\s+)?(?:perspective|point of view|position)\b"
 )
 
 
@@ -290,6 +295,8 @@ _QUANTITY_WORDS = {
 
 def _summary(quantity: Quantity, pair: PairReading, frame: FrameReading | None) -> str:
     said = f"read as: {_QUANTITY_WORDS[quantity]}"
+    if quantity not in CAMERA_QUANTITIES:
+        return said
     if pair.views is not None:
         said += f" from image {pair.views[0]} to image {pair.views[1]}"
     if frame is not None and frame.kind == "view_axes" and frame.view is not None:
@@ -384,7 +391,8 @@ _CAMERA_ASK = re.compile(
 # the scene, not the motion between two photos.
 _WHAT_IF = re.compile(
     r"\b(?:if (?:you|i|we|the camera)|suppose|supposing|imagine|were to|will (?:you|i|we) (?:be|get|see|end)|"
-    r"would (?:you|i|we)|after (?:you|i|we) (?:turn|walk|move|step|rotate)|(?:^|, )(?:then )?(?:turn|walk|move) )"
+    r"would (?:you|i|we)|after (?:you|i|we) (?:turn|walk|move|step|rotate)|(?:^|"
+    r", )(?:then )?(?:turn|walk|move) )"
 )
 
 

@@ -24,7 +24,8 @@ from pydantic import BaseModel
 
 from shared.questions.lexicon import normalized
 
-_NOUN = r"(?:images?|views?|pictures?|photos?|photographs?|frames?|shots?|snapshots?|viewpoints?|cameras?|pics?|imgs?)"
+_NOUN = r"(?:images?|views?|pictures?|photos?|photographs?|frames?|shots?|snapshots?|viewpoints?|"
+r"cameras?|pics?|imgs?)"
 _NUMBER_WORDS = {
     "one": 1, "two": 2, "three": 3, "four": 4, "five": 5,
     "six": 6, "seven": 7, "eight": 8, "nine": 9, "ten": 10,
@@ -37,14 +38,16 @@ _ORDINAL_WORDS = {
 _NUM = r"(?:\d+|" + "|".join(_NUMBER_WORDS) + r")"
 _ORD = r"(?:" + "|".join(_ORDINAL_WORDS) + r"|\d+(?:st|nd|rd|th))"
 _NUMBERED = re.compile(
-    rf"\b{_NOUN}\s*(?:number\s+|no\s+|#\s*)?(?P<n>{_NUM})\b(?P<more>(?:(?:\s*(?:and|to|through|or|vs|versus)\s*|\s+){_NUM}\b)*)"
+    rf"\b{_NOUN}\s*(?:number\s+|no\s+|#\s*)?(?P<n>{_NUM})\b(?P<more>(?:(?:\s*(?:and|to|through|or|"
+    rf"vs|versus)\s*|\s+){_NUM}\b)*)"
 )
 _ADJECTIVE = (
     r"(?:captured|taken|input|given|original|camera|photographed|still|video|key|shown|reference|numbered)"
 )
 _ORDINAL_NOUN = re.compile(rf"\b(?P<o>{_ORD})\s+(?:{_ADJECTIVE}\s+)?(?:{_NOUN}|one)\b")
 _BARE_ORDINAL = re.compile(
-    rf"\bthe\s+(?P<o>{_ORD})\b(?!\s+(?:{_ADJECTIVE}\s+)?(?:{_NOUN}|one)\b)(?=\s*(?:$|and|to|[a-z]+ (?:was|is)|[?,.]|\b))"
+    rf"\bthe\s+(?P<o>{_ORD})\b(?!\s+(?:{_ADJECTIVE}\s+)?(?:{_NOUN}|one)\b)(?=\s*(?:$|and|to|"
+    rf"[a-z]+ (?:was|is)|[?,.]|\b))"
 )
 _OTHER = re.compile(rf"\bthe other\s+(?:{_NOUN}|one)\b")
 
@@ -52,7 +55,8 @@ _OTHER = re.compile(rf"\bthe other\s+(?:{_NOUN}|one)\b")
 # this one counts ("compared with where it stood for shot one": shot one is the reference).
 _CUES = re.compile(
     r"\b(?:(?P<to_first>earlier than|sooner than|before)|(?P<from_first>later than|after|since)|"
-    r"(?P<from>(?<!apart )(?<!aside )(?<!away )(?<!far )(?<!different )from|relative to|compared (?:with|to)|comparing|in comparison (?:with|to)|with respect to|"
+    r"(?P<from>(?<!apart )(?<!aside )(?<!away )(?<!far )(?<!different )from|relative to|"
+    r"compared (?:with|to)|comparing|in comparison (?:with|to)|with respect to|"
     r"in relation to|versus|vs|leaving|starting (?:at|from|with)|seen from|against|with reference to|"
     r"departing|between|than|first came|first was|first there was|taken first)|"
     r"(?P<to>back to|to|into|toward|towards|until|till|reaching|then|when|by the time|arriving at|"
