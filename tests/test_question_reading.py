@@ -268,7 +268,10 @@ def test_an_undetermined_quantity_abstains_with_its_range_and_a_determined_one_a
 
 def test_a_position_question_is_answered_from_the_step_in_its_own_words() -> None:
     text = clue(pair(step_in_camera=(0.0, -0.25, 0.0)))  # camera y points down: -y is up
-    question = "Where was the second photo taken, relative to the first camera? A. Below it B. Above it C. To its left"
+    question = (
+        "Where was the second photo taken, relative to the first camera? "
+        + "A. Below it B. Above it C. To its left"
+    )
     result = answer_offline(parse_question(question, 2), text, [])
     assert result.answer == "B", result.reason
     assert "position of the second camera" in result.reasoning

@@ -138,7 +138,10 @@ def test_a_rotation_question_in_other_words(stack) -> None:
 
 
 def test_a_pair_that_reads_two_ways_abstains_and_says_why(stack) -> None:
-    question = "From image 1 to image 2 and from image 2 to image 3, which way did the camera shift? A. Left B. Right"
+    question = (
+        "From image 1 to image 2 and from image 2 to image 3, which way did the camera shift? "
+        + "A. Left B. Right"
+    )
     result = _solve(stack.url, stack.scene_id, question)
     assert result["answer"] is None
     assert result["reading"]["abstain_reason"] and "two readings" in result["answer_reason"]
