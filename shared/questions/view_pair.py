@@ -24,8 +24,10 @@ from pydantic import BaseModel
 
 from shared.questions.lexicon import normalized
 
-_NOUN = r"(?:images?|views?|pictures?|photos?|photographs?|frames?|shots?|snapshots?|viewpoints?|"
-r"cameras?|pics?|imgs?)"
+_NOUN = (
+    r"(?:images?|views?|pictures?|photos?|photographs?|frames?|shots?|snapshots?|viewpoints?|"
+    r"cameras?|pics?|imgs?)"
+)
 _NUMBER_WORDS = {
     "one": 1, "two": 2, "three": 3, "four": 4, "five": 5,
     "six": 6, "seven": 7, "eight": 8, "nine": 9, "ten": 10,
