@@ -10,6 +10,7 @@ import pytest
 
 from services.agent.answering import answer_offline
 from services.agent.claim_matching import match_sentence
+from services.agent.clue_check import clue_problem
 from shared.geometry.motion_determinacy import motion_over_focal
 from shared.questions.claims import Compound, Position, Rotation, Still, Target, Translation, Unread
 from shared.questions.intent import parse_question
@@ -284,3 +285,17 @@ def test_an_unread_option_stops_an_answer_the_others_do_not_decide() -> None:
     )
     result = match_sentence(reading, text)
     assert result.letter is None and "option C could not be read" in (result.reason or "")
+
+
+def test_an_uncertain_pair_never_blocks_a_program_it_only_stops_the_answer() -> None:
+    other_pair = "From view 2 to view 3 the camera moved right without turning significantly."
+    doubtful = parse_question(
+        "From image 1 to image 2 and from image 2 to image 3, how did I move? A. Left B. Right", 3
+    )
+    assert doubtful.reading is not None and not doubtful.reading.views_certain
+    assert clue_problem(doubtful, other_pair, [], 0) is None  # not sent back for repair
+    answer = answer_offline(doubtful, other_pair, [])
+    assert answer.answer is None and "two readings" in (answer.reason or "")
+    certain = parse_question("How did I move from image 1 to image 3? A. Left B. Right", 3)
+    problem = clue_problem(certain, other_pair, [], 0)
+    assert problem is not None and problem.kind == "wrong_view"  # a certain pair: the pointed hint
