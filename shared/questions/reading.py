@@ -32,7 +32,6 @@ from shared.questions.choices import split_options
 from shared.questions.claims import (
     Bare,
     Claim,
-    Rotation,
     Unread,
     claim_kinds,
     is_read,
@@ -415,18 +414,11 @@ def _ask(stem: str) -> str:
     return stem[opening.end() :] if opening else stem
 
 
-def option_claim_words(claim: Claim) -> str:
-    """A claim in short words, for summaries and reasons."""
-    return claim.words
-
-
 __all__ = [
     "CAMERA_QUANTITIES",
     "FrameReading",
     "Quantity",
     "QuestionReading",
-    "Rotation",
-    "Unread",
-    "option_claim_words",
+    "asking_sentences",
     "read_question",
 ]
