@@ -299,3 +299,16 @@ def test_an_uncertain_pair_never_blocks_a_program_it_only_stops_the_answer() -> 
     certain = parse_question("How did I move from image 1 to image 3? A. Left B. Right", 3)
     problem = clue_problem(certain, other_pair, [], 0)
     assert problem is not None and problem.kind == "wrong_view"  # a certain pair: the pointed hint
+
+
+def test_no_rotation_at_all_is_no_turn_no_tilt_and_no_roll() -> None:
+    claim = read_phrase("did not rotate")
+    assert isinstance(claim, Compound)
+    assert {(p.axis, p.sense) for p in claim.parts} == {("yaw", "none"), ("pitch", "none"), ("roll", "none")}
+    rolled = clue(pair(rotation_in_camera=_axis_rotation("z", 20.0)))
+    reading = read_question(
+        "How did the camera rotate from image 1 to image 2? A. rolled clockwise B. rolled counterclockwise "
+        "C. did not rotate",
+        2,
+    )
+    assert match_sentence(reading, rolled).letter == "A"

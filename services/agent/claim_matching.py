@@ -47,7 +47,7 @@ def _asked(reading: QuestionReading, claims: dict[str, MotionReading]) -> AskedM
     """Which angle's degrees matter for the hypotheses (tilt, roll, else turn)."""
     if any(c.tilt not in (None, "no tilt") for c in claims.values()):
         return "tilt"
-    if any(c.roll is not None for c in claims.values()):
+    if any(c.roll not in (None, "no roll") for c in claims.values()):
         return "roll"
     return "turn" if reading.quantity == "rotation" else "any"
 

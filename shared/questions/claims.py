@@ -220,7 +220,7 @@ def _rotation_reading(claim: Rotation) -> dict[str, object]:
         return {"turn": turn, "degrees": degrees}
     if claim.axis == "pitch":
         return {"tilt": "no tilt" if claim.sense == "none" else f"tilt {claim.sense}", "degrees": degrees}
-    return {"roll": None if claim.sense == "none" else f"roll {claim.sense}", "degrees": degrees}
+    return {"roll": "no roll" if claim.sense == "none" else f"roll {claim.sense}", "degrees": degrees}
 
 
 def as_motion_reading(claim: Claim) -> MotionReading | None:

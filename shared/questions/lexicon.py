@@ -218,6 +218,7 @@ class _Part:
     axis: str | None = None  # set by an axis phrase ("about the lens axis")
 
 
+_AXES = ("yaw", "pitch", "roll")
 _VERBS = ("step", "weak", "aim", "yaw", "pitch", "roll", "place", "still")
 _STEPPING = ("step", "weak", "place")
 
@@ -295,6 +296,11 @@ def _rotation(part: _Part, degrees: float | None, source: str) -> Claim:
     )
     ways = list(dict.fromkeys(part.ways))
     senses = list(dict.fromkeys(part.senses))
+    if part.negated and axis is None and any(w.startswith(("rotat", "rotation")) for w in part.words):
+        # "did not rotate", "no rotation": about no axis at all
+        return Compound(
+            parts=tuple(Rotation(axis=a, sense="none", source=source) for a in _AXES), source=source
+        )
     if part.negated:
         return Rotation(axis=axis or "yaw", sense="none", source=source)
     if len(senses) > 1:
