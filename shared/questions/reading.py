@@ -380,7 +380,8 @@ def _lead(options: dict[str, Claim]) -> bool:
 
 
 _CAMERA_ASK = re.compile(
-    r"\b(?:camera|photographer|shooter|viewer|cameraman|lens|(?:did|do|have|had) (?:i|you|we)|(?:i|you|we) "
+    r"\b(?:camera|photographer|shooter|shooting|viewer|cameraman|lens|viewpoint|vantage|"
+    r"(?:did|do|have|had) (?:i|you|we)|(?:i|you|we) "
     r"(?:moved|turned|went|walked|rotated|tilted)|shot|photo|photos|image|images|picture|pictures|frame|view|"
     r"views|snapshot|taken)\b"
 )
@@ -395,14 +396,15 @@ _WHAT_IF = re.compile(
 )
 
 
+# "What is the relative position of the camera in image 1 ...?": a "what is" about a camera.
+_CAMERA_POSITION = re.compile(r"\b(?:position|location|placement)\b[^?]*\b(?:camera|photographer|shooter)\b")
+
+
 def _is_camera_ask(ask: str) -> bool:
     """A stem about the camera (or the photos it took), not about objects in them nor a what-if."""
     asking = normalized(asking_sentences(ask))
-    return (
-        bool(_CAMERA_ASK.search(normalized(ask)))
-        and not _OBJECT_ASK.search(asking)
-        and not _WHAT_IF.search(asking)
-    )
+    about_objects = bool(_OBJECT_ASK.search(asking)) and not _CAMERA_POSITION.search(asking)
+    return bool(_CAMERA_ASK.search(normalized(ask))) and not about_objects and not _WHAT_IF.search(asking)
 
 
 def _ask(stem: str) -> str:
