@@ -27,6 +27,7 @@ from shared.geometry.camera_motion import (
 from shared.questions.choices import normalize_direction, normalize_turn, turn_degrees
 from shared.questions.intent import QuestionIntent
 from shared.questions.motion_words import AskedMotion, Frame, MotionReading, read_motion
+from shared.questions.reading import QuestionReading
 
 VISION_MODEL_HINT = (
     "set PYSPATIAL_ANSWER_MODEL (and PYSPATIAL_ANSWER_MODEL_BASE_URL, PYSPATIAL_ANSWER_MODEL_API_KEY) "
@@ -259,25 +260,10 @@ def step_size(clause: str) -> str | None:
     return f"{found.group(1)} {found.group(2)}" if found else None
 
 
-def pick_statement(
-    intent: QuestionIntent, statements: list[MotionStatement]
-) -> tuple[MotionStatement | None, str]:
-    """The statement about the pair the question asks for (from its parsed intent), or None and why."""
-    named = len(intent.mentioned_views) >= 2
-    if intent.motion_pair is not None and (named or len(statements) > 1):
-        for statement in statements:
-            if statement.pair == intent.motion_pair:
-                return statement, ""
-        first, second = intent.motion_pair
-        return None, f"the program's output has no sentence about view {first} to view {second}"
-    if len(statements) == 1:
-        return statements[0], ""
-    return None, "the question does not say which pair of views it asks about"
-
-
-def not_a_motion_question(intent: QuestionIntent) -> str | None:
-    """Why a motion sentence cannot answer this question (None when it can)."""
-    if intent.family == "self_movement":
+def not_a_motion_question(intent: QuestionIntent, reading: QuestionReading | None = None) -> str | None:
+    """Why a motion sentence cannot answer this question (None when it can): a camera reading (or a
+    self-movement question) can, whatever else the old families would have named."""
+    if intent.family == "self_movement" or (reading is not None and reading.is_camera):
         return None
     return (
         "the program's output describes camera motion, but this is a "
@@ -422,6 +408,5 @@ __all__ = [
     "unreadable_clue",
     "motion_statements",
     "not_a_motion_question",
-    "pick_statement",
     "step_size",
 ]

@@ -28,7 +28,7 @@ AskedMotion = Literal["any", "turn", "tilt", "roll", "move"]
 Frame = Literal["image", "gravity"]
 Vertical = Literal["up", "down"]
 Tilt = Literal["tilt up", "tilt down", "no tilt"]
-Roll = Literal["roll clockwise", "roll counterclockwise"]
+Roll = Literal["roll clockwise", "roll counterclockwise", "no roll"]  # "no roll": only an option's claim
 TargetChange = Literal["closer", "farther"]
 
 
@@ -205,9 +205,9 @@ def agrees(option: MotionReading, statement: MotionReading) -> tuple[bool, int]:
 
 def _settled(statement: MotionReading) -> MotionReading:
     """A statement with what its silence means: no tilt said is no tilt; still is no turn and no tilt."""
-    update: dict[str, object] = {"tilt": statement.tilt or "no tilt"}
+    update: dict[str, object] = {"tilt": statement.tilt or "no tilt", "roll": statement.roll or "no roll"}
     if statement.still:
-        update.update(direction=None, vertical=None, turn="no turn", tilt="no tilt", roll=None)
+        update.update(direction=None, vertical=None, turn="no turn", tilt="no tilt", roll="no roll")
     return statement.model_copy(update=update)
 
 
