@@ -1,0 +1,315 @@
+"""The motion lexicon: a table of words to meanings, and the reading of a phrase into a claim.
+
+Every word or fixed phrase people use for a camera's motion is one row of `LEXICON`: a pattern (on
+lower-cased text, punctuation and hyphens as spaces) and its meaning (a `Sense` of one kind):
+
+- ``step``: a verb of translation, with the way it carries when it carries one ("climb" is up,
+  "withdraw" is backward, "sidestep" none); ``weak`` for the everyday verbs ("move", "go") that
+  people also use for turning, so a stem with them does not fix the quantity;
+- ``aim``: a verb of rotation whose axis comes from its direction ("turn left" is a yaw, "turn
+  upward" a pitch); ``yaw``, ``pitch``, ``roll``: verbs of one axis ("pan", "tilt", "spin");
+- ``place``: a verb of position ("located", "taken from", "sits");
+- ``way``: a direction (left, right, up, down, forward, backward), ``sense``: clockwise or not;
+- ``still``: no motion; ``not``: negation of the next verb.
+
+`read_phrase(text)` turns an option into one claim (shared/questions/claims.py): tokens in the order
+they come, each verb opening a part that the following directions belong to ("moved left and turned
+right" is two parts). Words outside the table leave the phrase `Unread`: never guessed. Opposite
+directions in one part ("back and forth"), or a direction that does not fit its verb's axis, also
+leave it unread, with the reason.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+from shared.questions.claims import (
+    Bare,
+    Claim,
+    Compound,
+    Position,
+    Rotation,
+    Still,
+    Translation,
+    Unread,
+    Way,
+)
+
+_V = r"(?:s|es|ed|d|ing|ion|ment)?"  # a verb's inflections
+
+
+@dataclass(frozen=True)
+class Sense:
+    """One meaning: `kind` is step / weak / aim / yaw / pitch / roll / place / way / sense / still / not."""
+
+    kind: str
+    value: str | None = None
+
+
+_STEP = "step"
+_ROWS: tuple[tuple[str, Sense], ...] = (
+    # ---- still: no motion at all (before the verbs, so "did not move" is read whole)
+    (r"(?:stay|stayed|stays|staying|kept|keep|stood|stand|held|hold|remained|remain|remains)\s+"
+     r"(?:completely\s+|perfectly\s+)?(?:still|put|stationary|motionless|fixed|steady|in place|where it was|"
+     r"at the same (?:spot|place|position|point|location))", Sense("still")),
+    (r"(?:did not|didn t|does not|doesn t|never)\s+(?:move|budge|change position|shift)\b(?!\s+(?:left|right|up|down|forward|back))",
+     Sense("still")),
+    (r"neither moved nor (?:turned|rotated)|no (?:camera )?(?:motion|movement|change)(?: at all)?|not moving|"
+     r"stationary|motionless|unmoved|static|unchanged|(?:the )?same (?:position|place|spot|location|pose|point|viewpoint)|"
+     r"in place|did not budge|no displacement", Sense("still")),
+    # ---- negation of the next verb
+    (r"did not|didn t|does not|doesn t|not|without|no|never|neither|nor|zero", Sense("not")),
+    # ---- rotation about the optical axis (before the verbs that share words with it)
+    (r"(?:rotat\w*|turn\w*|spun|spin\w*|twist\w*)\s+(?:about|around|round|on)\s+(?:its\s+|the\s+)?"
+     r"(?:lens|optical|viewing|view|camera s|line of sight|forward)\s*(?:axis)?", Sense("roll")),
+    (r"roll\w*|spin\w*|spun|cant\w*|bank\w*|twist\w*|barrel roll", Sense("roll")),
+    (r"counter clockwise|counterclockwise|anticlockwise|anti clockwise|ccw", Sense("sense", "counterclockwise")),
+    (r"clockwise|cw", Sense("sense", "clockwise")),
+    # ---- rotation
+    (r"tilt\w*|pitch\w*|nod\w*|cran\w*|tip(?:s|ped|ping)?|angl(?:e|ed|es|ing)(?: the (?:view|camera|shot|lens))?",
+     Sense("pitch")),
+    (r"yaw\w*|veer\w*|pan(?:s|ned|ning)?|swivel\w*|swung|swing\w*|pivot\w*|look(?:ed|s|ing)? aside",
+     Sense("yaw")),
+    (r"u turn|about face|about turn|turn(?:ed|s|ing)? (?:a|the) other way|face(?:d)? the opposite (?:way|direction)",
+     Sense("aim", "around")),
+    (r"turn\w*|rotat\w*|point\w*|aim\w*|fac(?:e|ed|es|ing)|orient\w*|look\w*|gaz\w*|view direction|"
+     r"direction (?:it|the camera) (?:faces|faced|points|pointed)|heading", Sense("aim")),
+    # ---- position of one camera relative to another
+    (r"locat\w*|position\w*|plac(?:e|ed)|situat\w*|lies|lay|lying|sits|sat|stands|stood|"
+     r"(?:was |were |is )?taken from|shot from|captured from|set up", Sense("place")),
+    # ---- translation verbs that carry their way
+    (r"sidestep\w*|strafe\w*|truck(?:ed|ing)?|crab(?:bed|bing)?", Sense(_STEP)),
+    (r"climb\w*|ascen\w*|rose|ris(?:e|en|es|ing)|rais\w*|lift\w*|elevat\w*|gain(?:ed|s|ing)? height|"
+     r"at a (?:greater|higher) (?:height|elevation|level)|(?:from|at) a higher|higher up|pedestal(?:ed)? up|boom(?:ed)? up",
+     Sense(_STEP, "up")),
+    (r"descen\w*|sank|sink\w*|sunk|dropp?\w*|lower(?:ed|ing|s)|los(?:t|es|ing) height|"
+     r"at a lower (?:height|elevation|level)|(?:from|at) a lower|lower down|pedestal(?:ed)? down|boom(?:ed)? down",
+     Sense(_STEP, "down")),
+    (r"advanc\w*|proceed\w*|approach\w*|push(?:ed|es|ing)? in|dolly(?:ing)? in|dollied in|zoom(?:ed)? in|"
+     r"clos(?:er|ed in)|nearer|deeper into|came in", Sense(_STEP, "forward")),
+    (r"withdr\w*|retreat\w*|reced\w*|back(?:ed|s|ing)? (?:up|off|away|out)|step(?:ped|s|ping)? back|"
+     r"pull(?:ed|s|ing)? (?:back|out|away)|dolly(?:ing)? out|dollied out|zoom(?:ed)? out|farther|further away|"
+     r"further back|away from", Sense(_STEP, "backward")),
+    (r"shift\w*|slid\w*|translat\w*|displac\w*|relocat\w*|reposition\w*|glid\w*|drift\w*|step\w*|walk\w*|"
+     r"dolly|dollied|carr(?:y|ied)|travel\w*|head(?:ed|ing)? (?=left|right|up|down|forward|back)",
+     Sense(_STEP)),
+    (r"mov\w*|motion|went|go(?:es|ing|ne)?|came|come|got|change[ds]?", Sense("weak")),
+    # ---- directions
+    (r"(?:to |toward |towards |on |at )?(?:the |its |their |his |her |your |my )?left(?:ward|wards)?(?: hand)?(?: side| edge)?",
+     Sense("way", "left")),
+    (r"(?:to |toward |towards |on |at )?(?:the |its |their |his |her |your |my )?right(?:ward|wards)?(?: hand)?(?: side| edge)?",
+     Sense("way", "right")),
+    (r"up(?:ward|wards)?|upper|above|higher|top|overhead|skyward|toward the ceiling|taller|over",
+     Sense("way", "up")),
+    (r"down(?:ward|wards)?|below|beneath|under(?:neath)?|lower|bottom|toward the (?:floor|ground)",
+     Sense("way", "down")),
+    (r"forwards?|forth|ahead|in front|front|frontward|onward|towards? the (?:scene|subject)|into the scene|inward",
+     Sense("way", "forward")),
+    (r"backwards?|back|behind|rear(?:ward)?|reverse|away|outward", Sense("way", "backward")),
+    (r"around|round", Sense("way", "around")),
+)  # fmt: skip
+
+LEXICON: tuple[tuple[re.Pattern[str], Sense], ...] = tuple(
+    (re.compile(rf"\b(?:{pattern})\b"), meaning) for pattern, meaning in _ROWS
+)
+_DEGREES = re.compile(r"\b(\d+(?:\.\d+)?)\s*(?:°|degrees?\b|deg\b)")
+# Words that carry no meaning of their own in a motion phrase (articles, the camera, hedges, ...).
+_FILLER = frozenset(
+    "a an the it its it s camera cameras lens photographer shooter viewer view views i we you he she they "
+    "was were is are be been has had have did do does by to of and or then while but with as at in on "
+    "from toward towards slightly somewhat a bit little bit about roughly approximately around nearly "
+    "significantly noticeably mostly mainly primarily purely only just also both direction directions "
+    "which way what how relative compared first second image photo picture frame shot snapshot one "
+    "so that this that side edge s degrees degree deg slight small large big far much more bit "
+    "diagonally diagonal straight directly scene subject objects object photographed place point spot location "
+    "position height level".split()
+)
+
+
+@dataclass
+class Token:
+    start: int
+    end: int
+    sense: Sense
+    words: str
+
+
+def normalized(text: str) -> str:
+    """Lower case; hyphens, slashes, apostrophes and punctuation as spaces; single spaces."""
+    lowered = re.sub(r"[-_/'’]", " ", (text or "").lower())
+    lowered = re.sub(r"[^a-z0-9°.\s]", " ", lowered)
+    return " ".join(lowered.replace(". ", " ").rstrip(".").split())
+
+
+def tokens(text: str) -> list[Token]:
+    """The lexicon's rows found in a normalized text, earliest first, longest at a position, no overlaps."""
+    found: list[Token] = []
+    for pattern, sense in LEXICON:
+        for match in pattern.finditer(text):
+            found.append(Token(match.start(), match.end(), sense, match.group()))
+    found.sort(key=lambda t: (t.start, -(t.end - t.start)))
+    kept: list[Token] = []
+    for token in found:
+        if kept and token.start < kept[-1].end:
+            continue
+        kept.append(token)
+    return kept
+
+
+def unknown_words(text: str, found: list[Token]) -> list[str]:
+    """The words of a normalized text that no token covers and that are no filler."""
+    covered = [False] * len(text)
+    for token in found:
+        covered[token.start : token.end] = [True] * (token.end - token.start)
+    words = []
+    for match in re.finditer(r"[a-z]+", text):
+        if (
+            not covered[match.start()]
+            and match.group() not in _FILLER
+            and not _DEGREES.match(text, match.start())
+        ):
+            words.append(match.group())
+    return words
+
+
+@dataclass
+class _Part:
+    verb: Sense | None = None
+    negated: bool = False
+    ways: list[str] = field(default_factory=list)
+    senses: list[str] = field(default_factory=list)
+    words: list[str] = field(default_factory=list)
+
+
+_VERBS = ("step", "weak", "aim", "yaw", "pitch", "roll", "place", "still")
+
+
+def _parts(found: list[Token]) -> list[_Part]:
+    """Tokens grouped by verb: each verb opens a part; directions before any verb open a bare one."""
+    parts: list[_Part] = []
+    negate = False
+    for token in found:
+        kind = token.sense.kind
+        if kind == "not":
+            negate = True
+            continue
+        if kind in _VERBS:
+            open_ = parts[-1] if parts else None
+            joins = open_ is not None and open_.verb is None and not open_.negated
+            part = open_ if joins else _Part()
+            part.verb, part.negated = token.sense, negate
+            if part.verb.value:
+                part.ways.append(part.verb.value)
+            part.words.append(token.words)
+            if not joins:
+                parts.append(part)
+            negate = False
+            continue
+        if not parts:
+            parts.append(_Part(negated=negate))
+            negate = False
+        elif negate:  # a negated direction ("not left") says what did not happen: no claim of ours
+            parts[-1].negated = True
+            negate = False
+        target = parts[-1]
+        (target.senses if kind == "sense" else target.ways).append(str(token.sense.value))
+        target.words.append(token.words)
+    return parts
+
+
+def _conflict(ways: list[str]) -> str | None:
+    distinct = set(ways)
+    for one, other in (("left", "right"), ("up", "down"), ("forward", "backward")):
+        if one in distinct and other in distinct:
+            return f"it names both {one} and {other}"
+    return None
+
+
+def _rotation(part: _Part, degrees: float | None, source: str) -> Claim:
+    axis = {"yaw": "yaw", "pitch": "pitch", "roll": "roll"}.get(part.verb.kind if part.verb else "", None)
+    ways = list(dict.fromkeys(part.ways))
+    senses = list(dict.fromkeys(part.senses))
+    if part.negated:
+        return Rotation(axis=axis or "yaw", sense="none", source=source)
+    if len(senses) > 1:
+        return Unread(source=source, why="it names both clockwise and counterclockwise")
+    if senses:
+        if ways or axis not in (None, "roll"):
+            return Unread(source=source, why="it names a roll's sense with another direction")
+        return Rotation(axis="roll", sense=senses[0], degrees=degrees, source=source)
+    if len(ways) != 1:
+        why = "a turn with no side" if not ways else "a turn with several sides"
+        return Unread(source=source, why=why)
+    way = ways[0]
+    inferred = {
+        "left": "yaw",
+        "right": "yaw",
+        "around": "yaw",
+        "backward": "yaw",
+        "up": "pitch",
+        "down": "pitch",
+    }
+    if way == "forward" or (axis is not None and axis != inferred.get(way)):
+        return Unread(source=source, why=f"a {axis or 'turn'} toward {way} is no rotation the lexicon knows")
+    sense = "around" if way in ("around", "backward") else way
+    return Rotation(axis=inferred[way], sense=sense, degrees=degrees, source=source)  # type: ignore[arg-type]
+
+
+def _part_claim(part: _Part, degrees: float | None, source: str) -> Claim:
+    kind = part.verb.kind if part.verb else None
+    if kind == "still":
+        return Still(source=source)
+    if kind in ("aim", "yaw", "pitch", "roll") or (kind is None and part.senses):
+        return _rotation(part, degrees, source)
+    if part.negated:
+        if kind in ("step", "weak") and not part.ways:
+            return Still(source=source)
+        return Unread(source=source, why="a negated direction states no motion")
+    ways = [w for w in dict.fromkeys(part.ways) if w != "around"]
+    conflict = _conflict(ways)
+    if conflict:
+        return Unread(source=source, why=conflict)
+    if not ways:
+        return Unread(source=source, why="a motion with no direction")
+    typed: tuple[Way, ...] = tuple(ways)  # type: ignore[assignment]
+    if kind in ("step", "weak"):
+        return Translation(ways=typed, source=source)
+    if kind == "place":
+        return Position(ways=typed, source=source)
+    return Bare(ways=typed, source=source)
+
+
+def read_phrase(text: str) -> Claim:
+    """The claim an option states (see the module docstring)."""
+    words = normalized(text)
+    found = tokens(words)
+    unknown = unknown_words(words, found)
+    if unknown:
+        return Unread(source=text, why=f"{', '.join(repr(w) for w in unknown)} is not in the motion lexicon")
+    if not found:
+        return Unread(source=text)
+    stated = _DEGREES.search(words)
+    degrees = float(stated.group(1)) if stated else None
+    claims = [_part_claim(part, degrees, " ".join(part.words)) for part in _parts(found)]
+    unread = next((c for c in claims if isinstance(c, Unread)), None)
+    if unread is not None:
+        return unread.model_copy(update={"source": text})
+    rotations = [c for c in claims if isinstance(c, Rotation)]
+    if rotations and any(isinstance(c, Still) for c in claims):
+        # "stayed in place and turned left": in place is no step, and the turn is the claim
+        claims = [c for c in claims if not isinstance(c, Still)]
+    claims = list(dict.fromkeys(claims))
+    if len(claims) == 1:
+        return claims[0].model_copy(update={"source": text})
+    if any(isinstance(c, Bare) for c in claims):
+        return Unread(source=text, why="directions that belong to no verb next to a verb")
+    return Compound(parts=tuple(claims), source=text)  # type: ignore[arg-type]
+
+
+def stem_senses(text: str) -> list[Sense]:
+    """Every meaning the lexicon finds in a question's stem, in order."""
+    return [token.sense for token in tokens(normalized(text))]
+
+
+__all__ = ["LEXICON", "Sense", "Token", "normalized", "read_phrase", "stem_senses", "tokens", "unknown_words"]

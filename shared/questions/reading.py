@@ -1,0 +1,340 @@
+"""One typed reading of a camera question, made once and carried to every stage.
+
+`read_question(text, image_count)` gives a `QuestionReading`:
+
+- ``views``: the ordered pair (from, to), 1-based, read from the grammar of the stem
+  (shared/questions/view_pair.py); ``view_set`` every view the ask names;
+- ``quantity``: what is asked: camera translation, rotation, position (of the second camera's
+  centre in the first camera's frame), motion (several kinds at once), still, an object relation,
+  or other;
+- ``frame``: whose axes the directions are in (a view's image axes, the room, an object);
+- ``options``: each option as a typed claim (shared/questions/claims.py), read by the lexicon
+  (shared/questions/lexicon.py);
+- for each slot the words it came from (``*_source``) and whether it is certain (``*_certain``);
+- ``abstain_reason``: why no answer may be given whatever the measurement says (two readings of the
+  pair, an option that reads two ways, an unread option, stem and options disagreeing), else None;
+- ``summary``: "read as: camera rotation from image 1 to image 3, in image 1's axes".
+
+Options lead: when every option reads as a camera claim, the question is a camera question whatever
+its stem says, and the claims' kinds are the quantity asked; the stem then only gives the pair. A
+bare direction ("Left") means what the stem asks ("turn" makes it a yaw). Everyday verbs ("move",
+"go") fix no quantity: people move a camera by turning it too.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Literal
+
+from pydantic import BaseModel, Field
+
+from shared.questions.choices import split_options
+from shared.questions.claims import (
+    Bare,
+    Claim,
+    Rotation,
+    Unread,
+    claim_kinds,
+    is_read,
+    resolve_bare,
+)
+from shared.questions.lexicon import normalized, read_phrase, stem_senses
+from shared.questions.view_pair import PairReading, read_pair
+
+Quantity = Literal["translation", "rotation", "position", "motion", "still", "object_relation", "other"]
+CAMERA_QUANTITIES: tuple[Quantity, ...] = ("translation", "rotation", "position", "motion", "still")
+
+
+class FrameReading(BaseModel, frozen=True):
+    """Whose axes the question's directions are in."""
+
+    kind: Literal["view_axes", "room", "object"]
+    view: int | None = Field(None, description="view_axes: the 1-based view whose image axes are meant.")
+    object: str | None = Field(None, description="object: the object named.")
+
+
+class QuestionReading(BaseModel, frozen=True):
+    text: str = Field("", exclude=True, description="The question as asked.")
+    image_count: int | None = None
+    views: tuple[int, int] | None = Field(None, description="(from, to), 1-based; None when not read.")
+    view_set: tuple[int, ...] = Field((), description="Every view the ask names, in order of mention.")
+    views_source: str = ""
+    views_certain: bool = False
+    quantity: Quantity = "other"
+    quantity_source: str = ""
+    quantity_certain: bool = False
+    frame: FrameReading | None = None
+    frame_source: str = ""
+    frame_certain: bool = False
+    options: dict[str, Claim] = Field(default_factory=dict)
+    abstain_reason: str | None = None
+    summary: str = ""
+
+    @property
+    def is_camera(self) -> bool:
+        return self.quantity in CAMERA_QUANTITIES
+
+    @property
+    def options_lead(self) -> bool:
+        """Every option reads as a camera claim (a bare direction does not)."""
+        return bool(self.options) and all(is_read(claim) for claim in self.options.values())
+
+    @property
+    def certain(self) -> bool:
+        return self.views_certain and self.quantity_certain and self.abstain_reason is None
+
+
+# ---- the quantity the stem asks ---------------------------------------------------------------
+
+_APART_FROM = re.compile(
+    r"\b(?:apart from|aside from|besides|other than|except for|ignoring|setting aside|leaving aside|"
+    r"not counting|regardless of)\s+(?:any\s+|the\s+|its\s+)?(?P<what>\w+(?:\s+\w+)?)"
+)
+_POSITION_ASK = re.compile(
+    r"\bwhere (?:was|were|is|are)\b[^?]*\b(?:taken|shot|captured|located|positioned|placed|situated|standing|"
+    r"camera|photographer|shooter)\b|\b(?:relative |camera )?position(?:al)? (?:of|relationship)\b|"
+    r"\bwhere (?:is|was|are|were) (?:the )?(?:images?|photos?|pictures?|views?|frames?|shots?|snapshots?) \w+\b|"
+    r"\bwhich side of\b|\bin which direction (?:is|was|lies|lay)\b"
+)
+_OBJECT_ASK = re.compile(
+    r"\b(?:what|which (?:object|item|thing))\s+(?:is|was|would be|will be|lies|appears)\b|"
+    r"\bwhere (?:is|was|are) (?:the|a|an) (?!camera|photographer|shooter|viewer|second|first|third|last)\w+"
+)
+
+
+def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
+    """(quantity, strong, the words): strong when a word of one kind says it ("tilt"), weak for
+    the everyday verbs ("move"), None when nothing does."""
+    words = normalized(ask)
+    excluded = {m.group("what") for m in _APART_FROM.finditer(words)}
+    for what in excluded:
+        words = words.replace(what, " ")
+    position = _POSITION_ASK.search(words)
+    if position:
+        return "position", True, position.group()
+    kinds = [s.kind for s in stem_senses(words)]
+    rotation = any(k in ("aim", "yaw", "pitch", "roll") for k in kinds)
+    translation = any(k == "step" for k in kinds)
+    if rotation and translation:
+        return "motion", True, words
+    if rotation:
+        return "rotation", True, words
+    if translation:
+        return "translation", True, words
+    if "weak" in kinds or "still" in kinds:
+        return "translation", False, words
+    return None, False, ""
+
+
+def _option_kinds(options: dict[str, Claim]) -> set[str]:
+    kinds: set[str] = set()
+    for claim in options.values():
+        kinds |= claim_kinds(claim)
+    return kinds
+
+
+def _compatible(stem: Quantity, options: set[str]) -> bool:
+    moving = options - {"still"}
+    if not moving or stem == "motion":
+        return True
+    if stem == "rotation":
+        return moving == {"rotation"}
+    return moving <= {"translation", "position"}  # a step and a place are the same geometry
+
+
+def _quantity(ask: str, options: dict[str, Claim]) -> tuple[Quantity, bool, str, str | None]:
+    """(quantity, certain, source, why it must abstain)."""
+    stem, strong, stem_words = _stem_quantity(ask)
+    kinds = _option_kinds(options)
+    lead = bool(options) and all(is_read(c) for c in options.values())
+    moving = kinds - {"still"}
+    if lead and moving:
+        of_options: Quantity = moving.pop() if len(moving) == 1 else "motion"  # type: ignore[assignment]
+        if stem is not None and strong and not _compatible(stem, kinds):
+            return (
+                of_options,
+                False,
+                "the options",
+                f"the stem asks about {stem} but the options state {of_options}",
+            )
+        if stem == "position" and of_options == "translation":
+            return "position", True, "the stem and the options", None
+        return of_options, True, "the options", None
+    if stem is not None:
+        if moving and strong and not _compatible(stem, kinds):
+            return (
+                stem,
+                False,
+                stem_words,
+                f"the stem asks about {stem} but some options state {', '.join(sorted(moving))}",
+            )
+        return stem, strong or not _has_bare(options), stem_words, None
+    if moving:
+        return ("motion" if len(moving) > 1 else moving.pop()), True, "the options", None  # type: ignore[return-value]
+    if kinds == {"still"}:
+        return "still", True, "the options", None
+    return "other", False, "", None
+
+
+def _has_bare(options: dict[str, Claim]) -> bool:
+    return any(isinstance(c, Bare) for c in options.values())
+
+
+# ---- the frame ------------------------------------------------------------------------------
+
+_ROOM = re.compile(
+    r"\b(?:in the (?:room|world|real world|scene)|relative to (?:the )?(?:ground|floor|gravity|room|world)|"
+    r"gravity|vertically in the room|above the floor|toward the ceiling)\b"
+)
+_VIEW_AXES = re.compile(
+    r"\b(?:in|from|using|relative to|with respect to|according to|as seen (?:in|from))\s+(?:the\s+)?"
+    r"(?P<view>[\w ]{1,25}?)\s*(?:s\s+)?(?:own\s+)?(?:axes|directions|coordinates|coordinate (?:frame|system)|"
+    r"frame of reference|reference frame|orientation|point of view|viewpoint|perspective|side)\b"
+)
+_SHOOTER = re.compile(r"\b(?:shooter|photographer|camera operator|camera person|viewer|camera)\b")
+_OBJECT_FRAME = re.compile(
+    r"\b(?:facing|from|at) the (?P<object>(?!camera|photographer|shooter|viewer)\w+)\s+(?:s\s+)?(?:perspective|point of view|position)\b"
+)
+
+
+def _frame(
+    ask: str, views: tuple[int, int] | None, image_count: int | None
+) -> tuple[FrameReading | None, str, bool]:
+    words = normalized(ask)
+    if room := _ROOM.search(words):
+        return FrameReading(kind="room"), room.group(), True
+    if axes := _VIEW_AXES.search(words):
+        named = read_pair(axes.group("view"), image_count).view_set
+        if named:
+            return FrameReading(kind="view_axes", view=named[0]), axes.group(), True
+        if _SHOOTER.search(axes.group("view")) and views is not None:
+            return FrameReading(kind="view_axes", view=views[0]), axes.group(), True
+    if obj := _OBJECT_FRAME.search(words):
+        return FrameReading(kind="object", object=obj.group("object")), obj.group(), True
+    if views is not None:
+        return FrameReading(kind="view_axes", view=views[0]), "", False  # the first photo's, unless said
+    return None, "", False
+
+
+# ---- the whole reading ----------------------------------------------------------------------
+
+_QUANTITY_WORDS = {
+    "translation": "camera translation",
+    "rotation": "camera rotation",
+    "position": "position of the second camera relative to the first",
+    "motion": "camera motion",
+    "still": "whether the camera stayed still",
+    "object_relation": "an object relation",
+    "other": "no camera quantity",
+}
+
+
+def _summary(quantity: Quantity, pair: PairReading, frame: FrameReading | None) -> str:
+    said = f"read as: {_QUANTITY_WORDS[quantity]}"
+    if pair.views is not None:
+        said += f" from image {pair.views[0]} to image {pair.views[1]}"
+    if frame is not None and frame.kind == "view_axes" and frame.view is not None:
+        said += f", in image {frame.view}'s axes"
+    elif frame is not None and frame.kind == "room":
+        said += ", in the room's axes"
+    elif frame is not None and frame.kind == "object":
+        said += f", from the {frame.object}"
+    return said
+
+
+def _abstain(
+    quantity: Quantity, pair: PairReading, options: dict[str, Claim], quantity_doubt: str | None
+) -> str | None:
+    """Why a camera reading must not be answered from, whatever the measurement (None: it may)."""
+    if quantity not in CAMERA_QUANTITIES:
+        return None
+    if pair.doubt is not None:
+        return pair.doubt
+    if pair.views is None:
+        return "the question does not say which two photos it compares"
+    if quantity_doubt is not None:
+        return quantity_doubt
+    bare = [letter for letter, claim in options.items() if isinstance(claim, Bare)]
+    if bare:
+        return (
+            f"option {', '.join(bare)} reads two ways (a step or a turn): the question does not say "
+            "which motion it asks about"
+        )
+    return None
+
+
+def _with_roll_senses(options: dict[str, Claim], quantity: Quantity) -> dict[str, Claim]:
+    return {letter: resolve_bare(claim, quantity) for letter, claim in options.items()}
+
+
+def read_question(text: str, image_count: int | None = None) -> QuestionReading:
+    """The question's one reading (see the module docstring); views are 1-based."""
+    stem, option_texts = split_options((text or "").strip())
+    ask = _ask(" ".join(stem.split()))
+    options = {letter: read_phrase(words) for letter, words in option_texts.items()}
+    quantity, certain, source, doubt = _quantity(ask, options)
+    if quantity not in CAMERA_QUANTITIES or (not _lead(options) and not _is_camera_ask(ask)):
+        quantity = "object_relation" if _OBJECT_ASK.search(normalized(ask)) else "other"
+    options = _with_roll_senses(options, quantity)
+    pair = read_pair(ask, image_count, default_two=quantity in CAMERA_QUANTITIES)
+    frame, frame_source, frame_certain = _frame(ask, pair.views, image_count)
+    return QuestionReading(
+        text=(text or "").strip(),
+        image_count=image_count,
+        views=pair.views,
+        view_set=pair.view_set,
+        views_source=pair.source,
+        views_certain=pair.certain,
+        quantity=quantity,
+        quantity_source=source,
+        quantity_certain=certain and quantity in CAMERA_QUANTITIES,
+        frame=frame,
+        frame_source=frame_source,
+        frame_certain=frame_certain,
+        options=options,
+        abstain_reason=_abstain(quantity, pair, options, doubt),
+        summary=_summary(quantity, pair, frame),
+    )
+
+
+def _lead(options: dict[str, Claim]) -> bool:
+    return bool(options) and all(is_read(c) for c in options.values())
+
+
+_CAMERA_ASK = re.compile(
+    r"\b(?:camera|photographer|shooter|viewer|cameraman|lens|(?:did|do|have|had) (?:i|you|we)|(?:i|you|we) "
+    r"(?:moved|turned|went|walked|rotated|tilted)|shot|photo|photos|image|images|picture|pictures|frame|view|"
+    r"views|snapshot|taken)\b"
+)
+
+
+def _is_camera_ask(ask: str) -> bool:
+    """A stem about the camera (or the photos it took), not about objects in them."""
+    words = normalized(ask)
+    return bool(_CAMERA_ASK.search(words)) and not _OBJECT_ASK.search(words)
+
+
+def _ask(stem: str) -> str:
+    """The asking part of a stem: an opening that lists every view ("Based on these four images
+    (image 1, 2, 3, and 4) ...:") names no view in particular."""
+    opening = re.match(
+        r"^[^:?]*\((?:image|view|photo)s?\s*\d+(?:\s*(?:,|and|, and)\s*\d+)+\)[^:?]*:\s*", stem, re.I
+    )
+    return stem[opening.end() :] if opening else stem
+
+
+def option_claim_words(claim: Claim) -> str:
+    """A claim in short words, for summaries and reasons."""
+    return claim.words
+
+
+__all__ = [
+    "CAMERA_QUANTITIES",
+    "FrameReading",
+    "Quantity",
+    "QuestionReading",
+    "Rotation",
+    "Unread",
+    "option_claim_words",
+    "read_question",
+]
