@@ -133,6 +133,7 @@ class _Phraser:
 
     def __init__(self, wordings: dict[str, list[dict]], rng: random.Random) -> None:
         self.wordings, self.rng, self.used = wordings, rng, []
+        self.option_entries: dict[str, dict] = {}  # one wording per option list within an item
 
     def pick(self, name: str, usable=lambda text: True) -> str | dict:
         entries = [e for e in self.wordings[name] if usable(e["text"])]
@@ -147,7 +148,9 @@ class _Phraser:
 
     def option(self, claim: ClaimSpec) -> str:
         name, key = claim.wording_list()
-        return str(self.pick(name)[key])  # type: ignore[index]
+        if name not in self.option_entries:
+            self.option_entries[name] = self.pick(name)  # type: ignore[assignment]
+        return str(self.option_entries[name][key])
 
 
 def _sentence(text: str) -> str:
@@ -174,8 +177,16 @@ def _stem(spec: AskSpec, phraser: _Phraser, refs: dict[str, str]) -> str:
     return (_sentence(preamble.format(**refs)) + " " + asked) if preamble else asked
 
 
-def phrase(spec: AskSpec, wordings: dict[str, list[dict]], split: str, item_id: str, rng: random.Random):
-    """The spec asked in words from `wordings`, with the reading a correct reader gives."""
+def phrase(
+    spec: AskSpec,
+    wordings: dict[str, list[dict]],
+    split: str,
+    item_id: str,
+    rng: random.Random,
+    layout: str | None = None,
+) -> ParaphraseItem:
+    """The spec asked in words from `wordings`, with the reading a correct reader gives; the
+    options laid out as `layout` says ("mmsi": "Options: A: ...", "lines": "A. ..."; None: either)."""
     phraser = _Phraser(wordings, rng)
     noun, style = str(phraser.pick("noun")), str(phraser.pick("reference"))
     a, b = spec.pair
@@ -199,7 +210,7 @@ def phrase(spec: AskSpec, wordings: dict[str, list[dict]], split: str, item_id: 
     return ParaphraseItem(
         id=item_id,
         split=split,
-        text=" ".join(sentences) + _options_block(texts, rng),
+        text=" ".join(sentences) + _options_block(texts, rng, layout),
         image_count=spec.image_count,
         views=None if spec.abstain == "pair" else spec.pair,
         quantity=None if spec.abstain == "quantity" else spec.quantity,
@@ -214,8 +225,10 @@ def _lower_first(text: str) -> str:
     return text[:1].lower() + text[1:] if text[1:2].islower() else text
 
 
-def _options_block(texts: list[str], rng: random.Random) -> str:
-    if rng.random() < 0.5:  # MMSI-Bench's published schema
+def _options_block(texts: list[str], rng: random.Random, layout: str | None) -> str:
+    if layout is None:
+        layout = "mmsi" if rng.random() < 0.5 else "lines"
+    if layout == "mmsi":  # MMSI-Bench's published schema
         return "\nOptions: " + ", ".join(f"{LETTERS[i]}: {t}" for i, t in enumerate(texts))
     return "".join(f"\n{LETTERS[i]}. {t}" for i, t in enumerate(texts))
 
