@@ -1,4 +1,4 @@
-"""41 camera questions on templeRing photos in MMSI-Bench's parquet schema, two wordings, `pyspatial eval mmsi`.
+"""41 camera questions on templeRing photos in MMSI-Bench's parquet schema, two wordings, eval mmsi.
 
     python -m bench mmsi_templering [--out-dir DIR] [--splits tuning,heldout] [--write-only]
 
@@ -91,14 +91,16 @@ def _png(picture) -> bytes:
     return data.tobytes()
 
 
-def mmsi_rows(split: str, seed: int = 0) -> list[dict]:
-    """The 41 questions in one split's wordings, as rows of MMSI-Bench's parquet schema."""
+def mmsi_rows(split: str, seed: int = 0, limit: int | None = None) -> list[dict]:
+    """The 41 questions (the first `limit`) in one split's wordings, as rows of MMSI-Bench's schema."""
     root = realdata_dir()
     cameras = load_cameras(root)
     wordings = load_wordings(split)
     rows = []
-    for index, (photo_set, spec, words) in enumerate(question_specs(seed)):
-        item = phrase(spec, wordings, split, f"temple{index:02d}", random.Random(f"{seed}:{split}:{index}"), "mmsi")
+    for index, (photo_set, spec, words) in enumerate(question_specs(seed)[:limit]):
+        item = phrase(
+            spec, wordings, split, f"temple{index:02d}", random.Random(f"{seed}:{split}:{index}"), "mmsi"
+        )
         said = ", ".join(f"{name} {word}" for name, word in words.items())
         rows.append(
             {
@@ -168,7 +170,9 @@ def main(argv: list[str] | None = None) -> None:
             _eval(parquets[split], args.agent_url, work / f"{split}.jsonl")
     else:
         with running_service("services.recon.app:create_app", env) as recon:
-            with running_service("services.agent.app:create_app", {**env, "PYSPATIAL_RECON_URL": recon.url}) as agent:
+            with running_service(
+                "services.agent.app:create_app", {**env, "PYSPATIAL_RECON_URL": recon.url}
+            ) as agent:
                 for split in splits:
                     _eval(parquets[split], agent.url, work / f"{split}.jsonl")
     print("\n| wording | question type | questions | answered | right | wrong |")

@@ -48,7 +48,9 @@ def judge(item: ParaphraseItem, reading: QuestionReading) -> dict[str, bool]:
     return verdict
 
 
-def measure(items: list[ParaphraseItem]) -> tuple[Counter, list[tuple[ParaphraseItem, QuestionReading, dict]]]:
+def measure(
+    items: list[ParaphraseItem],
+) -> tuple[Counter, list[tuple[ParaphraseItem, QuestionReading, dict]]]:
     counts: Counter = Counter()
     failures = []
     for item in items:
@@ -78,7 +80,10 @@ def main(argv: list[str] | None = None) -> None:
     for split in splits:
         counts, failures = measure(text_corpus(split, args.count, args.seed))
         n = counts["items"]
-        cells = [f"{counts[k]} ({100 * counts[k] / max(n, 1):.1f}%)" for k in ("pair", "quantity", "options", "all")]
+        cells = [
+            f"{counts[k]} ({100 * counts[k] / max(n, 1):.1f}%)"
+            for k in ("pair", "quantity", "options", "all")
+        ]
         print(
             f"| {split} | {n} | " + " | ".join(cells) + f" | {counts['misread pair, certain']} | "
             f"{counts['abstain items']} | {counts['abstained']} |"

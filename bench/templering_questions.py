@@ -20,7 +20,11 @@ from shared.geometry.motion_determinacy import PairHypotheses, motion_over_focal
 from tests.support.paraphrases import STILL, ClaimSpec
 
 STEP_AXES = {"lateral": ("left", "right"), "depth": ("forward", "backward"), "vertical": ("up", "down")}
-TURN_AXES = {"turn": ("yaw", ("left", "right")), "tilt": ("pitch", ("up", "down")), "roll": ("roll", ("clockwise", "counterclockwise"))}
+TURN_AXES = {
+    "turn": ("yaw", ("left", "right")),
+    "tilt": ("pitch", ("up", "down")),
+    "roll": ("roll", ("clockwise", "counterclockwise")),
+}
 # Turning a photo 90 degrees clockwise: the camera turns about its optical axis.
 SIDEWAYS = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
 
@@ -50,7 +54,9 @@ def _turn_claims(words: dict[str, str]) -> tuple[list[ClaimSpec], list[ClaimSpec
     return holds, false
 
 
-def claims_for(words: dict[str, str], quantity: str, rng: random.Random) -> tuple[tuple[ClaimSpec, ...], int] | None:
+def claims_for(
+    words: dict[str, str], quantity: str, rng: random.Random
+) -> tuple[tuple[ClaimSpec, ...], int] | None:
     """Four options of one quantity (one holds, three are contradicted) and the index of the true
     one; None when no word of that quantity is stated."""
     if quantity == "rotation":

@@ -90,11 +90,17 @@ class ClaimSpec:
         return f"option.translation.{axis}", way
 
 
-TRANSLATIONS = tuple(ClaimSpec("translation", (w,)) for w in ("left", "right", "up", "down", "forward", "backward"))
+TRANSLATIONS = tuple(
+    ClaimSpec("translation", (w,)) for w in ("left", "right", "up", "down", "forward", "backward")
+)
 POSITIONS = tuple(ClaimSpec("position", (w,)) for w in ("left", "right", "up", "down", "forward", "backward"))
 ROTATIONS = tuple(
     ClaimSpec("rotation", axis=a, sense=s)
-    for a, senses in (("yaw", ("left", "right")), ("pitch", ("up", "down")), ("roll", ("clockwise", "counterclockwise")))
+    for a, senses in (
+        ("yaw", ("left", "right")),
+        ("pitch", ("up", "down")),
+        ("roll", ("clockwise", "counterclockwise")),
+    )
     for s in senses
 )
 STILL = ClaimSpec("still")
@@ -161,7 +167,9 @@ def _stem(spec: AskSpec, phraser: _Phraser, refs: dict[str, str]) -> str:
     rng = phraser.rng
     if spec.quantity == "position":
         return _sentence(str(phraser.pick("stem.position")).format(**refs))
-    stem_list = {"translation": "stem.translation", "rotation": "stem.rotation"}.get(spec.quantity, "stem.motion")
+    stem_list = {"translation": "stem.translation", "rotation": "stem.rotation"}.get(
+        spec.quantity, "stem.motion"
+    )
     if spec.abstain == "quantity":  # a stem that names the other quantity than every option states
         stem_list = "stem.rotation" if spec.quantity == "translation" else "stem.translation"
     elif spec.quantity != "motion" and rng.random() < 0.35:
@@ -265,7 +273,9 @@ def random_spec(rng: random.Random, abstain: str | None = None) -> AskSpec:
     return AskSpec(count, (a, b), quantity_of(tuple(claims)), tuple(claims), 0, abstain, third)
 
 
-def text_corpus(split: str, count: int = 600, seed: int = 0, abstain_share: float = 0.12) -> list[ParaphraseItem]:
+def text_corpus(
+    split: str, count: int = 600, seed: int = 0, abstain_share: float = 0.12
+) -> list[ParaphraseItem]:
     """`count` items of one split for the reading alone (the last `abstain_share` must abstain)."""
     wordings = load_wordings(split)
     rng = random.Random(f"{seed}:{split}")
