@@ -16,11 +16,11 @@ replies are read, its offline rule); every function here hands such questions to
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 from services.agent import free_form
 from services.agent.answer_result import AnswerMethod, AnswerResult, json_object, no_answer, with_usage
+from services.agent.claim_matching import match_claims, pick_pair_statement, question_reading
 from services.agent.llm import (
     ChatClient,
     LLMError,
@@ -30,21 +30,16 @@ from services.agent.llm import (
     text_part,
 )
 from services.agent.motion_clue import (
-    NO_GRAVITY_OVER_FOCAL,
     UNDETERMINED,
     VISION_MODEL_HINT,
-    Hypothetical,
     MotionStatement,
-    hypothetical_readings,
     motion_statements,
     not_a_motion_question,
-    pick_statement,
     unreadable_clue,
 )
 from services.agent.prompts import load_template
-from shared.questions.choices import DIRECTIONS, read_choice
+from shared.questions.choices import read_choice
 from shared.questions.intent import QuestionIntent
-from shared.questions.motion_words import MotionReading, agrees, read_motion
 
 DEFAULT_TEMPLATE = "answer_v1"
 IMAGES_ONLY_TEMPLATE = "answer_images_only_v1"
@@ -231,36 +226,6 @@ def answer_from_images(
 # ---- offline -----------------------------------------------------------------------------------
 
 
-def _match_motion(
-    intent: QuestionIntent, statement: MotionStatement, options: dict[str, str]
-) -> tuple[str | None, str]:
-    """The option whose motion reading agrees with the statement's (shared.questions.motion_words).
-
-    Of several that agree, the one closest in degrees, then the one stating the most, wins.
-    """
-    asked = intent.motion_asked  # the typed intent says what bare words mean and which frame
-    said = statement.reading_for(intent.motion_frame)
-    matches: list[tuple[str, float, int]] = []
-    for letter, text in options.items():
-        option = read_motion(text, asked)
-        agree, stated = agrees(option, said)
-        if not agree:
-            continue
-        gap = (
-            abs(option.degrees - said.degrees)
-            if option.degrees is not None and said.degrees is not None
-            else 0.0
-        )
-        matches.append((letter, gap, stated))
-    if not matches:
-        return None, f"no option states what the program's output says: {statement.sentence!r}"
-    best = min((gap, -stated) for _, gap, stated in matches)
-    closest = [letter for letter, gap, stated in matches if (gap, -stated) == best]
-    if len(closest) > 1:
-        return None, f"options {', '.join(closest)} all fit the program's output {statement.sentence!r}"
-    return closest[0], ""
-
-
 def answer_offline(intent: QuestionIntent, clue_text: str | None, clue_images: list[bytes]) -> AnswerResult:
     """Answer from a camera-motion text clue without any model; None with the reason otherwise.
 
@@ -284,85 +249,27 @@ def answer_offline(intent: QuestionIntent, clue_text: str | None, clue_images: l
 
 
 def _answer_from_motion(intent: QuestionIntent, statements: list[MotionStatement]) -> AnswerResult:
-    """The option that states the motion the program's output describes for the asked pair."""
-    why = not_a_motion_question(intent)
+    """The option whose claim holds for the motion the program measured for the asked pair, read
+    through the question's one reading (services/agent/claim_matching.py)."""
+    reading = question_reading(intent)
+    why = not_a_motion_question(intent, reading)
     if why is not None:
         return no_answer(why)
-    statement, why = pick_statement(intent, statements)
+    statement, why = pick_pair_statement(reading, statements)
     if statement is None:
         return no_answer(why)
-    if statement.over_focal is not None:
-        if intent.motion_frame == "gravity":
-            return no_answer(f"{UNDETERMINED}: {NO_GRAVITY_OVER_FOCAL}")
-        return _answer_over_focal(intent, statement)
-    letter, why = _match_motion(intent, statement, intent.options)
-    if letter is None:
-        return no_answer(why)
+    match = match_claims(reading, statement)
+    if match.letter is None:
+        return no_answer(f"{match.reason} ({reading.summary})")
+    letter = match.letter
+    everywhere = " at every focal length the photos allow" if statement.over_focal is not None else ""
     return AnswerResult(
         answer=letter,
-        reasoning=f"The program's output says: {statement.sentence!r}. "
-        f"Option {letter} ({intent.options[letter]!r}) states the same motion.",
+        reasoning=f"{reading.summary[0].upper()}{reading.summary[1:]}. The program's output says: "
+        f"{statement.sentence!r}. Option {letter} ({intent.options[letter]!r}, read as "
+        f"{reading.options[letter].words}) holds{everywhere}, and no other option does.",
         method="offline_text",
     )
-
-
-def _answer_over_focal(intent: QuestionIntent, statement: MotionStatement) -> AnswerResult:
-    """The option that fits best under every focal hypothesis, else "cannot be determined" with the
-    range. Every quantity counts (step, vertical step, turn, tilt, roll, stayed still): an option
-    fits a hypothesis when every other quantity it states holds there and, for a step, when its
-    direction is within 45 degrees (one compass sector) of the hypothesis's heading; of several,
-    the nearest in heading, then in degrees, wins."""
-    assert statement.over_focal is not None
-    options = {letter: read_motion(text, intent.motion_asked) for letter, text in intent.options.items()}
-    keys = {key for option in options.values() for key in option.stated()}
-    with_degrees = any(option.degrees is not None for option in options.values())
-    variants = hypothetical_readings(statement.over_focal, intent.motion_asked, keys, with_degrees)
-    letters = {_nearest_option(options, variant) for variant in variants}
-    if len(letters) == 1 and None not in letters:
-        (letter,) = letters
-        return AnswerResult(
-            answer=letter,
-            reasoning=f"The program's output says: {statement.sentence!r}. Option {letter} "
-            f"({intent.options[letter]!r}) fits best at every focal length the photos allow.",
-            method="offline_text",
-        )
-    named = sorted(str(letter) for letter in letters if letter is not None)
-    fits = f"options {', '.join(named)} each fit some of them" if named else "no option fits all of them"
-    return no_answer(f"{UNDETERMINED}: {statement.sentence} ({fits})")
-
-
-_SECTOR_DEG = 45.0
-
-
-def _heading_gap(direction: str, variant: Hypothetical) -> float:
-    """How far an option's compass direction is from a hypothetical step (inf: it did not step)."""
-    if variant.reading.direction is None:
-        return math.inf  # the option steps; this hypothesis made no horizontal step
-    if variant.heading_deg is None:
-        return 0.0 if direction == variant.reading.direction else math.inf
-    offset = DIRECTIONS.index(direction) * _SECTOR_DEG - variant.heading_deg
-    return abs((offset + 180.0) % 360.0 - 180.0)
-
-
-def _nearest_option(options: dict[str, MotionReading], variant: Hypothetical) -> str | None:
-    """The one option that fits a hypothetical motion best, or None (none fits, or a tie)."""
-    scored = []
-    for letter, option in options.items():
-        stated = option.stated()
-        rest = option.model_copy(update={"direction": None})
-        if not stated or (rest.stated() and not agrees(rest, variant.reading)[0]):
-            continue
-        heading_gap = 0.0 if option.direction is None else _heading_gap(option.direction, variant)
-        if heading_gap > _SECTOR_DEG:
-            continue
-        said = variant.reading.degrees
-        degree_gap = abs(option.degrees - said) if option.degrees is not None and said is not None else 0.0
-        scored.append((heading_gap, degree_gap, -len(stated), letter))
-    if not scored:
-        return None
-    best = min(scored)[:3]
-    closest = [entry[3] for entry in scored if entry[:3] == best]
-    return closest[0] if len(closest) == 1 else None
 
 
 __all__ = [

@@ -29,8 +29,9 @@ from services.agent.motion_clue import (
 )
 from shared.questions.choices import DIRECTIONS
 from shared.questions.claims import Unread, as_motion_reading
+from shared.questions.intent import QuestionIntent
 from shared.questions.motion_words import AskedMotion, MotionReading, agrees
-from shared.questions.reading import QuestionReading
+from shared.questions.reading import QuestionReading, read_question
 
 
 class ClaimMatch(BaseModel, frozen=True):
@@ -49,6 +50,12 @@ def _asked(reading: QuestionReading, claims: dict[str, MotionReading]) -> AskedM
     if any(c.roll is not None for c in claims.values()):
         return "roll"
     return "turn" if reading.quantity == "rotation" else "any"
+
+
+def question_reading(intent: QuestionIntent) -> QuestionReading:
+    """The reading made when the question was parsed (read again from its text only for an intent
+    built by hand)."""
+    return intent.reading or read_question(intent.text)
 
 
 def pick_pair_statement(
@@ -98,17 +105,20 @@ def match_claims(reading: QuestionReading, statement: MotionStatement) -> ClaimM
     else:
         said = statement.reading_for("gravity" if gravity else "image")
         variants = [Hypothetical(said, None)]
-    letters = {_nearest(read, variant) for variant in variants}
+    nearest = [_nearest(read, variant) for variant in variants]
+    letters = {best[0] if len(best) == 1 else None for best, _ in nearest}
     if len(letters) == 1 and None not in letters:
         letter = letters.pop()
         assert letter is not None
-        if unread and not _unread_cannot_fit(read, letter):
+        exact = all(gap == 0.0 for _, gap in nearest)
+        if unread and not exact:
             return ClaimMatch(
                 letter=None,
-                reason=f"option {', '.join(unread)} could not be read, and the others do not decide the answer",
+                reason=f"option {', '.join(unread)} could not be read, and the others do not decide "
+                "the answer",
             )
         return ClaimMatch(letter=letter)
-    named = sorted(str(letter) for letter in letters if letter is not None)
+    named = sorted({letter for best, _ in nearest for letter in best})
     if statement.over_focal is None:
         if named:
             return ClaimMatch(
@@ -124,12 +134,6 @@ def match_claims(reading: QuestionReading, statement: MotionStatement) -> ClaimM
         range=statement.sentence,
         determined=False,
     )
-
-
-def _unread_cannot_fit(read: dict[str, MotionReading], letter: str) -> bool:
-    """An unread option is harmless only when it could not be right: never, since its words are
-    unknown; the remaining options decide the answer only when every option was read."""
-    return False
 
 
 _SECTOR_DEG = 45.0
@@ -148,8 +152,9 @@ def _heading_gap(direction: str, variant: Hypothetical) -> float:
     return abs((offset + 180.0) % 360.0 - 180.0)
 
 
-def _nearest(claims: dict[str, MotionReading], variant: Hypothetical) -> str | None:
-    """The one claim that holds at a hypothetical motion and is nearest to it, or None."""
+def _nearest(claims: dict[str, MotionReading], variant: Hypothetical) -> tuple[tuple[str, ...], float]:
+    """The claims that hold at a hypothetical motion and are nearest to it (one, several on a tie,
+    none), with their heading gap (0 when they state the step's own sector, or no step)."""
     scored = []
     for letter, claim in claims.items():
         stated = claim.stated()
@@ -163,10 +168,9 @@ def _nearest(claims: dict[str, MotionReading], variant: Hypothetical) -> str | N
         degree_gap = abs(claim.degrees - said) if claim.degrees is not None and said is not None else 0.0
         scored.append((heading_gap, degree_gap, -len(stated), letter))
     if not scored:
-        return None
+        return (), math.inf
     best = min(scored)[:3]
-    closest = [entry[3] for entry in scored if entry[:3] == best]
-    return closest[0] if len(closest) == 1 else None
+    return tuple(entry[3] for entry in scored if entry[:3] == best), best[0]
 
 
-__all__ = ["ClaimMatch", "match_claims", "match_sentence", "pick_pair_statement"]
+__all__ = ["ClaimMatch", "match_claims", "match_sentence", "pick_pair_statement", "question_reading"]

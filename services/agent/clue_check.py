@@ -50,6 +50,8 @@ def _pairs(pairs: list[tuple[int, int]]) -> str:
 def _motion_problem(intent: QuestionIntent, clue_text: str) -> ClueProblem | None:
     if intent.family != "self_movement" or intent.motion_pair is None or not clue_text:
         return None  # an image-only clue (the photos, for a vision answerer) names no pair to check
+    if intent.reading is not None and not intent.reading.views_certain:
+        return None  # an uncertain reading of the pair never blocks a program: it only stops the answer
     first, second = intent.motion_pair
     statements = motion_statements(clue_text)
     pairs = list(dict.fromkeys(s.pair for s in statements if s.pair is not None))

@@ -27,6 +27,7 @@ from shared.geometry.camera_motion import (
 from shared.questions.choices import normalize_direction, normalize_turn, turn_degrees
 from shared.questions.intent import QuestionIntent
 from shared.questions.motion_words import AskedMotion, Frame, MotionReading, read_motion
+from shared.questions.reading import QuestionReading
 
 VISION_MODEL_HINT = (
     "set PYSPATIAL_ANSWER_MODEL (and PYSPATIAL_ANSWER_MODEL_BASE_URL, PYSPATIAL_ANSWER_MODEL_API_KEY) "
@@ -275,9 +276,10 @@ def pick_statement(
     return None, "the question does not say which pair of views it asks about"
 
 
-def not_a_motion_question(intent: QuestionIntent) -> str | None:
-    """Why a motion sentence cannot answer this question (None when it can)."""
-    if intent.family == "self_movement":
+def not_a_motion_question(intent: QuestionIntent, reading: QuestionReading | None = None) -> str | None:
+    """Why a motion sentence cannot answer this question (None when it can): a camera reading (or a
+    self-movement question) can, whatever else the old families would have named."""
+    if intent.family == "self_movement" or (reading is not None and reading.is_camera):
         return None
     return (
         "the program's output describes camera motion, but this is a "

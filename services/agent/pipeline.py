@@ -151,7 +151,7 @@ class SolvePipeline:
             why = f"no program ran successfully: {written.failure}"
             return self._from_photos(log, intent, scene, recon, written, why)
         reading = read_clue(written, intent, runs.tools, recon.cameras)
-        with log.record(AnswerStep(answerer=self.answer_model_name)) as answer:
+        with log.record(AnswerStep(answerer=self.answer_model_name, reading=read_as(intent))) as answer:
             from_clue(answer, self.answerers, intent, scene.input_pngs, written, reading)
         return respond(log, intent, scene, recon, written, answer, reading)
 
@@ -167,7 +167,7 @@ class SolvePipeline:
         """No program ran: the answer model answers from the photos alone (as the paper's code does),
         and the response says so; without an answer model the answer is null with the reason."""
         asked = self.answer_model_name if self.answer_client is not None else None
-        with log.record(AnswerStep(answerer=asked, from_photos=True)) as answer:
+        with log.record(AnswerStep(answerer=asked, from_photos=True, reading=read_as(intent))) as answer:
             from_photos(answer, self.answerers, intent, scene.input_pngs, why)
         return respond(log, intent, scene, recon, written, answer, fallback_reason=why)
 
@@ -210,6 +210,12 @@ class SolvePipeline:
             cpu_budget=CpuBudget(self.settings.sandbox_solve_cpu_s),
             answerer_reads_images=self.answer_client is not None and not self.settings.answer_model_text_only,
         )
+
+
+def read_as(intent: QuestionIntent) -> str | None:
+    """The reading's summary of a camera question, for the answer step and its stage event."""
+    reading = intent.reading
+    return reading.summary if reading is not None and reading.is_camera else None
 
 
 def _check_views(intent: QuestionIntent, num_images: int) -> None:

@@ -96,7 +96,8 @@ class StageReporter:
     def answer(self, step: AnswerStep, moment: Moment) -> None:
         if moment == "started" and step.answerer is not None:
             source = "from the photos alone " if step.from_photos else ""
-            self.progress("answer", "started", f"answering {source}with {step.answerer}")
+            read = f" ({step.reading})" if step.reading else ""
+            self.progress("answer", "started", f"answering {source}with {step.answerer}{read}")
         elif moment == "finished":
             self.progress("answer", "done" if step.answer else "failed", step.answer or step.error or "")
 

@@ -56,6 +56,7 @@ def respond(
         fallback=IMAGES_ONLY if answer.from_photos and answer.answerer is not None else None,
         fallback_reason=fallback_reason,
         intent=intent,
+        reading=intent.reading,
         timings=timings(log),
         steps=[step.model_dump() for step in log.steps],
     )

@@ -86,6 +86,21 @@ class Rotation(_Claim, frozen=True):
         return f"camera {verb} {self.sense}{about}"
 
 
+class Target(_Claim, frozen=True):
+    """The camera came closer to (or went farther from) a named object: a step, read against the
+    measured distances to that object."""
+
+    kind: Literal["target"] = "target"
+    change: Literal["closer", "farther"]
+    object: str = ""
+
+    @property
+    def words(self) -> str:
+        return (
+            f"camera came {self.change} {'to' if self.change == 'closer' else 'from'} {self.object}".strip()
+        )
+
+
 class Still(_Claim, frozen=True):
     kind: Literal["still"] = "still"
 
@@ -116,7 +131,7 @@ class Unread(_Claim, frozen=True):
         return f"unread ({self.why})"
 
 
-Part = Annotated[Translation | Position | Rotation | Still, Field(discriminator="kind")]
+Part = Annotated[Translation | Position | Rotation | Still | Target, Field(discriminator="kind")]
 
 
 class Compound(_Claim, frozen=True):
@@ -131,17 +146,20 @@ class Compound(_Claim, frozen=True):
 
 
 Claim = Annotated[
-    Translation | Position | Rotation | Still | Compound | Bare | Unread, Field(discriminator="kind")
+    Translation | Position | Rotation | Still | Target | Compound | Bare | Unread, Field(discriminator="kind")
 ]
 
 
 def claim_kinds(claim: Claim) -> set[ClaimKind]:
     """The quantities a claim states (empty for a bare or unread one)."""
-    if isinstance(claim, Compound):
-        return {part.kind for part in claim.parts}  # type: ignore[misc]
-    if isinstance(claim, Translation | Position | Rotation | Still):
-        return {claim.kind}  # type: ignore[arg-type]
-    return set()
+    parts = claim.parts if isinstance(claim, Compound) else (claim,)
+    kinds: set[ClaimKind] = set()
+    for part in parts:
+        if isinstance(part, Target):
+            kinds.add("translation")
+        elif isinstance(part, Translation | Position | Rotation | Still):
+            kinds.add(part.kind)  # type: ignore[arg-type]
+    return kinds
 
 
 def is_read(claim: Claim) -> bool:
@@ -215,6 +233,8 @@ def as_motion_reading(claim: Claim) -> MotionReading | None:
             fields.update({k: v for k, v in _rotation_reading(part).items() if v is not None})
         elif isinstance(part, Still):
             fields["still"] = True
+        elif isinstance(part, Target):
+            fields["target"] = part.change
         else:
             return None
     reading = MotionReading(**fields)  # type: ignore[arg-type]
@@ -235,6 +255,7 @@ __all__ = [
     "Rotation",
     "Sense",
     "Still",
+    "Target",
     "Translation",
     "Unread",
     "Way",

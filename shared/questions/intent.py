@@ -31,6 +31,7 @@ from pydantic import BaseModel, Field
 
 from shared.questions.choices import split_options
 from shared.questions.motion_words import AskedMotion, Frame, asked_frame, asked_motion
+from shared.questions.reading import QuestionReading, read_question
 
 Setting = Literal["among", "around", "rotation", "translation", "unknown"]
 Family = Literal[
@@ -95,6 +96,11 @@ class QuestionIntent(BaseModel):
     options: dict[str, str] = Field(default_factory=dict)
     offline_reason: str | None = Field(
         None, description="Why the offline planner cannot write a program for this family (None: it can)."
+    )
+    reading: QuestionReading | None = Field(
+        None,
+        exclude=True,  # the response carries it once, as its own `reading` field
+        description="The typed reading of a camera question (shared/questions/reading.py).",
     )
 
     @property
@@ -411,6 +417,9 @@ def parse_question(
     """The question's intent (see the module docstring). Views are 1-based as in the question."""
     views_known = num_images if num_images else 10
     intent = _read_parts(question, views_known, item_id)
+    intent.reading = read_question(question, num_images)
+    if intent.reading.is_camera:
+        return _from_reading(intent, intent.reading)
     for family_of in (_object_perspective, _what_if, _self_movement, _occlusion, _relative_direction):
         if family_of(intent, views_known):
             return intent
@@ -511,6 +520,32 @@ def _after_last_step(ask: str, steps: list[PoseStep]) -> str:
         return ask
     ends = [m.end() for m in _TURN_STEP.finditer(ask)] + [m.end() for m in _MOVE_STEP.finditer(ask)]
     return ask[max(ends) :] if ends else ask
+
+
+_ASKED_OF_AXIS: dict[str, AskedMotion] = {"yaw": "turn", "pitch": "tilt", "roll": "roll"}
+
+
+def _from_reading(intent: QuestionIntent, reading: QuestionReading) -> QuestionIntent:
+    """A camera question, as its reading says (options lead, the stem gives the pair): the planner,
+    the checks and the answerers take the pair and the quantity from here."""
+    intent.family = "self_movement"
+    intent.steps, intent.direction, intent.target_object, intent.comparison = [], None, None, None
+    mentioned = intent.mentioned_views
+    pair = reading.views or (tuple(mentioned[:2]) if len(mentioned) >= 2 else (1, 2))
+    intent.motion_pair = pair  # type: ignore[assignment]
+    intent.asked_view = pair[0]
+    intent.motion_frame = "gravity" if reading.frame is not None and reading.frame.kind == "room" else "image"
+    axes = {getattr(claim, "axis", None) for claim in reading.options.values()} - {None}
+    if reading.quantity == "rotation":
+        stem_asks = asked_motion(intent.ask)
+        of_options = _ASKED_OF_AXIS[axes.pop()] if len(axes) == 1 else "any"  # type: ignore[index]
+        intent.motion_asked = stem_asks if stem_asks in ("turn", "tilt", "roll") else of_options
+        intent.asks_turn_only = intent.motion_asked == "turn" or (not reading.options and not axes)
+    elif reading.quantity in ("translation", "position"):
+        intent.motion_asked = "move"
+    else:
+        intent.motion_asked = asked_motion(intent.ask)
+    return intent
 
 
 def _as_self_movement(intent: QuestionIntent, pair: tuple[int, int], ask: str) -> QuestionIntent:

@@ -31,6 +31,7 @@ from shared.questions.claims import (
     Position,
     Rotation,
     Still,
+    Target,
     Translation,
     Unread,
     Way,
@@ -266,6 +267,8 @@ def _part_claim(part: _Part, degrees: float | None, source: str) -> Claim:
         if kind in ("step", "weak") and not part.ways:
             return Still(source=source)
         return Unread(source=source, why="a negated direction states no motion")
+    if kind is None and part.ways == ["around"]:
+        return Rotation(axis="yaw", sense="around", source=source)  # "Around": only a turn goes around
     ways = [w for w in dict.fromkeys(part.ways) if w != "around"]
     conflict = _conflict(ways)
     if conflict:
@@ -280,9 +283,19 @@ def _part_claim(part: _Part, degrees: float | None, source: str) -> Claim:
     return Bare(ways=typed, source=source)
 
 
+# "closer to the lamp", "farther away from the red sofa": the object's name is not the lexicon's.
+_TARGET = re.compile(
+    r"^(?:(?:it|the camera|camera)\s+)?(?:(?:came|got|moved|went|is|was|ended up)\s+)?"
+    r"(?P<change>closer|nearer|farther|further)\s+(?:away\s+)?(?:to|from)\s+(?P<object>(?:the|a|an)\s+[a-z ]+)$"
+)
+
+
 def read_phrase(text: str) -> Claim:
     """The claim an option states (see the module docstring)."""
     words = normalized(text)
+    if target := _TARGET.match(words):
+        change = "closer" if target.group("change") in ("closer", "nearer") else "farther"
+        return Target(change=change, object=target.group("object"), source=text)
     found = tokens(words)
     unknown = unknown_words(words, found)
     if unknown:

@@ -273,7 +273,8 @@ def read_question(text: str, image_count: int | None = None) -> QuestionReading:
     ask = _ask(" ".join(stem.split()))
     options = {letter: read_phrase(words) for letter, words in option_texts.items()}
     quantity, certain, source, doubt = _quantity(ask, options)
-    if quantity not in CAMERA_QUANTITIES or (not _lead(options) and not _is_camera_ask(ask)):
+    hypothetical = bool(_WHAT_IF.search(normalized(ask)))
+    if quantity not in CAMERA_QUANTITIES or hypothetical or (not _lead(options) and not _is_camera_ask(ask)):
         quantity = "object_relation" if _OBJECT_ASK.search(normalized(ask)) else "other"
     options = _with_roll_senses(options, quantity)
     pair = read_pair(ask, image_count, default_two=quantity in CAMERA_QUANTITIES)
@@ -308,10 +309,18 @@ _CAMERA_ASK = re.compile(
 )
 
 
+# A move not yet made ("if you turn left", "imagine walking", "will you be closer"): a what-if about
+# the scene, not the motion between two photos.
+_WHAT_IF = re.compile(
+    r"\b(?:if (?:you|i|we|the camera)|suppose|supposing|imagine|were to|will (?:you|i|we) (?:be|get|see|end)|"
+    r"would (?:you|i|we)|after (?:you|i|we) (?:turn|walk|move|step|rotate)|(?:^|, )(?:then )?(?:turn|walk|move) )"
+)
+
+
 def _is_camera_ask(ask: str) -> bool:
-    """A stem about the camera (or the photos it took), not about objects in them."""
+    """A stem about the camera (or the photos it took), not about objects in them nor a what-if."""
     words = normalized(ask)
-    return bool(_CAMERA_ASK.search(words)) and not _OBJECT_ASK.search(words)
+    return bool(_CAMERA_ASK.search(words)) and not _OBJECT_ASK.search(words) and not _WHAT_IF.search(words)
 
 
 def _ask(stem: str) -> str:

@@ -7,6 +7,7 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from shared.questions.intent import QuestionIntent
+from shared.questions.reading import QuestionReading
 
 Matrix = list[list[float]]
 ImageFormat = Literal["png", "jpeg"]
@@ -625,6 +626,11 @@ class AnswerStep(StepRecord):
     reasoning: str = ""
     prompt_tokens: int = 0
     completion_tokens: int = 0
+    reading: str | None = Field(
+        None,
+        description="How a camera question was read, e.g. \"read as: camera rotation from image 1 to "
+        "image 3, in image 1's axes\"; null for other questions.",
+    )
 
 
 SolveStep = Annotated[
@@ -680,6 +686,13 @@ class SolveResponse(_Model):
     fallback_reason: str | None = Field(None, description="Why the fallback was taken.")
     intent: QuestionIntent | None = Field(
         None, description="The question as parsed once: setting, family, asked view, view pair, steps."
+    )
+    reading: QuestionReading | None = Field(
+        None,
+        description="The question's typed reading, made once and used by every stage: the ordered "
+        "pair of views, the quantity asked (translation, rotation, position, motion, still, "
+        "object_relation, other), the frame, each option as a typed claim, where each slot came "
+        "from and whether it is certain, `abstain_reason` (why no answer may be given), `summary`.",
     )
     timings: SolveTimings
     steps: list[SolveStep] = Field(
