@@ -21,11 +21,15 @@ from tests.support.paraphrases import SPLITS, ParaphraseItem, text_corpus
 
 
 def claim_dict(claim, quantity: str) -> dict:
-    """A read claim in the corpus's plain form (a bare direction taken as the quantity asked)."""
+    """A read claim in the corpus's plain form (a bare direction taken as the quantity asked). In a
+    position question a step claim counts as the position (the same geometry, issue 34: the second
+    camera's centre in the first camera's frame)."""
     claim = resolve_bare(claim, quantity)
     data = claim.model_dump(exclude={"source", "why", "degrees"})
     if "ways" in data:
         data["ways"] = list(data["ways"])
+    if quantity == "position" and data["kind"] == "translation":
+        data["kind"] = "position"
     return data
 
 

@@ -230,7 +230,7 @@ def phrase(
 
 
 def _lower_first(text: str) -> str:
-    return text[:1].lower() + text[1:] if text[1:2].islower() else text
+    return text if text[1:2].isupper() else text[:1].lower() + text[1:]  # keep "UP", lower "A clockwise"
 
 
 def _options_block(texts: list[str], rng: random.Random, layout: str | None) -> str:
