@@ -51,6 +51,8 @@ class Sense:
 _STEP = "step"
 _ROWS: tuple[tuple[str, Sense], ...] = (
     # ---- still: no motion at all (before the verbs, so "did not move" is read whole)
+    (r"(?:held|kept|keep|keeps|maintained|kept to|stayed at) (?:its|the same|the) (?:position|place|pose|spot|location)"
+     r"(?: and (?:its )?(?:aim|orientation|heading|direction|angle))?", Sense("still")),
     (r"(?:stay|stayed|stays|staying|kept|keep|stood|stand|held|hold|remained|remain|remains)\s+"
      r"(?:completely\s+|perfectly\s+)?(?:still|put|stationary|motionless|fixed|steady|in place|where it was|"
      r"at the same (?:spot|place|position|point|location))", Sense("still")),
@@ -61,6 +63,13 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"in place|did not budge|no displacement", Sense("still")),
     # ---- negation of the next verb
     (r"did not|didn t|does not|doesn t|not|without|no|never|neither|nor|zero", Sense("not")),
+    # ---- two claims offered as one ("backward or to the left"): the option says two things
+    (r"or|either", Sense("or")),
+    # ---- the camera's orientation as a noun: "its aim rose", "the heading swung left"
+    (r"(?:its|the|camera s|the camera s) (?:aim|heading|gaze|line of sight|view(?:ing)? direction|orientation|"
+     r"pointing direction|optical axis)", Sense("aimnoun")),
+    (r"(?:about|around|round|along|on) (?:its |the )?(?:lens s |lens |optical |viewing |view |forward )?axis",
+     Sense("axis", "roll")),
     # ---- rotation about the optical axis (before the verbs that share words with it)
     (r"(?:rotat\w*|turn\w*|spun|spin\w*|twist\w*)\s+(?:about|around|round|on)\s+(?:its\s+|the\s+)?"
      r"(?:lens|optical|viewing|view|camera s|line of sight|forward)\s*(?:axis)?", Sense("roll")),
@@ -92,10 +101,11 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"withdr\w*|retreat\w*|reced\w*|back(?:ed|s|ing)? (?:up|off|away|out)|step(?:ped|s|ping)? back|"
      r"pull(?:ed|s|ing)? (?:back|out|away)|dolly(?:ing)? out|dollied out|zoom(?:ed)? out|farther|further away|"
      r"further back|away from", Sense(_STEP, "backward")),
-    (r"shift\w*|slid\w*|translat\w*|displac\w*|relocat\w*|reposition\w*|glid\w*|drift\w*|step\w*|walk\w*|"
+    (r"sideways|sidewise|laterally|shift\w*|slid\w*|translat\w*|displac\w*|relocat\w*|reposition\w*|glid\w*|drift\w*|step\w*|walk\w*|"
      r"dolly|dollied|carr(?:y|ied)|travel\w*|head(?:ed|ing)? (?=left|right|up|down|forward|back)",
      Sense(_STEP)),
-    (r"mov\w*|motion|went|go(?:es|ing|ne)?|came|come|got|change[ds]?", Sense("weak")),
+    (r"mov\w*|motion|went|go(?:es|ing|ne)?|came|come|got", Sense("weak")),
+    (r"chang\w*|differ\w*|happen\w*", Sense("weak", "any")),
     # ---- directions
     (r"(?:to |toward |towards |on |at )?(?:the |its |their |his |her |your |my )?left(?:ward|wards)?(?: hand)?(?: side| edge)?",
      Sense("way", "left")),
@@ -124,7 +134,7 @@ _FILLER = frozenset(
     "which way what how relative compared first second image photo picture frame shot snapshot one "
     "so that this that side edge s degrees degree deg slight small large big far much more bit "
     "diagonally diagonal straight directly scene subject objects object photographed place point spot location "
-    "position height level".split()
+    "position height level reference off out original initial previous other ones earlier later".split()
 )
 
 
@@ -181,41 +191,69 @@ class _Part:
     ways: list[str] = field(default_factory=list)
     senses: list[str] = field(default_factory=list)
     words: list[str] = field(default_factory=list)
+    axis: str | None = None  # set by an axis phrase ("about the lens axis")
 
 
 _VERBS = ("step", "weak", "aim", "yaw", "pitch", "roll", "place", "still")
+_STEPPING = ("step", "weak", "place")
+
+
+def _joins(open_: _Part | None, verb: Sense, aiming: bool) -> bool:
+    """Whether a verb belongs to the part before it: directions with no verb yet ("Left, moved"),
+    a step verb after a stepping verb with no direction yet ("stepped closer", "stood farther
+    back"), or any verb after an orientation noun ("its aim rose")."""
+    if open_ is None or open_.negated:
+        return False
+    if open_.verb is None or aiming:
+        return True
+    return (
+        open_.verb.kind in _STEPPING and not open_.ways and verb.kind in ("step", "weak") and bool(verb.value)
+    )
+
+
+def _add_verb(parts: list[_Part], token: Token, negate: bool, aiming: bool) -> None:
+    open_ = parts[-1] if parts else None
+    joins = _joins(open_, token.sense, aiming)
+    part = open_ if joins and open_ is not None else _Part()
+    keep_open_kind = joins and part.verb is not None and part.verb.kind in ("place", "step", "aim")
+    if not keep_open_kind:
+        part.verb = Sense("aim") if aiming else token.sense
+    part.negated = part.negated or negate
+    if token.sense.value and token.sense.value != "any":
+        part.ways.append(token.sense.value)
+    part.words.append(token.words)
+    if part is not open_:
+        parts.append(part)
 
 
 def _parts(found: list[Token]) -> list[_Part]:
     """Tokens grouped by verb: each verb opens a part; directions before any verb open a bare one."""
     parts: list[_Part] = []
-    negate = False
+    negate = aiming = False
     for token in found:
         kind = token.sense.kind
         if kind == "not":
             negate = True
-            continue
-        if kind in _VERBS:
-            open_ = parts[-1] if parts else None
-            joins = open_ is not None and open_.verb is None and not open_.negated
-            part = open_ if joins else _Part()
-            part.verb, part.negated = token.sense, negate
-            if part.verb.value:
-                part.ways.append(part.verb.value)
-            part.words.append(token.words)
-            if not joins:
-                parts.append(part)
+        elif kind == "aimnoun":  # "its aim", "the heading": the verb that follows turns the camera
+            aiming = True
+            parts.append(_Part(verb=Sense("aim"), words=[token.words]))
+        elif kind in _VERBS:
+            _add_verb(parts, token, negate, aiming)
+            negate = aiming = False
+        elif kind == "axis":
+            if not parts:
+                parts.append(_Part())
+            parts[-1].axis = token.sense.value
+            parts[-1].words.append(token.words)
+        else:
+            if not parts:
+                parts.append(_Part(negated=negate))
+            elif negate:  # a negated direction ("not left") says what did not happen: no claim of ours
+                parts[-1].negated = True
             negate = False
-            continue
-        if not parts:
-            parts.append(_Part(negated=negate))
-            negate = False
-        elif negate:  # a negated direction ("not left") says what did not happen: no claim of ours
-            parts[-1].negated = True
-            negate = False
-        target = parts[-1]
-        (target.senses if kind == "sense" else target.ways).append(str(token.sense.value))
-        target.words.append(token.words)
+            target = parts[-1]
+            (target.senses if kind == "sense" else target.ways).append(str(token.sense.value))
+            target.words.append(token.words)
     return parts
 
 
@@ -228,7 +266,9 @@ def _conflict(ways: list[str]) -> str | None:
 
 
 def _rotation(part: _Part, degrees: float | None, source: str) -> Claim:
-    axis = {"yaw": "yaw", "pitch": "pitch", "roll": "roll"}.get(part.verb.kind if part.verb else "", None)
+    axis = part.axis or {"yaw": "yaw", "pitch": "pitch", "roll": "roll"}.get(
+        part.verb.kind if part.verb else "", None
+    )
     ways = list(dict.fromkeys(part.ways))
     senses = list(dict.fromkeys(part.senses))
     if part.negated:
@@ -261,7 +301,7 @@ def _part_claim(part: _Part, degrees: float | None, source: str) -> Claim:
     kind = part.verb.kind if part.verb else None
     if kind == "still":
         return Still(source=source)
-    if kind in ("aim", "yaw", "pitch", "roll") or (kind is None and part.senses):
+    if kind in ("aim", "yaw", "pitch", "roll") or (kind is None and (part.senses or part.axis)):
         return _rotation(part, degrees, source)
     if part.negated:
         if kind in ("step", "weak") and not part.ways:
@@ -286,7 +326,8 @@ def _part_claim(part: _Part, degrees: float | None, source: str) -> Claim:
 # "closer to the lamp", "farther away from the red sofa": the object's name is not the lexicon's.
 _TARGET = re.compile(
     r"^(?:(?:it|the camera|camera)\s+)?(?:(?:came|got|moved|went|is|was|ended up)\s+)?"
-    r"(?P<change>closer|nearer|farther|further)\s+(?:away\s+)?(?:to|from)\s+(?P<object>(?:the|a|an)\s+[a-z ]+)$"
+    r"(?P<change>closer|nearer|farther|further)\s+(?:away\s+)?(?:to|from)\s+"
+    r"(?P<object>(?!the scene\b|the subject\b)(?:the|a|an)\s+[a-z ]+)$"
 )
 
 
@@ -302,6 +343,8 @@ def read_phrase(text: str) -> Claim:
         return Unread(source=text, why=f"{', '.join(repr(w) for w in unknown)} is not in the motion lexicon")
     if not found:
         return Unread(source=text)
+    if any(token.sense.kind == "or" for token in found):
+        return Unread(source=text, why="it offers two claims joined by 'or'")
     stated = _DEGREES.search(words)
     degrees = float(stated.group(1)) if stated else None
     claims = [_part_claim(part, degrees, " ".join(part.words)) for part in _parts(found)]

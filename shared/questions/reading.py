@@ -90,16 +90,34 @@ _APART_FROM = re.compile(
     r"\b(?:apart from|aside from|besides|other than|except for|ignoring|setting aside|leaving aside|"
     r"not counting|regardless of)\s+(?:any\s+|the\s+|its\s+)?(?P<what>\w+(?:\s+\w+)?)"
 )
+_NOUNS = r"(?:images?|photos?|pictures?|views?|frames?|shots?|snapshots?)"
 _POSITION_ASK = re.compile(
-    r"\bwhere (?:was|were|is|are)\b[^?]*\b(?:taken|shot|captured|located|positioned|placed|situated|standing|"
-    r"camera|photographer|shooter)\b|\b(?:relative |camera )?position(?:al)? (?:of|relationship)\b|"
-    r"\bwhere (?:is|was|are|were) (?:the )?(?:images?|photos?|pictures?|views?|frames?|shots?|snapshots?) \w+\b|"
+    r"\bwhere\b[^?]*\b(?:taken|shot|captured|located|positioned|placed|situated|stand|stands|stood|standing|"
+    r"sit|sits|sat|was the camera|is the camera|were the cameras|camera)\b|"
+    r"\b(?:shooting|camera|capture|capturing|vantage|taking) (?:position|point|location|spot|place)\b|"
+    r"\bposition(?:al)? (?:of|relationship)\b|\brelative (?:position|location|placement)\b|"
+    rf"\bwhere (?:is|was|are|were) (?:the )?{_NOUNS} \w+\b|"
     r"\bwhich side of\b|\bin which direction (?:is|was|lies|lay)\b"
 )
 _OBJECT_ASK = re.compile(
     r"\b(?:what|which (?:object|item|thing))\s+(?:is|was|would be|will be|lies|appears)\b|"
-    r"\bwhere (?:is|was|are) (?:the|a|an) (?!camera|photographer|shooter|viewer|second|first|third|last)\w+"
+    r"\bwhere (?:is|was|are) (?:the|a|an) (?!camera|photographer|shooter|viewer|second|first|third|last|"
+    r"shooting|position|viewpoint|vantage|location|spot|place|capture|image|photo|picture|view|frame|shot|"
+    r"snapshot)\w+"
 )
+_ROTATION_WORDS = re.compile(
+    r"\b(?:point\w*|fac(?:e|ed|es|ing)|look\w*|aim\w*|turn\w*|rotat\w*|tilt\w*|roll\w*|pan\w*)\b"
+)
+# A note on conventions ("Clockwise is as seen looking along the lens.") is not what is asked.
+_PARENTHESES = re.compile(r"\([^)]*\)")
+_SENTENCE = re.compile(r"(?<=[.!?;:])\s+")
+
+
+def asking_sentences(ask: str) -> str:
+    """The sentences that ask (those with a question mark; else the last one), notes left out."""
+    sentences = [s for s in _SENTENCE.split(_PARENTHESES.sub(" ", ask)) if s.strip()]
+    asking = [s for s in sentences if "?" in s]
+    return " ".join(asking or sentences[-1:])
 
 
 def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
@@ -110,7 +128,7 @@ def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
     for what in excluded:
         words = words.replace(what, " ")
     position = _POSITION_ASK.search(words)
-    if position:
+    if position and not _ROTATION_WORDS.search(words):
         return "position", True, position.group()
     kinds = [s.kind for s in stem_senses(words)]
     rotation = any(k in ("aim", "yaw", "pitch", "roll") for k in kinds)
@@ -121,8 +139,11 @@ def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
         return "rotation", True, words
     if translation:
         return "translation", True, words
-    if "weak" in kinds or "still" in kinds:
-        return "translation", False, words
+    senses = stem_senses(words)
+    if any(s.kind == "weak" and s.value is None for s in senses) or "still" in kinds:
+        return "translation", False, words  # "which way did it move? Left": a step
+    if "weak" in kinds:
+        return "motion", False, words  # "how did it change?": any motion
     return None, False, ""
 
 
@@ -144,7 +165,7 @@ def _compatible(stem: Quantity, options: set[str]) -> bool:
 
 def _quantity(ask: str, options: dict[str, Claim]) -> tuple[Quantity, bool, str, str | None]:
     """(quantity, certain, source, why it must abstain)."""
-    stem, strong, stem_words = _stem_quantity(ask)
+    stem, strong, stem_words = _stem_quantity(asking_sentences(ask))
     kinds = _option_kinds(options)
     lead = bool(options) and all(is_read(c) for c in options.values())
     moving = kinds - {"still"}
@@ -273,7 +294,7 @@ def read_question(text: str, image_count: int | None = None) -> QuestionReading:
     ask = _ask(" ".join(stem.split()))
     options = {letter: read_phrase(words) for letter, words in option_texts.items()}
     quantity, certain, source, doubt = _quantity(ask, options)
-    hypothetical = bool(_WHAT_IF.search(normalized(ask)))
+    hypothetical = bool(_WHAT_IF.search(normalized(asking_sentences(ask))))
     if quantity not in CAMERA_QUANTITIES or hypothetical or (not _lead(options) and not _is_camera_ask(ask)):
         quantity = "object_relation" if _OBJECT_ASK.search(normalized(ask)) else "other"
     options = _with_roll_senses(options, quantity)
@@ -319,8 +340,12 @@ _WHAT_IF = re.compile(
 
 def _is_camera_ask(ask: str) -> bool:
     """A stem about the camera (or the photos it took), not about objects in them nor a what-if."""
-    words = normalized(ask)
-    return bool(_CAMERA_ASK.search(words)) and not _OBJECT_ASK.search(words) and not _WHAT_IF.search(words)
+    asking = normalized(asking_sentences(ask))
+    return (
+        bool(_CAMERA_ASK.search(normalized(ask)))
+        and not _OBJECT_ASK.search(asking)
+        and not _WHAT_IF.search(asking)
+    )
 
 
 def _ask(stem: str) -> str:

@@ -37,7 +37,7 @@ _ORDINAL_WORDS = {
 _NUM = r"(?:\d+|" + "|".join(_NUMBER_WORDS) + r")"
 _ORD = r"(?:" + "|".join(_ORDINAL_WORDS) + r"|\d+(?:st|nd|rd|th))"
 _NUMBERED = re.compile(
-    rf"\b{_NOUN}\s*(?:number\s+|no\s+|#\s*)?(?P<n>{_NUM})\b(?P<more>(?:\s*(?:and|to|through|or|vs|versus)\s*{_NUM}\b)*)"
+    rf"\b{_NOUN}\s*(?:number\s+|no\s+|#\s*)?(?P<n>{_NUM})\b(?P<more>(?:(?:\s*(?:and|to|through|or|vs|versus)\s*|\s+){_NUM}\b)*)"
 )
 _ORDINAL_NOUN = re.compile(rf"\b(?P<o>{_ORD})\s+(?:(?:[a-z]+)\s+)?(?:{_NOUN}|one)\b")
 _BARE_ORDINAL = re.compile(
@@ -45,22 +45,24 @@ _BARE_ORDINAL = re.compile(
 )
 _OTHER = re.compile(rf"\bthe other\s+(?:{_NOUN}|one)\b")
 
-_FROM_BEFORE = re.compile(
-    r"\b(?:from|relative to|compared (?:with|to)|comparing|in comparison (?:with|to)|with respect to|in relation to|"
-    r"versus|vs|since|after|later than|leaving|starting (?:at|from|with)|seen from|as seen from|against|"
-    r"with reference to|departing|between|reference|than)\s*$"
-)
-_TO_BEFORE = re.compile(
-    r"\b(?:to|into|toward|towards|until|till|reaching|then|and then|and later|back to|before|earlier than|"
-    r"sooner than|when|by the time|arriving at|ending (?:at|in|with)|got to|moving to|going to)\s*$"
+# The words that give the view after them a role; the last of them between the previous mention and
+# this one counts ("compared with where it stood for shot one": shot one is the reference).
+_CUES = re.compile(
+    r"\b(?:(?P<to_first>earlier than|sooner than|before)|(?P<from_first>later than|after|since)|"
+    r"(?P<from>(?<!apart )(?<!aside )(?<!away )(?<!far )(?<!different )from|relative to|compared (?:with|to)|comparing|in comparison (?:with|to)|with respect to|"
+    r"in relation to|versus|vs|leaving|starting (?:at|from|with)|seen from|against|with reference to|"
+    r"departing|between|than|first came|first was|first there was|taken first)|"
+    r"(?P<to>back to|to|into|toward|towards|until|till|reaching|then|when|by the time|arriving at|"
+    r"ending (?:at|in|with)|got to|finally|lastly))\b"
 )
 _FROM_AFTER = re.compile(
-    r"^\s*(?:s\s+)?(?:(?:was|is|were)\s+)?(?:(?:taken|shot|captured|made|snapped)\s+)?(?:first|earlier|before)\b"
+    r"^\s*(?:s\s+)?(?:(?:was|is|were|came)\s+)?(?:(?:taken|shot|captured|made|snapped)\s+)?"
+    r"(?:first|earlier|before)\b"
 )
 _TO_AFTER = re.compile(
-    r"^\s*(?:s\s+)?(?:(?:was|is|were)\s+)?(?:(?:taken|shot|captured|made|snapped)\s+)?(?:after|later|afterwards|next|second)\b"
+    r"^\s*(?:s\s+)?(?:(?:was|is|were|came)\s+)?(?:(?:taken|shot|captured|made|snapped)\s+)?"
+    r"(?:after|later|afterwards|next|second|followed)\b|^\s*followed\b"
 )
-_SKIP_BEFORE = re.compile(r"(?:\s*\b(?:the|that of|that in|the one in|the one of|where|in)\b)+\s*$")
 
 
 class PairReading(BaseModel, frozen=True):
@@ -97,12 +99,17 @@ def _mentions(text: str, image_count: int | None) -> list[tuple[int, int, int | 
     return sorted(found)
 
 
-def _role(text: str, start: int, end: int) -> str | None:
-    before = _SKIP_BEFORE.sub("", text[:start])
+def _role(text: str, start: int, end: int, previous_end: int) -> str | None:
+    """ "from", "to" or None for the mention text[start:end], from the last cue before it (back to the
+    previous mention) or, failing that, the words right after it ("shot 3 was taken earlier")."""
+    cues = list(_CUES.finditer(text, previous_end, start))
+    if cues:
+        last = cues[-1]
+        return "to" if last.group("to_first") or last.group("to") else "from"
     after = text[end:]
-    if _FROM_BEFORE.search(before) or _FROM_AFTER.match(after):
+    if _FROM_AFTER.match(after):
         return "from"
-    if _TO_BEFORE.search(before) or _TO_AFTER.match(after):
+    if _TO_AFTER.match(after):
         return "to"
     return None
 
@@ -117,8 +124,10 @@ def read_pair(text: str, image_count: int | None = None, default_two: bool = Fal
     if image_count is not None and any(not 1 <= v <= image_count for v in views):
         return PairReading(view_set=views, doubt=f"it names a photo beyond the {image_count} given")
     roles: dict[int, set[str]] = {}
+    previous_end = 0
     for start, end, view in mentions:
-        role = _role(words, start, end)
+        role = _role(words, start, end, previous_end)
+        previous_end = end
         roles.setdefault(view, set())  # type: ignore[arg-type]
         if role:
             roles[view].add(role)  # type: ignore[index]
