@@ -246,6 +246,8 @@ def _judge(item: ParaphraseItem, answer: str | None, reason: str | None, tally: 
             counts["refused (must abstain)"] += 1
             named = re.search(REASON_WORDS[item.abstain], (reason or "").lower()) is not None
             counts["reason names it"] += named
+        else:  # the option that holds may still be one clear claim: right or wrong is worth knowing
+            counts["must abstain, answered " + ("right" if answer == item.answer else "wrong")] += 1
         return "must abstain: " + ("refused" if answer is None else f"answered {answer}")
     counts["questions"] += 1
     if answer is None:
@@ -292,11 +294,14 @@ def ask(
 def _print(split: str, tally: Tally, settings: list[str]) -> None:
     c = tally.counts
     cells = [c[k] for k in ("questions", "answered", "right", "wrong", "abstained", "answered, pair misread")]
-    cells += [c["must abstain"], c["refused (must abstain)"], c["reason names it"]]
+    answered = f"{c['must abstain, answered right']} / {c['must abstain, answered wrong']}"
+    cells += [c["must abstain"], c["refused (must abstain)"], c["reason names it"], answered]
     print(f"| {split} | all | " + " | ".join(map(str, cells)) + " |")
     for setting in settings:
         part = [c[f"{setting}: {v}"] for v in ("right", "wrong", "abstained")]
-        print(f"| {split} | {setting} | | {part[0] + part[1]} | {part[0]} | {part[1]} | {part[2]} | | | | |")
+        print(
+            f"| {split} | {setting} | | {part[0] + part[1]} | {part[0]} | {part[1]} | {part[2]} | | | | | |"
+        )
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -334,9 +339,9 @@ def main(argv: list[str] | None = None) -> None:
         }
     print(
         "\n| split | setting | questions | answered | right | wrong | abstained | "
-        "answered with pair misread | must abstain | refused | reason names it |"
+        "answered with pair misread | must abstain | refused | reason names it | answered right / wrong |"
     )
-    print("| --- | --- |" + " ---: |" * 9)
+    print("| --- | --- |" + " ---: |" * 10)
     for split, tally in tallies.items():
         _print(split, tally, settings)
     for split, tally in tallies.items():
