@@ -6,11 +6,11 @@ geometry writes for cameras built to move one way, exactly and over focal hypoth
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 from services.agent.answering import answer_offline
 from services.agent.claim_matching import match_sentence
+from services.agent.clue_check import clue_problem
 from shared.geometry.motion_determinacy import motion_over_focal
 from shared.questions.claims import Compound, Position, Rotation, Still, Target, Translation, Unread
 from shared.questions.intent import parse_question
@@ -171,7 +171,8 @@ def test_a_pair_that_reads_two_ways_is_not_guessed(text: str, count: int | None,
 
 def test_options_lead_whatever_the_stem_says() -> None:
     reading = read_question(
-        "Looking at photo 1 and photo 2, what about the camera? A. Rolled clockwise B. Rolled counterclockwise",
+        "Looking at photo 1 and photo 2, what about the camera? "
+        "A. Rolled clockwise B. Rolled counterclockwise",
         2,
     )
     assert reading.quantity == "rotation" and reading.views == (1, 2) and reading.options_lead
@@ -268,7 +269,10 @@ def test_an_undetermined_quantity_abstains_with_its_range_and_a_determined_one_a
 
 def test_a_position_question_is_answered_from_the_step_in_its_own_words() -> None:
     text = clue(pair(step_in_camera=(0.0, -0.25, 0.0)))  # camera y points down: -y is up
-    question = "Where was the second photo taken, relative to the first camera? A. Below it B. Above it C. To its left"
+    question = (
+        "Where was the second photo taken, relative to the first camera? "
+        + "A. Below it B. Above it C. To its left"
+    )
     result = answer_offline(parse_question(question, 2), text, [])
     assert result.answer == "B", result.reason
     assert "position of the second camera" in result.reasoning
@@ -281,3 +285,17 @@ def test_an_unread_option_stops_an_answer_the_others_do_not_decide() -> None:
     )
     result = match_sentence(reading, text)
     assert result.letter is None and "option C could not be read" in (result.reason or "")
+
+
+def test_an_uncertain_pair_never_blocks_a_program_it_only_stops_the_answer() -> None:
+    other_pair = "From view 2 to view 3 the camera moved right without turning significantly."
+    doubtful = parse_question(
+        "From image 1 to image 2 and from image 2 to image 3, how did I move? A. Left B. Right", 3
+    )
+    assert doubtful.reading is not None and not doubtful.reading.views_certain
+    assert clue_problem(doubtful, other_pair, [], 0) is None  # not sent back for repair
+    answer = answer_offline(doubtful, other_pair, [])
+    assert answer.answer is None and "two readings" in (answer.reason or "")
+    certain = parse_question("How did I move from image 1 to image 3? A. Left B. Right", 3)
+    problem = clue_problem(certain, other_pair, [], 0)
+    assert problem is not None and problem.kind == "wrong_view"  # a certain pair: the pointed hint

@@ -138,7 +138,10 @@ def test_a_rotation_question_in_other_words(stack) -> None:
 
 
 def test_a_pair_that_reads_two_ways_abstains_and_says_why(stack) -> None:
-    question = "From image 1 to image 2 and from image 2 to image 3, which way did the camera shift? A. Left B. Right"
+    question = (
+        "From image 1 to image 2 and from image 2 to image 3, which way did the camera shift? "
+        + "A. Left B. Right"
+    )
     result = _solve(stack.url, stack.scene_id, question)
     assert result["answer"] is None
     assert result["reading"]["abstain_reason"] and "two readings" in result["answer_reason"]
@@ -159,3 +162,18 @@ def test_a_model_program_is_answered_from_the_reading(stack, llm: ScriptedLLM) -
     assert result["program_source"] == "model", result
     assert result["answer"] == truth and result["answer_method"] == "offline_text", result["answer_reason"]
     assert result["reading"]["quantity"] == "translation" and result["reading"]["views"] == [1, 2]
+
+
+def test_an_abstention_on_a_model_program_is_not_handed_to_a_text_model(stack, llm: ScriptedLLM) -> None:
+    """The pair reads two ways: the reading abstains, and the code model is not asked to guess."""
+    question = "From image 1 to image 2 and from image 2 to image 3, which way did it shift? A. Left B. Right"
+    program = (
+        "```python\ndef program(input_scene):\n    recon = pySpatial.reconstruct(input_scene)\n"
+        "    return pySpatial.describe_camera_motion(recon, 1, 2)\n```"
+    )
+    llm.reset()
+    llm.script([program, '{"reasoning": "a guess", "answer": "A"}'], model="coder")
+    result = _solve(stack.model_url, stack.scene_id, question)
+    assert result["program_source"] == "model" and result["answer"] is None
+    assert "two readings" in result["answer_reason"]
+    assert len(llm.requests()) == 1  # the program only: no answer was asked of the text model

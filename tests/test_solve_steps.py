@@ -18,6 +18,7 @@ import pytest
 from services.agent.progress import StageReporter
 from services.agent.steps import SolveLog, StepCallbacks
 from shared.local.services import ServiceProcess, running_service
+from shared.questions.reading import read_question
 from shared.wire import schemas
 from shared.wire.client import AgentClient
 from shared.wire.schemas import SolveResponse, StageEvent
@@ -29,6 +30,8 @@ RECORDED_ON = "e45e93a"
 MOTION_QUESTION = (
     "Which way did the camera move from view 1 to view 2? A. left B. right C. forward D. backward"
 )
+# Since issue 34 the answer's stage event repeats how a camera question was read.
+MOTION_READ = f" ({read_question(MOTION_QUESTION, 3).summary})"
 SHAPE_ERROR_REPLY = """```python
 def program(input_scene):
     recon = pySpatial.reconstruct(input_scene)
@@ -76,7 +79,7 @@ OFFLINE_PLANNER_EVENTS = [
     ("program", "done", "attempt 1 written"),
     ("execution", "started", "running attempt 1 in the sandbox"),
     ("execution", "done", "attempt 1 ran"),
-    ("answer", "started", "answering with offline-answerer"),
+    ("answer", "started", "answering with offline-answerer" + MOTION_READ),
     ("answer", "done", "B"),
 ]
 REPAIRED_EVENTS = [
@@ -89,7 +92,7 @@ REPAIRED_EVENTS = [
     ("program", "done", "attempt 2 written"),
     ("execution", "started", "running attempt 2 in the sandbox"),
     ("execution", "done", "attempt 2 ran"),
-    ("answer", "started", "answering with answerer"),
+    ("answer", "started", "answering with answerer" + MOTION_READ),
     ("answer", "done", "B"),
 ]
 UNPLANNABLE = (
@@ -119,7 +122,7 @@ PLANNER_FALLBACK_EVENTS = [
     ("program", "done", "attempt 2 written by the offline planner (fallback)"),
     ("execution", "started", "running attempt 2 in the sandbox"),
     ("execution", "done", "attempt 2 ran"),
-    ("answer", "started", "answering with answerer"),
+    ("answer", "started", "answering with answerer" + MOTION_READ),
     ("answer", "done", "B"),
 ]
 CANNOT_RECONSTRUCT = (
@@ -150,7 +153,7 @@ NO_PROGRAM_FIRST_EVENTS = [
     ("program", "done", "attempt 1 written"),
     ("execution", "started", "running attempt 1 in the sandbox"),
     ("execution", "done", "attempt 1 ran"),
-    ("answer", "started", "answering with answerer"),
+    ("answer", "started", "answering with answerer" + MOTION_READ),
     ("answer", "done", "B"),
 ]
 OCCLUSION_QUESTION = (
@@ -340,7 +343,10 @@ def test_a_repair_is_announced_only_when_the_model_is_asked_again(stack, llm):
     assert len(model_starts) == 1
     # The model's attempts ran out: the planner's program (labelled) gave the clue the answerer read.
     assert ("program", "done", "attempt 2 written by the offline planner (fallback)") in events
-    assert events[-2:] == [("answer", "started", "answering with answerer"), ("answer", "done", "B")]
+    assert events[-2:] == [
+        ("answer", "started", "answering with answerer" + MOTION_READ),
+        ("answer", "done", "B"),
+    ]
     assert result.program_source == "planner"
     assert replayed(result) == events
 

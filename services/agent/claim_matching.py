@@ -28,7 +28,7 @@ from services.agent.motion_clue import (
     motion_statements,
 )
 from shared.questions.choices import DIRECTIONS
-from shared.questions.claims import Unread, as_motion_reading
+from shared.questions.claims import Unread, as_motion_reading, is_read
 from shared.questions.intent import QuestionIntent
 from shared.questions.motion_words import AskedMotion, MotionReading, agrees
 from shared.questions.reading import QuestionReading, read_question
@@ -56,6 +56,15 @@ def question_reading(intent: QuestionIntent) -> QuestionReading:
     """The reading made when the question was parsed (read again from its text only for an intent
     built by hand)."""
     return intent.reading or read_question(intent.text)
+
+
+def read_by_claims(intent: QuestionIntent, clue_text: str | None) -> bool:
+    """Whether the offline answer to this question is the claims' match: a camera question with
+    options read as claims, whose clue holds a camera-motion sentence (its abstention then stands;
+    no text model is asked). Options the lexicon reads none of ("toward the door") are left to one."""
+    reading = question_reading(intent)
+    read = any(is_read(claim) for claim in reading.options.values())
+    return reading.is_camera and read and bool(motion_statements(clue_text or ""))
 
 
 def pick_pair_statement(
@@ -173,4 +182,11 @@ def _nearest(claims: dict[str, MotionReading], variant: Hypothetical) -> tuple[t
     return tuple(entry[3] for entry in scored if entry[:3] == best), best[0]
 
 
-__all__ = ["ClaimMatch", "match_claims", "match_sentence", "pick_pair_statement", "question_reading"]
+__all__ = [
+    "ClaimMatch",
+    "match_claims",
+    "match_sentence",
+    "pick_pair_statement",
+    "question_reading",
+    "read_by_claims",
+]

@@ -18,6 +18,7 @@ import re
 from typing import Literal
 
 from services.agent.answer_result import AnswerResult, json_object, no_answer
+from services.agent.claim_matching import pick_pair_statement, question_reading
 from services.agent.motion_clue import (
     NO_GRAVITY_OVER_FOCAL,
     UNDETERMINED,
@@ -26,7 +27,6 @@ from services.agent.motion_clue import (
     hypothetical_readings,
     motion_statements,
     not_a_motion_question,
-    pick_statement,
     step_size,
     unreadable_clue,
 )
@@ -86,10 +86,11 @@ def answer_offline(intent: QuestionIntent, clue_text: str | None, clue_images: l
     statements = motion_statements(text) if text else []
     if not statements:
         return no_answer(unreadable_clue(text, clue_images))
-    why = not_a_motion_question(intent)
+    reading = question_reading(intent)
+    why = not_a_motion_question(intent, reading)
     if why is not None:
         return no_answer(why)
-    statement, why = pick_statement(intent, statements)
+    statement, why = pick_pair_statement(reading, statements)
     if statement is None:
         return no_answer(why)
     if statement.over_focal is not None:

@@ -260,22 +260,6 @@ def step_size(clause: str) -> str | None:
     return f"{found.group(1)} {found.group(2)}" if found else None
 
 
-def pick_statement(
-    intent: QuestionIntent, statements: list[MotionStatement]
-) -> tuple[MotionStatement | None, str]:
-    """The statement about the pair the question asks for (from its parsed intent), or None and why."""
-    named = len(intent.mentioned_views) >= 2
-    if intent.motion_pair is not None and (named or len(statements) > 1):
-        for statement in statements:
-            if statement.pair == intent.motion_pair:
-                return statement, ""
-        first, second = intent.motion_pair
-        return None, f"the program's output has no sentence about view {first} to view {second}"
-    if len(statements) == 1:
-        return statements[0], ""
-    return None, "the question does not say which pair of views it asks about"
-
-
 def not_a_motion_question(intent: QuestionIntent, reading: QuestionReading | None = None) -> str | None:
     """Why a motion sentence cannot answer this question (None when it can): a camera reading (or a
     self-movement question) can, whatever else the old families would have named."""
@@ -424,6 +408,5 @@ __all__ = [
     "unreadable_clue",
     "motion_statements",
     "not_a_motion_question",
-    "pick_statement",
     "step_size",
 ]

@@ -125,6 +125,7 @@ class Unread(_Claim, frozen=True):
 
     kind: Literal["unread"] = "unread"
     why: str = "no word of it is in the motion lexicon"
+    two_claims: bool = False  # it says two things at once ("left or back", "left and right")
 
     @property
     def words(self) -> str:

@@ -51,22 +51,26 @@ class Sense:
 _STEP = "step"
 _ROWS: tuple[tuple[str, Sense], ...] = (
     # ---- still: no motion at all (before the verbs, so "did not move" is read whole)
-    (r"(?:held|kept|keep|keeps|maintained|kept to|stayed at) (?:its|the same|the) (?:position|place|pose|spot|location)"
+    (r"(?:held|kept|keep|keeps|maintained|kept to|stayed at) (?:its|the same|the) (?:position|place|"
+     r"pose|spot|location)"
      r"(?: and (?:its )?(?:aim|orientation|heading|direction|angle))?", Sense("still")),
     (r"(?:stay|stayed|stays|staying|kept|keep|stood|stand|held|hold|remained|remain|remains)\s+"
      r"(?:completely\s+|perfectly\s+)?(?:still|put|stationary|motionless|fixed|steady|in place|where it was|"
      r"at the same (?:spot|place|position|point|location))", Sense("still")),
-    (r"(?:did not|didn t|does not|doesn t|never)\s+(?:move|budge|change position|shift)\b(?!\s+(?:left|right|up|down|forward|back))",
+    (r"(?:did not|didn t|does not|doesn t|never)\s+(?:move|budge|change position|"
+     r"shift)\b(?!\s+(?:left|right|up|down|forward|back))",
      Sense("still")),
     (r"neither moved nor (?:turned|rotated)|no (?:camera )?(?:motion|movement|change)(?: at all)?|not moving|"
-     r"stationary|motionless|unmoved|static|unchanged|(?:the )?same (?:position|place|spot|location|pose|point|viewpoint)|"
+     r"stationary|motionless|unmoved|static|unchanged|(?:the )?same (?:position|place|spot|location|"
+     r"pose|point|viewpoint)|"
      r"in place|did not budge|no displacement", Sense("still")),
     # ---- negation of the next verb
     (r"did not|didn t|does not|doesn t|not|without|no|never|neither|nor|zero", Sense("not")),
     # ---- two claims offered as one ("backward or to the left"): the option says two things
     (r"or|either", Sense("or")),
     # ---- the camera's orientation as a noun: "its aim rose", "the heading swung left"
-    (r"(?:its|the|camera s|the camera s) (?:aim|heading|gaze|line of sight|view(?:ing)? direction|orientation|"
+    (r"(?:its|the|camera s|the camera s) (?:aim|heading|gaze|line of sight|view(?:ing)? direction|"
+     r"orientation|"
      r"pointing direction|optical axis)", Sense("aimnoun")),
     (r"(?:about|around|round|along|on) (?:its |the )?(?:lens s |lens |optical |viewing |view |forward )?axis",
      Sense("axis", "roll")),
@@ -74,48 +78,67 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"(?:rotat\w*|turn\w*|spun|spin\w*|twist\w*)\s+(?:about|around|round|on)\s+(?:its\s+|the\s+)?"
      r"(?:lens|optical|viewing|view|camera s|line of sight|forward)\s*(?:axis)?", Sense("roll")),
     (r"roll\w*|spin\w*|spun|cant\w*|bank\w*|twist\w*|barrel roll", Sense("roll")),
-    (r"counter clockwise|counterclockwise|anticlockwise|anti clockwise|ccw", Sense("sense", "counterclockwise")),
+    (r"counter clockwise|counterclockwise|anticlockwise|anti clockwise|"
+     r"ccw", Sense("sense", "counterclockwise")),
     (r"clockwise|cw", Sense("sense", "clockwise")),
     # ---- rotation
-    (r"tilt\w*|pitch\w*|nod\w*|cran\w*|tip(?:s|ped|ping)?|angl(?:e|ed|es|ing)(?: the (?:view|camera|shot|lens))?",
+    (r"tilt\w*|pitch\w*|nod\w*|cran\w*|tip(?:s|ped|ping)?|angl(?:e|ed|es|ing)(?: the (?:view|camera|"
+     r"shot|lens))?",
      Sense("pitch")),
     (r"yaw\w*|veer\w*|pan(?:s|ned|ning)?|swivel\w*|swung|swing\w*|pivot\w*|look(?:ed|s|ing)? aside",
      Sense("yaw")),
-    (r"u turn|about face|about turn|turn(?:ed|s|ing)? (?:a|the) other way|face(?:d)? the opposite (?:way|direction)",
+    (r"u turn|about face|about turn|turn(?:ed|s|ing)? (?:a|the) other way|"
+     r"face(?:d)? the opposite (?:way|direction)",
      Sense("aim", "around")),
     (r"turn\w*|rotat\w*|point\w*|aim\w*|fac(?:e|ed|es|ing)|orient\w*|look\w*|gaz\w*|view direction|"
      r"direction (?:it|the camera) (?:faces|faced|points|pointed)|heading", Sense("aim")),
     # ---- position of one camera relative to another
     (r"locat\w*|position\w*|plac(?:e|ed)|situat\w*|lies|lay|lying|sits|sat|stands|stood|"
      r"(?:was |were |is )?taken from|shot from|captured from|set up", Sense("place")),
+    # ---- a step toward an edge of the photo: the frame's own directions
+    (r"(?:toward|towards|to) (?:the )?(?:frame|image|picture|photo|view)(?: s)? (?:upper|"
+     r"top) edge", Sense(_STEP, "up")),
+    (r"(?:toward|towards|to) (?:the )?(?:frame|image|picture|photo|view)(?: s)? (?:lower|bottom) edge",
+     Sense(_STEP, "down")),
+    (r"(?:toward|towards|to) (?:the )?(?:frame|image|picture|photo|"
+     r"view)(?: s)? left edge", Sense(_STEP, "left")),
+    (r"(?:toward|towards|to) (?:the )?(?:frame|image|picture|photo|"
+     r"view)(?: s)? right edge", Sense(_STEP, "right")),
     # ---- translation verbs that carry their way
     (r"sidestep\w*|strafe\w*|truck(?:ed|ing)?|crab(?:bed|bing)?", Sense(_STEP)),
     (r"climb\w*|ascen\w*|rose|ris(?:e|en|es|ing)|rais\w*|lift\w*|elevat\w*|gain(?:ed|s|ing)? height|"
-     r"at a (?:greater|higher) (?:height|elevation|level)|(?:from|at) a higher|higher up|pedestal(?:ed)? up|boom(?:ed)? up",
+     r"at a (?:greater|higher) (?:height|elevation|level)|(?:from|at) a higher|higher up|"
+     r"pedestal(?:ed)? up|boom(?:ed)? up",
      Sense(_STEP, "up")),
     (r"descen\w*|sank|sink\w*|sunk|dropp?\w*|lower(?:ed|ing|s)|los(?:t|es|ing) height|"
-     r"at a lower (?:height|elevation|level)|(?:from|at) a lower|lower down|pedestal(?:ed)? down|boom(?:ed)? down",
+     r"at a lower (?:height|elevation|level)|(?:from|at) a lower|lower down|pedestal(?:ed)? down|"
+     r"boom(?:ed)? down",
      Sense(_STEP, "down")),
     (r"advanc\w*|proceed\w*|approach\w*|push(?:ed|es|ing)? in|dolly(?:ing)? in|dollied in|zoom(?:ed)? in|"
      r"clos(?:er|ed in)|nearer|deeper into|came in", Sense(_STEP, "forward")),
     (r"withdr\w*|retreat\w*|reced\w*|back(?:ed|s|ing)? (?:up|off|away|out)|step(?:ped|s|ping)? back|"
-     r"pull(?:ed|s|ing)? (?:back|out|away)|dolly(?:ing)? out|dollied out|zoom(?:ed)? out|farther|further away|"
+     r"pull(?:ed|s|ing)? (?:back|out|away)|dolly(?:ing)? out|dollied out|zoom(?:ed)? out|farther|"
+     r"further away|"
      r"further back|away from", Sense(_STEP, "backward")),
-    (r"sideways|sidewise|laterally|shift\w*|slid\w*|translat\w*|displac\w*|relocat\w*|reposition\w*|glid\w*|drift\w*|step\w*|walk\w*|"
+    (r"sideways|sidewise|laterally|shift\w*|slid\w*|translat\w*|displac\w*|relocat\w*|reposition\w*|"
+     r"glid\w*|drift\w*|step\w*|walk\w*|"
      r"dolly|dollied|carr(?:y|ied)|travel\w*|head(?:ed|ing)? (?=left|right|up|down|forward|back)",
      Sense(_STEP)),
     (r"mov\w*|motion|went|go(?:es|ing|ne)?|came|come|got", Sense("weak")),
     (r"chang\w*|differ\w*|happen\w*", Sense("weak", "any")),
     # ---- directions
-    (r"(?:to |toward |towards |on |at )?(?:the |its |their |his |her |your |my )?left(?:ward|wards)?(?: hand)?(?: side| edge)?",
+    (r"(?:to |toward |towards |on |at )?(?:the |its |their |his |her |your |my )?left(?:ward|"
+     r"wards)?(?: hand)?(?: side| edge)?",
      Sense("way", "left")),
-    (r"(?:to |toward |towards |on |at )?(?:the |its |their |his |her |your |my )?right(?:ward|wards)?(?: hand)?(?: side| edge)?",
+    (r"(?:to |toward |towards |on |at )?(?:the |its |their |his |her |your |my )?right(?:ward|"
+     r"wards)?(?: hand)?(?: side| edge)?",
      Sense("way", "right")),
     (r"up(?:ward|wards)?|upper|above|higher|top|overhead|skyward|toward the ceiling|taller|over",
      Sense("way", "up")),
     (r"down(?:ward|wards)?|below|beneath|under(?:neath)?|lower|bottom|toward the (?:floor|ground)",
      Sense("way", "down")),
-    (r"forwards?|forth|ahead|in front|front|frontward|onward|towards? the (?:scene|subject)|into the scene|inward",
+    (r"forwards?|forth|ahead|in front|front|frontward|onward|towards? the (?:scene|subject)|"
+     r"into the scene|inward",
      Sense("way", "forward")),
     (r"backwards?|back|behind|rear(?:ward)?|reverse|away|outward", Sense("way", "backward")),
     (r"around|round", Sense("way", "around")),
@@ -133,7 +156,8 @@ _FILLER = frozenset(
     "significantly noticeably mostly mainly primarily purely only just also both direction directions "
     "which way what how relative compared first second image photo picture frame shot snapshot one "
     "so that this that side edge s degrees degree deg slight small large big far much more bit "
-    "diagonally diagonal straight directly scene subject objects object photographed place point spot location "
+    "diagonally diagonal straight directly scene subject objects object photographed place point spot "
+    "location "
     "position height level reference off out original initial previous other ones earlier later".split()
 )
 
@@ -312,7 +336,7 @@ def _part_claim(part: _Part, degrees: float | None, source: str) -> Claim:
     ways = [w for w in dict.fromkeys(part.ways) if w != "around"]
     conflict = _conflict(ways)
     if conflict:
-        return Unread(source=source, why=conflict)
+        return Unread(source=source, why=conflict, two_claims=True)
     if not ways:
         return Unread(source=source, why="a motion with no direction")
     typed: tuple[Way, ...] = tuple(ways)  # type: ignore[assignment]
@@ -344,7 +368,7 @@ def read_phrase(text: str) -> Claim:
     if not found:
         return Unread(source=text)
     if any(token.sense.kind == "or" for token in found):
-        return Unread(source=text, why="it offers two claims joined by 'or'")
+        return Unread(source=text, why="it offers two claims joined by 'or'", two_claims=True)
     stated = _DEGREES.search(words)
     degrees = float(stated.group(1)) if stated else None
     claims = [_part_claim(part, degrees, " ".join(part.words)) for part in _parts(found)]

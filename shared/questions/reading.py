@@ -32,7 +32,6 @@ from shared.questions.choices import split_options
 from shared.questions.claims import (
     Bare,
     Claim,
-    Rotation,
     Unread,
     claim_kinds,
     is_read,
@@ -88,20 +87,26 @@ class QuestionReading(BaseModel, frozen=True):
 
 _APART_FROM = re.compile(
     r"\b(?:apart from|aside from|besides|other than|except for|ignoring|setting aside|leaving aside|"
-    r"not counting|regardless of)\s+(?:any\s+|the\s+|its\s+)?(?P<what>\w+(?:\s+\w+)?)"
+    r"not counting|regardless of|without counting|excluding|disregarding)\s+(?P<what>[^,?;.]+)",
+    re.IGNORECASE,
 )
 _NOUNS = r"(?:images?|photos?|pictures?|views?|frames?|shots?|snapshots?)"
+# "where" that asks ("Where was photo 2 taken?"), not one that builds the pair ("from where photo 1
+# was taken to where photo 2 was taken").
+_WHERE = r"(?<!\bfrom )(?<!\bto )(?<!\bthan )(?<!\bwith )(?<!\bof )(?<!\bat )(?<!\band )\bwhere\b"
 _POSITION_ASK = re.compile(
-    r"\bwhere\b[^?]*\b(?:taken|shot|captured|located|positioned|placed|situated|stand|stands|stood|standing|"
+    rf"{_WHERE}[^?]*\b(?:taken|shot|captured|located|positioned|placed|situated|stand|stands|stood|standing|"
     r"sit|sits|sat|was the camera|is the camera|were the cameras|camera)\b|"
     r"\b(?:shooting|camera|capture|capturing|vantage|taking) (?:position|point|location|spot|place)\b|"
     r"\bposition(?:al)? (?:of|relationship)\b|\brelative (?:position|location|placement)\b|"
-    rf"\bwhere (?:is|was|are|were) (?:the )?{_NOUNS} \w+\b|"
+    rf"{_WHERE} (?:is|was|are|were) (?:the )?{_NOUNS} \w+\b|"
     r"\bwhich side of\b|\bin which direction (?:is|was|lies|lay)\b"
 )
 _OBJECT_ASK = re.compile(
     r"\b(?:what|which (?:object|item|thing))\s+(?:is|was|would be|will be|lies|appears)\b|"
-    r"\bwhere (?:is|was|are) (?:the|a|an) (?!camera|photographer|shooter|viewer|second|first|third|last|"
+    r"\bwhere (?:is|was|are) (?:the|a|an) (?!camera|photographer|shooter|viewer|second|first|third|"
+    r"fourth|fifth|"
+    r"last|final|initial|latter|former|next|previous|other|earlier|later|\d|"
     r"shooting|position|viewpoint|vantage|location|spot|place|capture|image|photo|picture|view|frame|shot|"
     r"snapshot)\w+"
 )
@@ -110,7 +115,26 @@ _ROTATION_WORDS = re.compile(
 )
 # A note on conventions ("Clockwise is as seen looking along the lens.") is not what is asked.
 _PARENTHESES = re.compile(r"\([^)]*\)")
-_SENTENCE = re.compile(r"(?<=[.!?;:])\s+")
+_SENTENCE = re.compile(r"(?<=[.!?;:])\s+(?=[A-Z])")
+# A note on whose directions are meant ("Directions are as the photographer saw them when taking the
+# last picture."): it names a view for the frame, not for the pair.
+_FRAME_NOTE = re.compile(
+    r"\b(?:directions?|axes|left and right|up and down|as (?:the photographer|the camera|seen)|"
+    r"frame of reference|reference frame|coordinates?|sense of rotation|clockwise|counterclockwise|"
+    r"counter-clockwise|anticlockwise|judged|counted)\b",
+    re.IGNORECASE,
+)
+
+
+def _pair(ask: str, image_count: int | None, camera: bool) -> PairReading:
+    """The pair from the asking sentences; when they name none, from the setup sentences (notes on
+    the frame left out): "First came shot 2; shot 4 followed. Where did the camera go?"."""
+    asking = read_pair(asking_sentences(ask), image_count, default_two=False)
+    if asking.views is not None or asking.doubt is not None:
+        return asking
+    sentences = [s for s in _SENTENCE.split(_PARENTHESES.sub(" ", ask)) if s.strip()]
+    setup = " ".join(s for s in sentences if "?" in s or not _FRAME_NOTE.search(s))
+    return read_pair(setup, image_count, default_two=camera)
 
 
 def asking_sentences(ask: str) -> str:
@@ -120,18 +144,31 @@ def asking_sentences(ask: str) -> str:
     return " ".join(asking or sentences[-1:])
 
 
+_ROTATING = ("aim", "aimnoun", "yaw", "pitch", "roll")
+_PLACE_NOUN = re.compile(
+    r"\b(?:location|position|spot|(?<!\btook )(?<!\btake )(?<!\btakes )(?<!\btaking )place|"
+    r"whereabouts|standpoint)\b"
+)
+
+
 def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
     """(quantity, strong, the words): strong when a word of one kind says it ("tilt"), weak for
     the everyday verbs ("move"), None when nothing does."""
-    words = normalized(ask)
-    excluded = {m.group("what") for m in _APART_FROM.finditer(words)}
-    for what in excluded:
-        words = words.replace(what, " ")
-    position = _POSITION_ASK.search(words)
-    if position and not _ROTATION_WORDS.search(words):
-        return "position", True, position.group()
+    words = normalized(_APART_FROM.sub(" ", ask))
+    # "Not counting rotation, where did it go?": what is set aside is not asked, so the rest is
+    excluded = {s.kind for m in _APART_FROM.finditer(ask) for s in stem_senses(m.group("what"))}
     kinds = [s.kind for s in stem_senses(words)]
-    rotation = any(k in ("aim", "yaw", "pitch", "roll") for k in kinds)
+    if not any(k in _ROTATING for k in kinds) and excluded & set(_ROTATING):
+        return "translation", True, words
+    if not any(k in ("step", "weak") for k in kinds) and excluded & {"step", "weak", "place"}:
+        return "rotation", True, words
+    stepping = any(s.kind in ("step", "weak") for s in stem_senses(words))  # "shift", "go", "change"
+    position = _POSITION_ASK.search(words)
+    if position and not _ROTATION_WORDS.search(words) and not stepping:
+        return "position", True, position.group()
+    if stepping and _PLACE_NOUN.search(words) and not any(k in _ROTATING for k in kinds):
+        return "translation", True, words  # "the camera's location changed": a step, however said
+    rotation = any(k in _ROTATING for k in kinds)
     translation = any(k == "step" for k in kinds)
     if rotation and translation:
         return "motion", True, words
@@ -189,6 +226,9 @@ def _quantity(ask: str, options: dict[str, Claim]) -> tuple[Quantity, bool, str,
                 stem_words,
                 f"the stem asks about {stem} but some options state {', '.join(sorted(moving))}",
             )
+        if moving and not strong:  # "what movement took place?" with turns read: the options say
+            of_read: Quantity = moving.pop() if len(moving) == 1 else "motion"  # type: ignore[assignment]
+            return of_read, not _has_bare(options), "the options", None
         return stem, strong or not _has_bare(options), stem_words, None
     if moving:
         return ("motion" if len(moving) > 1 else moving.pop()), True, "the options", None  # type: ignore[return-value]
@@ -209,12 +249,14 @@ _ROOM = re.compile(
 )
 _VIEW_AXES = re.compile(
     r"\b(?:in|from|using|relative to|with respect to|according to|as seen (?:in|from))\s+(?:the\s+)?"
-    r"(?P<view>[\w ]{1,25}?)\s*(?:s\s+)?(?:own\s+)?(?:axes|directions|coordinates|coordinate (?:frame|system)|"
+    r"(?P<view>[\w ]{1,25}?)\s*(?:s\s+)?(?:own\s+)?(?:axes|directions|coordinates|"
+    r"coordinate (?:frame|system)|"
     r"frame of reference|reference frame|orientation|point of view|viewpoint|perspective|side)\b"
 )
 _SHOOTER = re.compile(r"\b(?:shooter|photographer|camera operator|camera person|viewer|camera)\b")
 _OBJECT_FRAME = re.compile(
-    r"\b(?:facing|from|at) the (?P<object>(?!camera|photographer|shooter|viewer)\w+)\s+(?:s\s+)?(?:perspective|point of view|position)\b"
+    r"\b(?:facing|from|at) the (?P<object>(?!camera|photographer|shooter|"
+    r"viewer)\w+)\s+(?:s\s+)?(?:perspective|point of view|position)\b"
 )
 
 
@@ -252,6 +294,8 @@ _QUANTITY_WORDS = {
 
 def _summary(quantity: Quantity, pair: PairReading, frame: FrameReading | None) -> str:
     said = f"read as: {_QUANTITY_WORDS[quantity]}"
+    if quantity not in CAMERA_QUANTITIES:
+        return said
     if pair.views is not None:
         said += f" from image {pair.views[0]} to image {pair.views[1]}"
     if frame is not None and frame.kind == "view_axes" and frame.view is not None:
@@ -275,6 +319,9 @@ def _abstain(
         return "the question does not say which two photos it compares"
     if quantity_doubt is not None:
         return quantity_doubt
+    double = [letter for letter, claim in options.items() if isinstance(claim, Unread) and claim.two_claims]
+    if double:
+        return f"option {', '.join(double)} reads as two claims"
     bare = [letter for letter, claim in options.items() if isinstance(claim, Bare)]
     if bare:
         return (
@@ -284,7 +331,16 @@ def _abstain(
     return None
 
 
-def _with_roll_senses(options: dict[str, Claim], quantity: Quantity) -> dict[str, Claim]:
+def _bare_sense(quantity: Quantity, ask: str) -> Quantity:
+    """What a bare direction means: the quantity asked, or in a question about any motion the
+    stem's verb ("how did it move? Forward" is a step)."""
+    if quantity != "motion":
+        return quantity
+    stem, _, _ = _stem_quantity(asking_sentences(ask))
+    return stem if stem in ("translation", "rotation", "position") else quantity
+
+
+def _with_bare_resolved(options: dict[str, Claim], quantity: Quantity) -> dict[str, Claim]:
     return {letter: resolve_bare(claim, quantity) for letter, claim in options.items()}
 
 
@@ -297,8 +353,8 @@ def read_question(text: str, image_count: int | None = None) -> QuestionReading:
     hypothetical = bool(_WHAT_IF.search(normalized(asking_sentences(ask))))
     if quantity not in CAMERA_QUANTITIES or hypothetical or (not _lead(options) and not _is_camera_ask(ask)):
         quantity = "object_relation" if _OBJECT_ASK.search(normalized(ask)) else "other"
-    options = _with_roll_senses(options, quantity)
-    pair = read_pair(ask, image_count, default_two=quantity in CAMERA_QUANTITIES)
+    options = _with_bare_resolved(options, _bare_sense(quantity, ask))
+    pair = _pair(ask, image_count, camera=quantity in CAMERA_QUANTITIES)
     frame, frame_source, frame_certain = _frame(ask, pair.views, image_count)
     return QuestionReading(
         text=(text or "").strip(),
@@ -334,7 +390,8 @@ _CAMERA_ASK = re.compile(
 # the scene, not the motion between two photos.
 _WHAT_IF = re.compile(
     r"\b(?:if (?:you|i|we|the camera)|suppose|supposing|imagine|were to|will (?:you|i|we) (?:be|get|see|end)|"
-    r"would (?:you|i|we)|after (?:you|i|we) (?:turn|walk|move|step|rotate)|(?:^|, )(?:then )?(?:turn|walk|move) )"
+    r"would (?:you|i|we)|after (?:you|i|we) (?:turn|walk|move|step|rotate)|(?:^|"
+    r", )(?:then )?(?:turn|walk|move) )"
 )
 
 
@@ -357,18 +414,11 @@ def _ask(stem: str) -> str:
     return stem[opening.end() :] if opening else stem
 
 
-def option_claim_words(claim: Claim) -> str:
-    """A claim in short words, for summaries and reasons."""
-    return claim.words
-
-
 __all__ = [
     "CAMERA_QUANTITIES",
     "FrameReading",
     "Quantity",
     "QuestionReading",
-    "Rotation",
-    "Unread",
-    "option_claim_words",
+    "asking_sentences",
     "read_question",
 ]

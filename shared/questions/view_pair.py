@@ -24,7 +24,10 @@ from pydantic import BaseModel
 
 from shared.questions.lexicon import normalized
 
-_NOUN = r"(?:images?|views?|pictures?|photos?|photographs?|frames?|shots?|snapshots?|viewpoints?|cameras?|pics?|imgs?)"
+_NOUN = (
+    r"(?:images?|views?|pictures?|photos?|photographs?|frames?|shots?|snapshots?|viewpoints?|"
+    r"cameras?|pics?|imgs?)"
+)
 _NUMBER_WORDS = {
     "one": 1, "two": 2, "three": 3, "four": 4, "five": 5,
     "six": 6, "seven": 7, "eight": 8, "nine": 9, "ten": 10,
@@ -37,11 +40,16 @@ _ORDINAL_WORDS = {
 _NUM = r"(?:\d+|" + "|".join(_NUMBER_WORDS) + r")"
 _ORD = r"(?:" + "|".join(_ORDINAL_WORDS) + r"|\d+(?:st|nd|rd|th))"
 _NUMBERED = re.compile(
-    rf"\b{_NOUN}\s*(?:number\s+|no\s+|#\s*)?(?P<n>{_NUM})\b(?P<more>(?:(?:\s*(?:and|to|through|or|vs|versus)\s*|\s+){_NUM}\b)*)"
+    rf"\b{_NOUN}\s*(?:number\s+|no\s+|#\s*)?(?P<n>{_NUM})\b(?P<more>(?:(?:\s*(?:and|to|through|or|"
+    rf"vs|versus)\s*|\s+){_NUM}\b)*)"
 )
-_ORDINAL_NOUN = re.compile(rf"\b(?P<o>{_ORD})\s+(?:(?:[a-z]+)\s+)?(?:{_NOUN}|one)\b")
+_ADJECTIVE = (
+    r"(?:captured|taken|input|given|original|camera|photographed|still|video|key|shown|reference|numbered)"
+)
+_ORDINAL_NOUN = re.compile(rf"\b(?P<o>{_ORD})\s+(?:{_ADJECTIVE}\s+)?(?:{_NOUN}|one)\b")
 _BARE_ORDINAL = re.compile(
-    rf"\bthe\s+(?P<o>{_ORD})\b(?!\s+(?:[a-z]+\s+)?(?:{_NOUN}|one)\b)(?=\s*(?:$|and|to|[a-z]+ (?:was|is)|[?,.]|\b))"
+    rf"\bthe\s+(?P<o>{_ORD})\b(?!\s+(?:{_ADJECTIVE}\s+)?(?:{_NOUN}|one)\b)(?=\s*(?:$|and|to|"
+    rf"[a-z]+ (?:was|is)|[?,.]|\b))"
 )
 _OTHER = re.compile(rf"\bthe other\s+(?:{_NOUN}|one)\b")
 
@@ -49,7 +57,8 @@ _OTHER = re.compile(rf"\bthe other\s+(?:{_NOUN}|one)\b")
 # this one counts ("compared with where it stood for shot one": shot one is the reference).
 _CUES = re.compile(
     r"\b(?:(?P<to_first>earlier than|sooner than|before)|(?P<from_first>later than|after|since)|"
-    r"(?P<from>(?<!apart )(?<!aside )(?<!away )(?<!far )(?<!different )from|relative to|compared (?:with|to)|comparing|in comparison (?:with|to)|with respect to|"
+    r"(?P<from>(?<!apart )(?<!aside )(?<!away )(?<!far )(?<!different )from|relative to|"
+    r"compared (?:with|to)|comparing|in comparison (?:with|to)|with respect to|"
     r"in relation to|versus|vs|leaving|starting (?:at|from|with)|seen from|against|with reference to|"
     r"departing|between|than|first came|first was|first there was|taken first)|"
     r"(?P<to>back to|to|into|toward|towards|until|till|reaching|then|when|by the time|arriving at|"
@@ -63,6 +72,9 @@ _TO_AFTER = re.compile(
     r"^\s*(?:s\s+)?(?:(?:was|is|were|came)\s+)?(?:(?:taken|shot|captured|made|snapped)\s+)?"
     r"(?:after|later|afterwards|next|second|followed)\b|^\s*followed\b"
 )
+
+
+_SENTENCES = re.compile(r"(?<=[.!?;])\s+(?=[A-Z])|;\s*")
 
 
 class PairReading(BaseModel, frozen=True):
@@ -102,6 +114,7 @@ def _mentions(text: str, image_count: int | None) -> list[tuple[int, int, int | 
 def _role(text: str, start: int, end: int, previous_end: int) -> str | None:
     """ "from", "to" or None for the mention text[start:end], from the last cue before it (back to the
     previous mention) or, failing that, the words right after it ("shot 3 was taken earlier")."""
+    previous_end = max(previous_end, text.rfind(" . ", 0, start) + 1)
     cues = list(_CUES.finditer(text, previous_end, start))
     if cues:
         last = cues[-1]
@@ -116,7 +129,8 @@ def _role(text: str, start: int, end: int, previous_end: int) -> str | None:
 
 def read_pair(text: str, image_count: int | None = None, default_two: bool = False) -> PairReading:
     """The ordered pair a text names (see the module docstring)."""
-    words = normalized(text)
+    # Sentence by sentence, with " . " between them: a cue never reaches across a sentence.
+    words = " . ".join(normalized(sentence) for sentence in _SENTENCES.split(text or ""))
     mentions = _mentions(words, image_count)
     if any(view is None for _, _, view in mentions):
         return PairReading(doubt="it names the last photo, and the number of photos is not known")

@@ -628,7 +628,7 @@ class AnswerStep(StepRecord):
     completion_tokens: int = 0
     reading: str | None = Field(
         None,
-        description="How a camera question was read, e.g. \"read as: camera rotation from image 1 to "
+        description='How a camera question was read, e.g. "read as: camera rotation from image 1 to '
         "image 3, in image 1's axes\"; null for other questions.",
     )
 

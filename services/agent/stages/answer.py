@@ -18,6 +18,7 @@ from services.agent.answering import (
     answer_text_clue_with_model,
     answer_with_model,
 )
+from services.agent.claim_matching import read_by_claims
 from services.agent.free_form import answer_format
 from services.agent.llm import ChatClient
 from services.agent.stages.clue import ClueReading
@@ -110,6 +111,10 @@ def _offline(
     """The offline rules' answer; a (text) code model reads the text clue they cannot read."""
     offline = answer_offline(intent, reading.text, run.clue_pngs)
     if offline.answer is not None or not reading.text or answerers.code is None or code_failed:
+        return offline, OFFLINE_ANSWERER
+    if read_by_claims(intent, reading.text):
+        # A camera question whose clue states the motion: the reading and the sentence decided, and
+        # their doubt (undetermined, two readings, an unread option) is the answer; no model guesses.
         return offline, OFFLINE_ANSWERER
     # Only a (text) code model is configured and the offline rules could not read the text clue.
     code_name = answerers.code.config.model
