@@ -92,6 +92,7 @@ class SystemRun:
             "fallbacks": sum(r.code_model_fallback is not None for r in done),
             "answered": sum(self.answered),
             "correct": sum(self.correct),
+            "wrong": sum(self.answered) - sum(self.correct),
             # correct answers whose program the code model wrote (first or repaired), before any fallback
             "correct by model's program": sum(
                 ok and r is not None and r.program_source in ("model", "repaired-model")
@@ -131,6 +132,13 @@ def _arguments(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--json-out", type=Path, default=None, help="Write every response here (JSONL).")
     parser.add_argument("--all-families", action="store_true", help="Not only text-clue questions.")
     parser.add_argument("--record", type=Path, default=None, help="Write the code model's replies here.")
+    parser.add_argument(
+        "--parquet",
+        type=Path,
+        default=None,
+        help="Ask the questions of this MMSI-schema parquet instead (real photos, classical backbone; "
+        "e.g. the held-out templeRing set of `python -m bench mmsi_templering --write-only`).",
+    )
     return parser.parse_args(argv)
 
 
@@ -151,7 +159,12 @@ def prompt_hash() -> str:
 
 
 def _questions(args: argparse.Namespace, data_dir: Path) -> list[BenchmarkItem]:
-    """The first `--questions` items (text-clue ones unless --all-families) of enough scenes."""
+    """The first `--questions` items (text-clue ones unless --all-families) of enough scenes, or of
+    the --parquet file."""
+    if args.parquet is not None:
+        from evaluation.mmsi import read_mmsi
+
+        return list(read_mmsi(args.parquet, data_dir / "images", limit=args.questions))
     per_scene = QUESTIONS_PER_SCENE if args.all_families else 2  # two motion questions per scene
     scenes = math.ceil(args.questions / per_scene) + (0 if args.all_families else 1)
     jsonl = make_dataset(data_dir, num_scenes=scenes, seed=args.seed, width=args.width, height=args.height)
@@ -164,12 +177,12 @@ def _questions(args: argparse.Namespace, data_dir: Path) -> list[BenchmarkItem]:
 
 
 @contextlib.contextmanager
-def _services(work_dir: Path) -> Iterator[tuple[str, str, str]]:
+def _services(work_dir: Path, backbone: str) -> Iterator[tuple[str, str, str]]:
     """(recon URL, model agent URL, offline agent URL)."""
     env = {
         "PYSPATIAL_DATA_DIR": str(work_dir / "service-data"),
         "PYSPATIAL_CACHE_NAMESPACE": f"bench-real-model-{uuid.uuid4().hex}",
-        "PYSPATIAL_BACKBONE": "posed-rgbd",
+        "PYSPATIAL_BACKBONE": backbone,
     }
     with running_service("services.recon.app:create_app", env) as recon:
         agent_env = {**env, "PYSPATIAL_RECON_URL": recon.url}
@@ -180,13 +193,13 @@ def _services(work_dir: Path) -> Iterator[tuple[str, str, str]]:
             yield recon.url, model_agent.url, offline_agent.url
 
 
-def _solve(agent: AgentClient, item: BenchmarkItem, scene_id: str | None, max_repairs: int | None):
+def _solve(
+    agent: AgentClient, item: BenchmarkItem, scene_id: str | None, max_repairs: int | None, backbone: str
+):
     try:
         if scene_id is None:
             return agent.solve(item.question, images=item.images, max_repairs=max_repairs), None
-        return agent.solve(
-            item.question, scene_id=scene_id, backbone="posed-rgbd", max_repairs=max_repairs
-        ), None
+        return agent.solve(item.question, scene_id=scene_id, backbone=backbone, max_repairs=max_repairs), None
     except (ServiceError, ServiceUnreachable) as error:
         return None, str(error)
 
@@ -212,8 +225,10 @@ def main(argv: list[str] | None = None) -> int:
         work_dir = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="bench-real-model-")))
         items = _questions(args, work_dir / "dataset")
         data_dir = work_dir / "dataset"
-        recon_url, model_url, offline_url = stack.enter_context(_services(work_dir))
-        uploader = ExactSceneUploader(stack.enter_context(ReconClient(recon_url)), data_dir)
+        backbone = "classical" if args.parquet is not None else "posed-rgbd"
+        recon_url, model_url, offline_url = stack.enter_context(_services(work_dir, backbone))
+        recon = stack.enter_context(ReconClient(recon_url))
+        uploader = ExactSceneUploader(recon, data_dir)
         model_agent = stack.enter_context(AgentClient(model_url, timeout=3600))
         offline_agent = stack.enter_context(AgentClient(offline_url, timeout=3600))
         model_run = SystemRun(f"{settings.code_model} (+ {settings.answer_model or 'offline answerer'})")
@@ -222,11 +237,14 @@ def main(argv: list[str] | None = None) -> int:
         records = []
         for item in items:
             truth = read_choice(item.gt_answer) or item.gt_answer
-            scene_id = uploader.scene_id(item)
+            # real photos go up once as a plain scene: both agents ask about it, reconstructed once
+            scene_id = (
+                uploader.scene_id(item) if args.parquet is None else recon.upload_scene(item.images).scene_id
+            )
             families.append(item.type or "unknown")
             for run, agent in ((model_run, model_agent), (offline_run, offline_agent)):
                 started = time.perf_counter()
-                response, error = _solve(agent, item, scene_id, args.max_repairs)
+                response, error = _solve(agent, item, scene_id, args.max_repairs, backbone)
                 run.wall_s += time.perf_counter() - started
                 run.add(response, error, truth)
                 records.append(
@@ -245,9 +263,14 @@ def main(argv: list[str] | None = None) -> int:
 
     endpoint = settings.code_model_base_url or "https://api.openai.com/v1"
     text_only = " (text only)" if settings.code_model_text_only else ""
+    source = (
+        f"questions of {args.parquet.name} (classical backbone)"
+        if args.parquet is not None
+        else f"synthetic questions (seed {args.seed}, {args.width}x{args.height}, posed-rgbd)"
+    )
     print(
-        f"### Real code model: {settings.code_model}{text_only} at {endpoint}, {len(items)} synthetic "
-        f"questions (seed {args.seed}, {args.width}x{args.height}, posed-rgbd, prompt {prompt_hash()})\n"
+        f"### Real code model: {settings.code_model}{text_only} at {endpoint}, {len(items)} {source}, "
+        f"prompt {prompt_hash()}\n"
     )
     print(_markdown([model_run.row(), offline_run.row()]))
     print("\nFailed attempts by kind:")
