@@ -141,6 +141,13 @@ PAIRS = [
     ("How did the camera move?", 2, (1, 2)),
     ("Compared with the first view, how was the camera moved in the second view?", 2, (1, 2)),
     ("In which direction did the camera move from view #2 to view #1?", 2, (2, 1)),
+    ("Taking shot 2 as the reference, where is the camera of shot 1?", 2, (2, 1)),
+    (
+        "Apart from moving, which way did it end up pointing when image 2 was taken, compared with image 1?",
+        2,
+        (1, 2),
+    ),
+    ("How did the camera move between the two photos?", 2, (1, 2)),
 ]
 
 
@@ -159,6 +166,12 @@ def test_the_pair_is_read_from_the_grammar(text: str, count: int, views: tuple[i
         ("How did the camera move to the last photo?", None, "number of photos is not known"),
         ("How did the camera move from image 1 to image 5?", 3, "beyond the 3 given"),
         ("How did the camera move?", 3, "names no photos"),
+        # An order word that no construction read: the order it gives is not guessed.
+        ("Image 3 was taken prior to image 1. How did the camera move?", 3, "'prior'"),
+        ("How did the camera move from the former photo to the latter one?", 2, "'former'"),
+        # Two photos, one named in a way not read: not "1 to 2 by default".
+        ("How did the camera move going back to the earlier shot?", 2, "in a way not read"),
+        ("Relative to the other picture, where was this one taken?", 2, "in a way not read"),
     ],
 )
 def test_a_pair_that_reads_two_ways_is_not_guessed(text: str, count: int | None, doubt: str) -> None:

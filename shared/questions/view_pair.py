@@ -67,6 +67,7 @@ _CUES = re.compile(
 _FROM_AFTER = re.compile(
     r"^\s*(?:s\s+)?(?:(?:was|is|were|came)\s+)?(?:(?:taken|shot|captured|made|snapped)\s+)?"
     r"(?:first|earlier|before)\b"
+    r"|^\s*(?:s\s+)?as\s+(?:the\s+|a\s+|its\s+)?(?:reference|baseline|origin|starting point|start)\b"
 )
 _TO_AFTER = re.compile(
     r"^\s*(?:s\s+)?(?:(?:was|is|were|came)\s+)?(?:(?:taken|shot|captured|made|snapped)\s+)?"
@@ -75,6 +76,32 @@ _TO_AFTER = re.compile(
 
 
 _SENTENCES = re.compile(r"(?<=[.!?;])\s+(?=[A-Z])|;\s*")
+
+# Words of time and sequence: each can order two photos. One that no construction above consumed
+# ("prior to", "preceding", "subsequent", "the former") orders them in a way this reader does not
+# know, so the pair it would read is in doubt: unread, never guessed (the cues' own "to" or the
+# order of mention would otherwise decide it, possibly reversed).
+_ORDER_WORDS = frozenset(
+    """prior previous previously preceding precede precedes preceded precedent predecessor
+    following follow follows followed subsequent subsequently succeeding succeed succeeds succeeded
+    successor after afterwards afterward before beforehand earlier later then next once until till
+    since former latter originally initially eventually finally lastly ahead meanwhile while
+    whereas start starting started begin began begun beginning end ended ending origin destination
+    reference baseline relative compared versus vs between from to than""".split()
+)
+_WORD = re.compile(r"[a-z]+")
+# With no view read, these still point at one photo ("the earlier shot", "the former picture",
+# "photo B"): two photos then are not "1 to 2 by default", the question names them in a way not read.
+_ONE_PHOTO = re.compile(
+    r"\b(?:the|this|that|a|an|another|other|which|each)\s+(?:[a-z]+\s+)?"
+    r"(?:image|view|picture|photo|photograph|frame|shot|snapshot|pic|img)\b(?!\s+of\b)"
+    r"|\b(?:prior|previous|preceding|following|subsequent|succeeding|earlier|later|former|latter|next|"
+    r"initial|original|final|first|second|last)\b"
+)
+# Phrases with an order word that order nothing ("apart from moving", "where it ended up pointing").
+_NOT_ORDER = re.compile(
+    r"\b(?:apart|aside|away|far|different|differently|distinct)\s+from\b|\bend(?:s|ed|ing)?\s+up\b"
+)
 
 
 class PairReading(BaseModel, frozen=True):
@@ -146,11 +173,50 @@ def read_pair(text: str, image_count: int | None = None, default_two: bool = Fal
         if role:
             roles[view].add(role)  # type: ignore[index]
     source = " / ".join(words[s:e] for s, e, _ in mentions)
+    unknown = _unread_order_words(words, mentions)
+    if unknown and len(views) >= 1:
+        return PairReading(
+            view_set=views,
+            doubt=f"the words {', '.join(repr(w) for w in unknown)} order the photos in a way not read",
+        )
     other = _OTHER.search(words)
     if len(views) == 1 and other and image_count == 2:
         views = (*views, 3 - views[0])
         roles[views[1]] = set()
+    named = _ONE_PHOTO.search(words) if not views and default_two and image_count == 2 else None
+    if named:
+        return PairReading(doubt=f"it names a photo ('{named.group()}') in a way not read")
     return _ordered(views, roles, image_count, default_two, source)
+
+
+def _unread_order_words(words: str, mentions: list[tuple[int, int, int | None]]) -> list[str]:
+    """Order words in the sentences that name a view, outside every cue and mention that was read."""
+    consumed = [(s, e) for s, e, _ in mentions]
+    consumed += [(m.start(), m.end()) for m in (*_CUES.finditer(words), *_NOT_ORDER.finditer(words))]
+    for _, end, _view in mentions:
+        for pattern in (_FROM_AFTER, _TO_AFTER):
+            after = pattern.match(words[end:])
+            if after:
+                consumed.append((end, end + after.end()))
+    for match in (*_ORDINAL_NOUN.finditer(words), *_BARE_ORDINAL.finditer(words), *_OTHER.finditer(words)):
+        consumed.append((match.start(), match.end()))
+    spans = [(s, e) for s, e, _ in mentions]
+    sentences = [
+        sentence
+        for sentence in _sentence_spans(words)
+        if any(s0 <= a < s1 for a, _ in spans for s0, s1 in [sentence])
+    ]
+    unread = []
+    for start, end in sentences:
+        for word in _WORD.finditer(words, start, end):
+            if word.group() in _ORDER_WORDS and not any(a <= word.start() < b for a, b in consumed):
+                unread.append(word.group())
+    return list(dict.fromkeys(unread))
+
+
+def _sentence_spans(words: str) -> list[tuple[int, int]]:
+    bounds = [0] + [m.end() for m in re.finditer(r" \. ", words)] + [len(words) + 3]
+    return [(a, b - 3) for a, b in zip(bounds, bounds[1:], strict=False) if b - 3 > a]
 
 
 def _ordered(
