@@ -148,12 +148,13 @@ TEXT_CLUE_FAMILIES = ("self_movement",)
 def prompt_hash() -> str:
     """A short hash of the code prompt and its examples, as the agent renders them now."""
     from services.agent.codegen import DEFAULT_TEMPLATE
-    from services.agent.prompts import PROMPT_DIR
+    from services.agent.example_choice import EXAMPLES_NAME
+    from services.agent.prompts import PROMPT_DIR, available_versions
 
-    version = DEFAULT_TEMPLATE.rsplit("_v", 1)[1]
+    examples = f"{EXAMPLES_NAME}_v{max(available_versions(EXAMPLES_NAME))}.md"  # the latest, as served
     text = "".join(
         (PROMPT_DIR / name).read_text(encoding="utf-8")
-        for name in (f"{DEFAULT_TEMPLATE}.md", f"codegen_examples_v{version}.md", "repair_v2.md")
+        for name in (f"{DEFAULT_TEMPLATE}.md", examples, "repair_v2.md")
     )
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 

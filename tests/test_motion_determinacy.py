@@ -45,8 +45,8 @@ def test_a_turn_that_holds_at_every_focal_is_determined_and_a_step_that_varies_i
     assert motion.fov_range_deg == (30.0, 50.0) and motion.hypotheses == 3
     assert motion.sentence.startswith(
         "From view 1 to view 2 the camera turned left by 12 to 42 degrees (determined) and moved "
-        "forward or diagonally forward and left (not determined; heading -45 to 0 degrees, 0 = forward, "
-        "+ = right)"
+        "forward or diagonally forward and left (not determined; heading 0 to 45 degrees, 0 = forward, "
+        "+ = left)"
     )
     assert motion.heading_range_deg == pytest.approx((-45.0, 0.0), abs=1e-6)
     np.testing.assert_allclose(motion.translation_directions[0], [0.0, 0.0, 1.0], atol=1e-9)
@@ -57,7 +57,7 @@ def test_a_turn_that_changes_side_over_the_focal_range_is_not_determined():
     assert not motion.turn_determined and motion.turns == ["right", "none", "left"]
     assert motion.direction_determined and motion.directions == ["right"]
     assert "turned between 15 degrees right and 20 degrees left (not determined)" in motion.sentence
-    assert "moved right (determined; heading 90 to 90 degrees" in motion.sentence
+    assert "moved right (determined; heading -90 to -90 degrees" in motion.sentence
 
 
 def test_reversed_pair_turns_the_other_way():
@@ -134,7 +134,7 @@ def test_a_question_without_options_gets_only_the_determined_words():
     result = answer_offline(parse_question(ask), swinging.sentence, [])
     assert result.answer == (
         "turned left by 12 to 42 degrees (the step cannot be determined from these photos: moved forward "
-        "or diagonally forward and left, heading -45 to 0 degrees (0 = forward))"
+        "or diagonally forward and left, heading 0 to 45 degrees (0 = forward, + = left))"
     )
     straddle = motion_over_focal(_hypotheses([-15, 3, 20], [[1.0, 0.0, 0.0]] * 3))
     stepped = answer_offline(parse_question(ask), straddle.sentence, [])
@@ -292,7 +292,7 @@ def test_older_sentences_without_tilt_or_roll_never_answer_them():
 
     older = (
         "From view 1 to view 2 the camera turned left by 12 to 42 degrees (determined) and moved forward "
-        "(determined; heading -5 to 5 degrees, 0 = forward, + = right), over every horizontal field of "
+        "(determined; heading -5 to 5 degrees, 0 = forward, + = left), over every horizontal field of "
         "view the photos allow (30 to 50 degrees; the focal length is unknown)."
     )
     assert answer_offline(parse_question(_TILT_QUESTION), older, []).answer is None

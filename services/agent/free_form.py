@@ -146,13 +146,15 @@ _NONE_WORDS = {
 }
 
 
-_MARK = re.compile(r" \(not determined(?:; (heading [^,]+), 0 = forward, \+ = right)?\)")
+_MARK = re.compile(r" \(not determined(?:; (heading [^,]+), 0 = forward, \+ = left)?\)")
 
 
 def _range_words(over: OverFocal, quantity: str) -> str:
-    """'moved forward or diagonally forward and left, heading -45 to 0 degrees': a clause without its mark."""
+    """'moved forward or diagonally forward and left, heading 0 to 45 degrees': a clause without its mark."""
     clause = over.clauses.get(quantity, "the sentence does not state it").removeprefix("it ")
-    return _MARK.sub(lambda found: f", {found.group(1)} (0 = forward)" if found.group(1) else "", clause)
+    return _MARK.sub(
+        lambda found: f", {found.group(1)} (0 = forward, + = left)" if found.group(1) else "", clause
+    )
 
 
 def _determined_words(over: OverFocal, quantity: str) -> str | None:

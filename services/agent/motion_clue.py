@@ -165,7 +165,8 @@ def over_focal_statement(sentence: str) -> OverFocal | None:
         directions.append(normalize_direction(part) if moved else None)
     heading = None
     if match.group("low") is not None:
-        heading = (float(match.group("low")), float(match.group("high")))
+        # The sentence's heading is left-positive; camera_motion's sectors count right-positive.
+        heading = (-float(match.group("high")), -float(match.group("low")))
     found: dict[str, object] = {}
     clauses = {
         "turn": f"{match.group('turn')} {match.group('turn_mark')}",

@@ -331,8 +331,10 @@ def _horizontal_clause(direction: QuantityOverFocal, still: QuantityOverFocal) -
             moved += f" or {nothing}"
     mark = _mark(direction.determined)
     if direction.range is not None:
-        low, high = (round(end) for end in direction.range)
-        mark = f"{mark[:-1]}; heading {low} to {high} degrees, 0 = forward, + = right)"
+        # Left-positive, as every horizontal angle a person or a program reads (the range's own
+        # numbers are camera_motion's right-positive heading).
+        low, high = (round(-end) for end in reversed(direction.range))
+        mark = f"{mark[:-1]}; heading {low} to {high} degrees, 0 = forward, + = left)"
     return f"{moved} {mark}"
 
 
@@ -350,7 +352,8 @@ def determinacy_sentence(
 ) -> str:
     """One sentence (1-based view numbers, view `first`'s image axes) that the agent's offline
     answerer reads back (services/agent/motion_clue.py): each quantity with its range and its mark.
-    The step's heading range (0 = forward, + = right, as camera_motion's angle_deg) goes with it."""
+    The step's heading range goes with it, left-positive (0 = forward, + = left) like every
+    horizontal angle on the wire."""
     turn, tilt, roll = (quantities[name] for name in ("turn", "tilt", "roll"))
     assert turn.range is not None and tilt.range is not None and roll.range is not None
     low, high = fov_range_deg
