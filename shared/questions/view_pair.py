@@ -13,7 +13,10 @@ ordinal with a noun, "the first picture", "the last frame", "the second one"; a 
 The pair is (from, to). With no roles, the order of mention ("image 1 ... image 3"). With two
 images and one or no view named, the other view completes the pair in time order (1 -> 2) unless a
 role says otherwise. Two readings (both views "from", one view both, three views and no roles, a
-view beyond the photos given) leave the pair unread, with the reason (`doubt`).
+view beyond the photos given) leave the pair unread, with the reason (`doubt`). So does a word of
+time or sequence that no construction here consumed ("prior to", "the former", "subsequent"): the
+cues' own "to" or the order of mention would otherwise decide the pair, possibly reversed. And with
+two photos, a photo named in a way not read ("the earlier shot") stops the default 1 -> 2.
 """
 
 from __future__ import annotations
