@@ -19,6 +19,7 @@ from services.recon.backbones.classical.plane_prior import (
     narrow_by_orthogonal_planes,
     narrowest_fov,
 )
+from services.recon.routes.camera_motion import as_wire
 from services.recon.scene_motion import pair_motion
 from shared.geometry.motion_determinacy import FocalHypotheses
 from shared.geometry.reconstruction import Reconstruction
@@ -141,7 +142,7 @@ def test_two_photos_walking_around_a_chair_get_a_range_that_holds_the_true_field
         motion = pair_motion(result, tuple(question.facts["pair"]))
         assert motion.over_focal["fov_assumption"] == ASSUMPTION
         assert "ruled out by assuming that" in motion.sentence
-        CameraMotionItem.model_validate(motion.to_dict())  # the wire type takes it
+        CameraMotionItem.model_validate(as_wire(motion.to_dict()))  # the wire type takes it
         answer = answer_offline(parse_question(question.text, len(images)), motion.sentence, [])
         assert answer.answer == question.answer_letter, answer.reason
 
