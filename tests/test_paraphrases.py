@@ -145,8 +145,7 @@ def _holds(claim: ClaimSpec, words: dict[str, str]) -> bool:
 def test_the_templering_mmsi_parquet_reads_back_with_the_mmsi_reader(tmp_path):
     from bench.templering_data import realdata_dir
 
-    if realdata_dir() is None:
-        pytest.skip("templeRing not found (set PYSPATIAL_REALDATA_DIR)")
+    assert realdata_dir() is not None, "templeRing not found: ../shared/realdata or PYSPATIAL_REALDATA_DIR"
     from bench.mmsi_templering import mmsi_rows, question_specs
     from evaluation.mmsi import REQUIRED_COLUMNS, read_mmsi, rotated_question
     from shared.synthetic.mmsi import CAM_CAM, MOTION_CAM, write_parquet
