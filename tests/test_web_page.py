@@ -27,6 +27,7 @@ from selenium.webdriver.common.keys import Keys
 from selenium.webdriver.support.ui import WebDriverWait
 
 from shared.local.services import REPO_ROOT, running_service
+from shared.questions.reading import read_question
 from tests.support.browser import axe_problems, chromium, csp_violations, throttle_upload
 
 EXAMPLE = REPO_ROOT / "examples" / "living_room"
@@ -233,6 +234,9 @@ def test_solve_the_example_and_inspect_it(stack, llm, browser, shots, downloads)
     assert "Finished" in _text(browser, "clock")
     assert not browser.find_element(By.ID, "cancel").is_displayed()
     assert "view 1 to view 2" in _text(browser, "reasoning")
+    # The page says how the question was read, as the one reading of the question gives it.
+    reading = read_question(spec["question"], len(spec["images"]))
+    assert reading.summary and _text(browser, "question-reading") == reading.summary
     program = browser.find_element(By.ID, "program")
     assert "synthesize_novel_view" in program.text
     assert program.find_elements(By.CSS_SELECTOR, "span.hljs-keyword")  # highlighted

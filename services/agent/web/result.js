@@ -28,6 +28,12 @@ export function imageSrc(base64) {
   return `data:image/png;base64,${base64}`;
 }
 
+// How the question was read (views, quantity, frame), and why that reading allows no answer, if so.
+function readingText(reading) {
+  if (!reading || !reading.summary) return "";
+  return reading.abstain_reason ? `${reading.summary}. In doubt: ${reading.abstain_reason}` : reading.summary;
+}
+
 function showAnswer(result) {
   const answer = $("answer");
   const freeForm = result.answer_format === "free_form";
@@ -42,6 +48,7 @@ function showAnswer(result) {
   } else {
     answer.replaceChildren(`Answer: ${result.answer}`);
   }
+  $("question-reading").textContent = readingText(result.reading);
   $("reasoning").textContent = result.reasoning || "";
   $("warnings").replaceChildren(...fallbackNotes(result).map((text) => element("li", { className: "fallback", textContent: text })));
 }
