@@ -10,7 +10,7 @@ import pytest
 
 from services.recon.backbones.classical.geometry import compose, rotation_angle_deg
 from services.recon.backbones.classical.pair_uncertainty import assess_pairs
-from services.recon.backbones.classical.pose_basins import BASIN_SHARE, rival_basin
+from services.recon.backbones.classical.pose_basins import BASIN_SHARE, fits_as_well, rival_basin
 from services.recon.backbones.classical.two_view import estimate_two_view
 from shared.geometry.reconstruction import PairConfidence
 
@@ -108,3 +108,21 @@ def test_a_pose_in_the_wrong_basin_states_an_uncertainty_that_covers_its_error()
     geometry_blind = type(geometry)(**{**geometry.__dict__, "candidates": None})
     [blind] = assess_pairs(pixels, [INTRINSIC] * 2, extrinsics, tracks, {(0, 1): geometry_blind}, confidence)
     assert blind.rotation_uncertainty_deg < 2.0  # the curvature alone: it cannot see the other basin
+
+
+def test_a_pose_in_a_basin_the_matches_support_as_well_fits_as_well_and_one_they_reject_does_not() -> None:
+    """Verification asks this before refusing a view whose model pose disagrees with a pair's own
+    fit: the pair's fit may sit in the other of two basins its matches support alike."""
+    first, second = _two_basins(120, 120, 11.0)
+    n1, n2 = _normalized(first), _normalized(second)
+    true_rotation, true_translation = _relative(_orbit(20.0))
+    rival_rotation, rival_translation = _relative(_orbit(20.0, 11.0))
+    # a fit in either basin: the pose of the other fits as well (a tie, derived from the counts)
+    assert fits_as_well(n1, n2, FOCAL, rival_rotation, rival_translation, true_rotation, true_translation)
+    assert fits_as_well(n1, n2, FOCAL, true_rotation, true_translation, rival_rotation, rival_translation)
+    # one basin only: a pose 11 degrees off, which no match supports, does not fit as well
+    first, second = _two_basins(240, 0, 11.0)
+    n1, n2 = _normalized(first), _normalized(second)
+    assert not fits_as_well(n1, n2, FOCAL, rival_rotation, rival_translation, true_rotation, true_translation)
+    # and the true pose fits as well as itself
+    assert fits_as_well(n1, n2, FOCAL, true_rotation, true_translation, true_rotation, true_translation)
