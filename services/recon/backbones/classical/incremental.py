@@ -195,7 +195,7 @@ class IncrementalMapper:
             world, pixels = found[view]
             if len(world) < MIN_PNP_CORRESPONDENCES:
                 return None
-            extrinsic = solve_pnp(world, pixels, self.intrinsics[view])
+            extrinsic = _solve_pnp(world, pixels, self.intrinsics[view])
             if extrinsic is not None:
                 self.extrinsics[view] = extrinsic
                 return view
@@ -418,7 +418,7 @@ class IncrementalMapper:
             self.extrinsics[view] = compose(rotation, np.zeros(3))
 
 
-def solve_pnp(world: np.ndarray, pixels: np.ndarray, intrinsic: np.ndarray) -> np.ndarray | None:
+def _solve_pnp(world: np.ndarray, pixels: np.ndarray, intrinsic: np.ndarray) -> np.ndarray | None:
     found, rvec, tvec, inliers = cv2.solvePnPRansac(
         world.astype(np.float64),
         pixels.astype(np.float64),

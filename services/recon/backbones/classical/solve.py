@@ -53,7 +53,6 @@ from .incremental import IncrementalMapper, SparseModel
 from .intrinsics import guess_intrinsics
 from .pair_uncertainty import assess_pairs, flag_guessed_distances
 from .plane_prior import narrow_by_orthogonal_planes
-from .reregistration import with_views_placed_again
 from .rotation_verification import rotation_model_reasons
 from .two_view import TwoViewGeometry, estimate_two_view
 from .verification import (
@@ -387,7 +386,6 @@ def _verified(
     if model.pure_rotation:
         return _verified_rotations(keypoints, image_sizes, intrinsics, pairs, model, source, warnings)
     reasons: dict[int, str] = {}
-    retried: set[int] = set()  # views placed again on the adjusted model (once each)
     while True:  # a rejected view takes its points along; the rest are checked again
         by_view = {v: intrinsics[v] for v in model.extrinsics}
         seen = observations(keypoints, by_view, model.extrinsics, model.points, model.tracks)
@@ -405,18 +403,7 @@ def _verified(
                 pair_confidences(seen, model.extrinsics, model.points, [1.0] * len(keypoints))
             )
         if not rejected:
-            retry = [v for v in range(len(keypoints)) if v not in model.extrinsics and v not in retried]
-            retried.update(retry)
-            model, placed = with_views_placed_again(keypoints, intrinsics, pairs, model, retry)
-            if not placed:
-                break
-            for view in placed:
-                reasons.pop(view, None)
-            adjusted = bundle_adjust(
-                keypoints, image_sizes, intrinsics, free, model.extrinsics, model.points, model.tracks, False
-            )
-            model = adjusted_model(model, adjusted)
-            continue
+            break
         reasons.update(rejected)
         model = _without_views(model, set(rejected))
         if len(model.extrinsics) < 2:
