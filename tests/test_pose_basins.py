@@ -11,7 +11,8 @@ import pytest
 from services.recon.backbones.classical.geometry import compose, rotation_angle_deg
 from services.recon.backbones.classical.pair_uncertainty import assess_pairs
 from services.recon.backbones.classical.pose_basins import BASIN_SHARE, fits_as_well, rival_basin
-from services.recon.backbones.classical.two_view import estimate_two_view
+from services.recon.backbones.classical.two_view import TwoViewGeometry, estimate_two_view
+from services.recon.backbones.classical.verification import disagreement_with_pairs
 from shared.geometry.reconstruction import PairConfidence
 
 WIDTH, HEIGHT = 640, 480
@@ -126,3 +127,24 @@ def test_a_pose_in_a_basin_the_matches_support_as_well_fits_as_well_and_one_they
     assert not fits_as_well(n1, n2, FOCAL, rival_rotation, rival_translation, true_rotation, true_translation)
     # and the true pose fits as well as itself
     assert fits_as_well(n1, n2, FOCAL, true_rotation, true_translation, true_rotation, true_translation)
+
+
+@pytest.mark.parametrize("rival", [120, 0])
+def test_verification_refuses_a_view_only_when_the_pairs_matches_prefer_their_own_pose(rival: int) -> None:
+    """A model pose 11 degrees from the pair's two-view fit. Two basins supported alike (`rival`
+    matches for the second): the pair says nothing against the model, no refusal. One basin, the
+    pair's: the model's pose is one the matches reject, and the view is refused."""
+    pixels = _two_basins(120 + (120 - rival), rival, 11.0)
+    matches = np.stack([np.arange(len(pixels[0]))] * 2, axis=1)
+    true_pose, rival_pose = _relative(_orbit(20.0)), _relative(_orbit(20.0, 11.0))
+    # the pair's own fit in the true basin; the model places the view in the other one
+    pair = TwoViewGeometry(matches, *true_pose, "essential", 10.0, candidates=matches)
+    extrinsics = {0: compose(np.eye(3), np.zeros(3)), 1: compose(*rival_pose)}
+    pairs = {(0, 1): pair}
+    reason = disagreement_with_pairs(1, extrinsics, pairs, pixels, {0: INTRINSIC, 1: INTRINSIC})
+    if rival:
+        assert reason is None
+    else:
+        assert reason is not None and "disagrees with its matches" in reason
+    # without the matches to weigh, any disagreement over 5 degrees refuses the view (as before)
+    assert disagreement_with_pairs(1, extrinsics, pairs) is not None
