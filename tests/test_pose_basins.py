@@ -10,8 +10,9 @@ import pytest
 
 from services.recon.backbones.classical.geometry import compose, rotation_angle_deg
 from services.recon.backbones.classical.pair_uncertainty import assess_pairs
-from services.recon.backbones.classical.pose_basins import BASIN_SHARE, rival_basin
-from services.recon.backbones.classical.two_view import estimate_two_view
+from services.recon.backbones.classical.pose_basins import BASIN_SHARE, fits_as_well, rival_basin
+from services.recon.backbones.classical.two_view import TwoViewGeometry, estimate_two_view
+from services.recon.backbones.classical.verification import disagreement_with_pairs
 from shared.geometry.reconstruction import PairConfidence
 
 WIDTH, HEIGHT = 640, 480
@@ -108,3 +109,42 @@ def test_a_pose_in_the_wrong_basin_states_an_uncertainty_that_covers_its_error()
     geometry_blind = type(geometry)(**{**geometry.__dict__, "candidates": None})
     [blind] = assess_pairs(pixels, [INTRINSIC] * 2, extrinsics, tracks, {(0, 1): geometry_blind}, confidence)
     assert blind.rotation_uncertainty_deg < 2.0  # the curvature alone: it cannot see the other basin
+
+
+def test_a_pose_in_a_basin_the_matches_support_as_well_fits_as_well_and_one_they_reject_does_not() -> None:
+    """Verification asks this before refusing a view whose model pose disagrees with a pair's own
+    fit: the pair's fit may sit in the other of two basins its matches support alike."""
+    first, second = _two_basins(120, 120, 11.0)
+    n1, n2 = _normalized(first), _normalized(second)
+    true_rotation, true_translation = _relative(_orbit(20.0))
+    rival_rotation, rival_translation = _relative(_orbit(20.0, 11.0))
+    # a fit in either basin: the pose of the other fits as well (a tie, derived from the counts)
+    assert fits_as_well(n1, n2, FOCAL, rival_rotation, rival_translation, true_rotation, true_translation)
+    assert fits_as_well(n1, n2, FOCAL, true_rotation, true_translation, rival_rotation, rival_translation)
+    # one basin only: a pose 11 degrees off, which no match supports, does not fit as well
+    first, second = _two_basins(240, 0, 11.0)
+    n1, n2 = _normalized(first), _normalized(second)
+    assert not fits_as_well(n1, n2, FOCAL, rival_rotation, rival_translation, true_rotation, true_translation)
+    # and the true pose fits as well as itself
+    assert fits_as_well(n1, n2, FOCAL, true_rotation, true_translation, true_rotation, true_translation)
+
+
+@pytest.mark.parametrize("rival", [120, 0])
+def test_verification_refuses_a_view_only_when_the_pairs_matches_prefer_their_own_pose(rival: int) -> None:
+    """A model pose 11 degrees from the pair's two-view fit. Two basins supported alike (`rival`
+    matches for the second): the pair says nothing against the model, no refusal. One basin, the
+    pair's: the model's pose is one the matches reject, and the view is refused."""
+    pixels = _two_basins(120 + (120 - rival), rival, 11.0)
+    matches = np.stack([np.arange(len(pixels[0]))] * 2, axis=1)
+    true_pose, rival_pose = _relative(_orbit(20.0)), _relative(_orbit(20.0, 11.0))
+    # the pair's own fit in the true basin; the model places the view in the other one
+    pair = TwoViewGeometry(matches, *true_pose, "essential", 10.0, candidates=matches)
+    extrinsics = {0: compose(np.eye(3), np.zeros(3)), 1: compose(*rival_pose)}
+    pairs = {(0, 1): pair}
+    reason = disagreement_with_pairs(1, extrinsics, pairs, pixels, {0: INTRINSIC, 1: INTRINSIC})
+    if rival:
+        assert reason is None
+    else:
+        assert reason is not None and "disagrees with its matches" in reason
+    # without the matches to weigh, any disagreement over 5 degrees refuses the view (as before)
+    assert disagreement_with_pairs(1, extrinsics, pairs) is not None

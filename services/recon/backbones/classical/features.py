@@ -31,6 +31,11 @@ NEIGHBOURS = 4  # candidates examined per descriptor to find a runner-up from an
 BRIGHT_PERCENTILE = 99.5  # the image's "white": a few specular pixels do not set the exposure
 MIN_GAIN = 2.5  # a photo whose brightest pixels reach 40% of full scale is not dark: left as it is
 MAX_GAIN = 8.0
+# A brightened photo keeps only its strongest keypoints: brightening amplifies the sensor noise by
+# the gain too, and the weakest responses of a dark photo are mostly that noise. On a synthetic dark
+# ring (tuning seeds) the 1,000 strongest of about 2,000 placed more views, more accurately, at a
+# third of the time (every stage after detection grows with the keypoints).
+DARK_MAX_FEATURES = 1000
 
 
 @dataclass(frozen=True)
@@ -51,7 +56,10 @@ def sift_available() -> bool:
 def detect_features(gray: np.ndarray, max_features: int, kind: str = "sift") -> ViewFeatures:
     """Keypoints and descriptors of a uint8 grayscale image and of its simulated tilts."""
     kind = "sift" if kind == "sift" and sift_available() else "orb"
-    gray = exposure_normalized(gray)
+    brightened = exposure_normalized(gray)
+    if brightened is not gray:
+        max_features = min(max_features, DARK_MAX_FEATURES)
+    gray = brightened
     positions, descriptors = _detect(gray, max_features, kind)
     owners = np.arange(len(positions), dtype=np.int64)
     for tilt in TILTS:

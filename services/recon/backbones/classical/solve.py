@@ -394,7 +394,7 @@ def _verified(
         for view in model.extrinsics:
             prior_focal = free[view] and source == "prior"
             reason = rejection_reason(confidence[view], 1.0, prior_focal) or disagreement_with_pairs(
-                view, model.extrinsics, pairs
+                view, model.extrinsics, pairs, keypoints, by_view
             )
             if reason is not None:
                 rejected[view] = reason

@@ -19,7 +19,8 @@ import numpy as np
 
 from shared.geometry.reconstruction import PairConfidence, ViewConfidence
 
-from .geometry import camera_center, project, rotation_angle_deg
+from .geometry import camera_center, normalized_coordinates, project, rotation_angle_deg
+from .pose_basins import fits_as_well
 from .two_view import TwoViewGeometry
 
 INLIER_PX = 3.0  # working-image pixels
@@ -108,9 +109,18 @@ def rejection_reason(confidence: ViewConfidence, scale: float, prior_focal: bool
 
 
 def disagreement_with_pairs(
-    view: int, extrinsics: dict[int, np.ndarray], pairs: dict[tuple[int, int], TwoViewGeometry]
+    view: int,
+    extrinsics: dict[int, np.ndarray],
+    pairs: dict[tuple[int, int], TwoViewGeometry],
+    keypoints: list[np.ndarray] | None = None,
+    intrinsics: dict[int, np.ndarray] | None = None,
 ) -> str | None:
-    """The model's rotation to the view's best-matched placed partner vs that pair's own estimate."""
+    """The model's rotation to the view's best-matched placed partner vs that pair's own estimate.
+
+    With the keypoints and intrinsics, a disagreement stands only when the pair's matches prefer
+    their own pose: when they fit the model's relative pose nearly as well (pose_basins), the pair
+    sits in the other of two basins its matches cannot tell apart, and says nothing against the
+    model (the pair's uncertainty then states the gap)."""
     best: tuple[int, int] | None = None
     for key, pair in pairs.items():
         if view in key and (key[0] if key[1] == view else key[1]) in extrinsics:
@@ -121,13 +131,39 @@ def disagreement_with_pairs(
     first, second = best
     relative = extrinsics[second][:, :3] @ extrinsics[first][:, :3].T
     angle = rotation_angle_deg(relative @ pairs[best].rotation.T)
-    if angle > MAX_PAIR_DISAGREEMENT_DEG:
+    if angle > MAX_PAIR_DISAGREEMENT_DEG and not _model_fits_pair(
+        pairs[best], first, second, extrinsics, keypoints, intrinsics
+    ):
         other = first if second == view else second
         return (
             f"its pose disagrees with its matches to view {other + 1} by {angle:.0f} degrees "
             "(inconsistent with the other views)"
         )
     return None
+
+
+def _model_fits_pair(
+    pair: TwoViewGeometry,
+    first: int,
+    second: int,
+    extrinsics: dict[int, np.ndarray],
+    keypoints: list[np.ndarray] | None,
+    intrinsics: dict[int, np.ndarray] | None,
+) -> bool:
+    """Whether the pair's matches support the model's relative pose nearly as well as their own."""
+    if keypoints is None or intrinsics is None or pair.model != "essential" or pair.candidates is None:
+        return False
+    rotation = extrinsics[second][:, :3] @ extrinsics[first][:, :3].T
+    translation = extrinsics[second][:, 3] - rotation @ extrinsics[first][:, 3]
+    if np.linalg.norm(translation) < 1e-12:
+        return False
+    matches = pair.candidates
+    n1 = normalized_coordinates(keypoints[first][matches[:, 0]], intrinsics[first])
+    n2 = normalized_coordinates(keypoints[second][matches[:, 1]], intrinsics[second])
+    focal = float(np.mean([intrinsics[first][0, 0], intrinsics[second][0, 0]]))
+    return fits_as_well(
+        n1, n2, focal, rotation, translation / np.linalg.norm(translation), pair.rotation, pair.translation
+    )
 
 
 def pair_confidences(
