@@ -15,7 +15,7 @@ from __future__ import annotations
 import argparse
 from collections import Counter
 
-from shared.questions.claims import resolve_bare
+from shared.questions.claims import is_read, resolve_bare
 from shared.questions.reading import QuestionReading, read_question
 from tests.support.paraphrases import SPLITS, ParaphraseItem, text_corpus
 
@@ -52,6 +52,22 @@ def judge(item: ParaphraseItem, reading: QuestionReading) -> dict[str, bool]:
     return verdict
 
 
+def option_outcomes(item: ParaphraseItem, reading: QuestionReading) -> list[str]:
+    """Per expected option: "option right", "option unread" (no claim, or a bare direction the
+    question gives no kind), or "option misread" (read as another claim: the failure that can answer
+    wrong)."""
+    outcomes = []
+    for letter, expected in item.options.items():
+        claim = reading.options.get(letter)
+        if claim is not None and claim_dict(claim, reading.quantity) == expected:
+            outcomes.append("option right")
+        elif claim is None or not is_read(resolve_bare(claim, reading.quantity)):
+            outcomes.append("option unread")
+        else:
+            outcomes.append("option misread")
+    return outcomes
+
+
 def measure(
     items: list[ParaphraseItem],
 ) -> tuple[Counter, list[tuple[ParaphraseItem, QuestionReading, dict]]]:
@@ -62,6 +78,8 @@ def measure(
         verdict = judge(item, reading)
         counts["abstain items" if item.abstain else "items"] += 1
         counts.update(name for name, ok in verdict.items() if ok)
+        if item.abstain is None:
+            counts.update(option_outcomes(item, reading))
         if not verdict.get("all", verdict.get("abstained")):
             failures.append((item, reading, verdict))
     return counts, failures
@@ -91,6 +109,10 @@ def main(argv: list[str] | None = None) -> None:
         print(
             f"| {split} | {n} | " + " | ".join(cells) + f" | {counts['misread pair, certain']} | "
             f"{counts['abstain items']} | {counts['abstained']} |"
+        )
+        print(
+            f"|   options of {split}: {counts['option right']} right, {counts['option unread']} unread, "
+            f"{counts['option misread']} read as another claim |"
         )
         if split == "tuning":
             shown = failures[: args.failures]

@@ -48,6 +48,43 @@ class Sense:
     value: str | None = None
 
 
+_IRREGULAR = {
+    "bring": ("brought",),
+    "come": ("came",),
+    "fall": ("fell", "fallen"),
+    "get": ("got", "gotten"),
+    "go": ("went", "gone", "goes"),
+    "glide": (),
+    "rise": ("rose", "risen"),
+    "sink": ("sank", "sunk"),
+    "swing": ("swung",),
+    "spin": ("spun",),
+    "slide": ("slid",),
+    "withdraw": ("withdrew", "withdrawn"),
+}
+# A final consonant after one short vowel may double: step/stepped, pan/panned, sidestep/sidestepping
+# (both spellings are kept: pivoted, travelled/traveled).
+_DOUBLED = re.compile(r"(?<![aeiou])[aeiou][bdglmnprt]$")
+
+
+def _verb(*bases: str) -> str:
+    """Every inflection of each base verb, as one pattern: climb/climbs/climbed/climbing,
+    step/stepped/stepping, slide/slides/slid/sliding, carry/carried, plus the irregular forms."""
+    forms: list[str] = []
+    for base in bases:
+        stem = base[:-1] if base.endswith("e") else base
+        double = base + base[-1] if _DOUBLED.search(base) else stem
+        ies = base[:-1] + "ie" if base.endswith("y") and base[-2] not in "aeiou" else None
+        forms += [base, double + "ing", stem + "ing"]
+        if ies:
+            forms += [ies + "s", ies + "d"]
+        else:
+            forms += [base + ("es" if base.endswith(("s", "sh", "ch", "x")) else "s")]
+            forms += [base + "d" if base.endswith("e") else base + "ed", double + "ed"]
+        forms += list(_IRREGULAR.get(base, ()))
+    return "|".join(sorted(set(forms), key=len, reverse=True))
+
+
 _STEP = "step"
 _ROWS: tuple[tuple[str, Sense], ...] = (
     # ---- still: no motion at all (before the verbs, so "did not move" is read whole)
@@ -56,7 +93,9 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"(?: and (?:its )?(?:aim|orientation|heading|direction|angle))?", Sense("still")),
     (r"(?:stay|stayed|stays|staying|kept|keep|stood|stand|held|hold|remained|remain|remains)\s+"
      r"(?:completely\s+|perfectly\s+)?(?:still|put|stationary|motionless|fixed|steady|in place|where it was|"
-     r"at the same (?:spot|place|position|point|location))", Sense("still")),
+     r"(?:at|in) the same (?:spot|place|position|point|location))", Sense("still")),
+    (r"(?:did not|didn t|never) (?:move|shift) (?:or|nor) (?:turn|rotate)|"
+     r"nothing (?:changed|moved|happened)", Sense("still")),
     (r"(?:did not|didn t|does not|doesn t|never)\s+(?:move|budge|change position|"
      r"shift)\b(?!\s+(?:left|right|up|down|forward|back))",
      Sense("still")),
@@ -64,6 +103,17 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"stationary|motionless|unmoved|static|unchanged|(?:the )?same (?:position|place|spot|location|"
      r"pose|point|viewpoint)|"
      r"in place|did not budge|no displacement", Sense("still")),
+    # ---- a zoom changes the focal length, not the camera's place: no claim the lexicon reads
+    (_verb("zoom") + r"(?: in| out)?", Sense("zoom")),
+    # ---- a return to where it was ("went back to", "came back"): no direction of its own
+    (r"back to|(?:came|come|comes|coming|went|go|goes|going) back|" + _verb("return"), Sense("return")),
+    # ---- words that only grade or place a direction: "right behind it", "further to the left",
+    # "ended up to the right", "glided over to the right"
+    (r"right(?= (?:above|below|behind|in front|ahead|over|under|beneath|underneath|beside|next)\b)|"
+     r"(?:further|farther)(?= (?:to |toward |towards |on )?(?:the |its |their )?(?:left|right|up|upward|"
+     r"down|downward|forward|ahead|in)\b)|"
+     r"(?:end|ends|ended|ending) up|over(?= to\b)|lateral(?:ly)?|at all|than (?:before|previously|earlier|"
+     r"originally|it was|at first)|vantage point|view ?point|standpoint", Sense("filler")),
     # ---- negation of the next verb
     (r"did not|didn t|does not|doesn t|not|without|no|never|neither|nor|zero", Sense("not")),
     # ---- two claims offered as one ("backward or to the left"): the option says two things
@@ -72,8 +122,10 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"(?:its|the|camera s|the camera s) (?:aim|heading|gaze|line of sight|view(?:ing)? direction|"
      r"orientation|"
      r"pointing direction|optical axis)", Sense("aimnoun")),
-    (r"(?:about|around|round|along|on) (?:its |the )?(?:lens s |lens |optical |viewing |view |forward )?axis",
+    (r"(?:about|around|round|along|on) (?:its |the )?(?:(?:lens s |lens |optical |viewing |view |forward |"
+     r"camera s )?axis|line of sight)",
      Sense("axis", "roll")),
+    (r"(?:about|around|round|on) (?:its |the |a )?vertical axis", Sense("axis", "yaw")),
     # ---- rotation about the optical axis (before the verbs that share words with it)
     (r"(?:rotat\w*|turn\w*|spun|spin\w*|twist\w*)\s+(?:about|around|round|on)\s+(?:its\s+|the\s+)?"
      r"(?:lens|optical|viewing|view|camera s|line of sight|forward)\s*(?:axis)?", Sense("roll")),
@@ -91,9 +143,10 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"face(?:d)? the opposite (?:way|direction)",
      Sense("aim", "around")),
     (r"turn\w*|rotat\w*|point\w*|aim\w*|fac(?:e|ed|es|ing)|orient\w*|look\w*|gaz\w*|view direction|"
+     + _verb("glance", "peer") + "|"
      r"direction (?:it|the camera) (?:faces|faced|points|pointed)|heading", Sense("aim")),
     # ---- position of one camera relative to another
-    (r"locat\w*|position\w*|plac(?:e|ed)|situat\w*|lies|lay|lying|sits|sat|stands|stood|"
+    (r"locat\w*|(?<!its )(?<!the )position\w*|plac(?:e|ed)|situat\w*|lies|lay|lying|sits|sat|stands|stood|"
      r"(?:was |were |is )?taken from|shot from|captured from|set up", Sense("place")),
     # ---- a step toward an edge of the photo: the frame's own directions
     (r"(?:toward|towards|to) (?:the )?(?:frame|image|picture|photo|view)(?: s)? (?:upper|"
@@ -105,26 +158,29 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"(?:toward|towards|to) (?:the )?(?:frame|image|picture|photo|"
      r"view)(?: s)? right edge", Sense(_STEP, "right")),
     # ---- translation verbs that carry their way
-    (r"sidestep\w*|strafe\w*|truck(?:ed|ing)?|crab(?:bed|bing)?", Sense(_STEP)),
+    (_verb("sidestep", "strafe", "truck", "crab"), Sense(_STEP)),
     (r"climb\w*|ascen\w*|rose|ris(?:e|en|es|ing)|rais\w*|lift\w*|elevat\w*|gain(?:ed|s|ing)? height|"
      r"at a (?:greater|higher) (?:height|elevation|level)|(?:from|at) a higher|higher up|"
-     r"pedestal(?:ed)? up|boom(?:ed)? up",
+     r"pedestal(?:ed)? up|boom(?:ed)? up|" + _verb("hoist"),
      Sense(_STEP, "up")),
     (r"descen\w*|sank|sink\w*|sunk|dropp?\w*|lower(?:ed|ing|s)|los(?:t|es|ing) height|"
      r"at a lower (?:height|elevation|level)|(?:from|at) a lower|lower down|pedestal(?:ed)? down|"
-     r"boom(?:ed)? down",
+     r"boom(?:ed)? down|" + _verb("fall", "crouch", "stoop", "squat"),
      Sense(_STEP, "down")),
-    (r"advanc\w*|proceed\w*|approach\w*|push(?:ed|es|ing)? in|dolly(?:ing)? in|dollied in|zoom(?:ed)? in|"
-     r"clos(?:er|ed in)|nearer|deeper into|came in", Sense(_STEP, "forward")),
+    (r"advanc\w*|proceed\w*|approach\w*|push(?:ed|es|ing)? in|dolly(?:ing)? in|dollied in|"
+     r"clos(?:er|ed in)|nearer|deeper into|came in|"
+     rf"(?:{_verb('move', 'step', 'walk', 'lean')}) in(?: closer| nearer)?(?=$| and\b| then\b| toward)",
+     Sense(_STEP, "forward")),
     (r"withdr\w*|retreat\w*|reced\w*|back(?:ed|s|ing)? (?:up|off|away|out)|step(?:ped|s|ping)? back|"
-     r"pull(?:ed|s|ing)? (?:back|out|away)|dolly(?:ing)? out|dollied out|zoom(?:ed)? out|farther|"
+     r"pull(?:ed|s|ing)? (?:back|out|away)|dolly(?:ing)? out|dollied out|farther|"
      r"further away|"
      r"further back|away from", Sense(_STEP, "backward")),
     (r"sideways|sidewise|laterally|shift\w*|slid\w*|translat\w*|displac\w*|relocat\w*|reposition\w*|"
      r"glid\w*|drift\w*|step\w*|walk\w*|"
-     r"dolly|dollied|carr(?:y|ied)|travel\w*|head(?:ed|ing)? (?=left|right|up|down|forward|back)",
+     r"dolly|dollied|carr(?:y|ied)|travel\w*|head(?:ed|ing)? (?=left|right|up|down|forward|back)|"
+     + _verb("track", "scoot", "nudge"),
      Sense(_STEP)),
-    (r"mov\w*|motion|went|go(?:es|ing|ne)?|came|come|got", Sense("weak")),
+    (r"mov\w*|motion|" + _verb("go", "come", "get", "bring"), Sense("weak")),
     (r"chang\w*|differ\w*|happen\w*", Sense("weak", "any")),
     # ---- directions
     (r"(?:to |toward |towards |on |at )?(?:the |its |their |his |her |your |my )?left(?:ward|"
@@ -133,9 +189,11 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"(?:to |toward |towards |on |at )?(?:the |its |their |his |her |your |my )?right(?:ward|"
      r"wards)?(?: hand)?(?: side| edge)?",
      Sense("way", "right")),
-    (r"up(?:ward|wards)?|upper|above|higher|top|overhead|skyward|toward the ceiling|taller|over",
+    (r"up(?:ward|wards)?|upper|above|higher|top|overhead|skyward|"
+     r"(?:toward|towards|to|at) the (?:ceiling|sky)|taller|over(?= (?:it|them|the|its)\b)",
      Sense("way", "up")),
-    (r"down(?:ward|wards)?|below|beneath|under(?:neath)?|lower|bottom|toward the (?:floor|ground)",
+    (r"down(?:ward|wards)?|below|beneath|under(?:neath)?|lower|bottom|"
+     r"(?:toward|towards|to|at) the (?:floor|ground)",
      Sense("way", "down")),
     (r"forwards?|forth|ahead|in front|front|frontward|onward|towards? the (?:scene|subject)|"
      r"into the scene|inward",
@@ -158,7 +216,8 @@ _FILLER = frozenset(
     "so that this that side edge s degrees degree deg slight small large big far much more bit "
     "diagonally diagonal straight directly scene subject objects object photographed place point spot "
     "location "
-    "position height level reference off out original initial previous other ones earlier later".split()
+    "position height level reference off out original initial previous other ones earlier later "
+    "now own few couple several while vantage standpoint than before".split()
 )
 
 
@@ -231,9 +290,10 @@ def _joins(open_: _Part | None, verb: Sense, aiming: bool) -> bool:
         return False
     if open_.verb is None or aiming:
         return True
-    return (
-        open_.verb.kind in _STEPPING and not open_.ways and verb.kind in ("step", "weak") and bool(verb.value)
-    )
+    if open_.verb.kind not in _STEPPING or open_.ways or verb.kind not in ("step", "weak"):
+        return False
+    # "walked a few steps left", "got nearer": one step said with two verbs
+    return bool(verb.value) or open_.verb.kind in ("step", "weak")
 
 
 def _add_verb(parts: list[_Part], token: Token, negate: bool, aiming: bool) -> None:
@@ -301,6 +361,9 @@ def _rotation(part: _Part, degrees: float | None, source: str) -> Claim:
         return Compound(
             parts=tuple(Rotation(axis=a, sense="none", source=source) for a in _AXES), source=source
         )
+    if part.negated and (part.ways or part.senses):
+        # "did not turn left" says which turn did not happen, not which did
+        return Unread(source=source, why="a negated direction states no motion")
     if part.negated:
         return Rotation(axis=axis or "yaw", sense="none", source=source)
     if len(senses) > 1:
@@ -357,8 +420,43 @@ def _part_claim(part: _Part, degrees: float | None, source: str) -> Claim:
 _TARGET = re.compile(
     r"^(?:(?:it|the camera|camera)\s+)?(?:(?:came|got|moved|went|is|was|ended up)\s+)?"
     r"(?P<change>closer|nearer|farther|further)\s+(?:away\s+)?(?:to|from)\s+"
-    r"(?P<object>(?!the scene\b|the subject\b)(?:the|a|an)\s+[a-z ]+)$"
+    r"(?P<object>(?!the (?:scene|subject|left|right|top|bottom|front|back|rear)\b)(?:the|a|an)\s+[a-z ]+)$"
 )
+
+
+# What moves when these are the subject is the picture's content: it shifts the opposite way to the
+# camera ("the scene slid left" when the camera turned or stepped right). That inversion is not
+# read: the option is left unread rather than risk a claim of the wrong sign.
+_CONTENT = re.compile(
+    r"\b(?:scene|scenery|objects?|contents?|things|everything|world|background|foreground|surroundings|"
+    r"room|furniture|subject|image|picture|photo|frame)\b"
+)
+_CAMERA_SUBJECT = re.compile(
+    r"\b(?:camera|it|photographer|shooter|viewer|lens|\d+|first|second|third|last)\b"
+)
+_IN_THE_PICTURE = re.compile(r"\bin (?:the )?(?:frame|image|picture|photo|shot)\b")
+_NO_CLAIM = {
+    "zoom": "a zoom changes the focal length, not the camera's place",
+    "return": "a return to an earlier place states no direction",
+}
+
+
+def _no_claim(words: str, found: list[Token]) -> str | None:
+    """Why words that look like motion state no claim about the camera, else None."""
+    for token in found:
+        if token.sense.kind in _NO_CLAIM:
+            return _NO_CLAIM[token.sense.kind]
+    verb = next((t for t in found if t.sense.kind in _VERBS), None)
+    subject = words[: verb.start] if verb is not None else ""
+    content = _CONTENT.search(subject)
+    if content and not _CAMERA_SUBJECT.search(subject):
+        return (
+            f"it says the {content.group()} moved: content shifts in the frame opposite to the camera, "
+            "which is not read"
+        )
+    if verb is not None and _IN_THE_PICTURE.search(words[verb.end :]):
+        return "it describes motion within the picture, not the camera's"
+    return None
 
 
 def read_phrase(text: str) -> Claim:
@@ -373,6 +471,9 @@ def read_phrase(text: str) -> Claim:
         return Unread(source=text, why=f"{', '.join(repr(w) for w in unknown)} is not in the motion lexicon")
     if not found:
         return Unread(source=text)
+    if refusal := _no_claim(words, found):
+        return Unread(source=text, why=refusal)
+    found = [token for token in found if token.sense.kind != "filler"]
     if any(token.sense.kind == "or" for token in found):
         return Unread(source=text, why="it offers two claims joined by 'or'", two_claims=True)
     stated = _DEGREES.search(words)

@@ -1,0 +1,365 @@
+"""Options read by meaning: a table of option wordings written for this file (not taken from the
+paraphrase corpus), each with the claim it states, across every kind and sense of camera motion and
+position, plus near-misses that must stay unread.
+
+Expected claims are written in a short form: ``T left`` (a translation; several ways for a diagonal),
+``P up`` (a position), ``R yaw left`` / ``R pitch up`` / ``R roll clockwise`` (a rotation), ``S``
+(still), ``B left`` (a bare direction: its kind is the one the question asks), ``C <part> + <part>``
+(a compound), ``U`` (unread) and ``U2`` (unread because it says two things at once).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from shared.questions.claims import (
+    Bare,
+    Claim,
+    Compound,
+    Position,
+    Rotation,
+    Still,
+    Translation,
+    Unread,
+)
+from shared.questions.lexicon import read_phrase
+from shared.questions.reading import read_question
+
+_WAY_ORDER = ("forward", "backward", "up", "down", "left", "right")
+
+
+def _ways(ways: tuple[str, ...]) -> str:
+    return " ".join(sorted(ways, key=_WAY_ORDER.index))
+
+
+def short(claim: Claim) -> str:
+    """A claim in the table's short form."""
+    if isinstance(claim, Translation):
+        return f"T {_ways(claim.ways)}"
+    if isinstance(claim, Position):
+        return f"P {_ways(claim.ways)}"
+    if isinstance(claim, Bare):
+        return f"B {_ways(claim.ways)}"
+    if isinstance(claim, Rotation):
+        return f"R {claim.axis} {claim.sense}"
+    if isinstance(claim, Still):
+        return "S"
+    if isinstance(claim, Compound):
+        return "C " + " + ".join(sorted(short(part) for part in claim.parts))
+    if isinstance(claim, Unread):
+        return "U2" if claim.two_claims else "U"
+    return claim.kind
+
+
+TRANSLATIONS = [
+    # sideways
+    ("The camera shifted to the left", "T left"),
+    ("It slides right", "T right"),
+    ("Sliding leftward", "T left"),
+    ("It sidestepped right", "T right"),
+    ("Strafed to the left", "T left"),
+    ("Trucked right", "T right"),
+    ("The camera tracked left", "T left"),
+    ("It crabbed to the right", "T right"),
+    ("Walked a few steps to the left", "T left"),
+    ("It drifted rightward", "T right"),
+    ("Traveled to the left", "T left"),
+    ("Travelled right", "T right"),
+    ("Moved further to the left", "T left"),
+    ("It moved more to the right", "T right"),
+    ("Its position shifted to the left", "T left"),
+    ("The shooter stepped to their right", "T right"),
+    ("Moved toward the left side of the frame", "T left"),
+    ("A lateral move to the left", "T left"),
+    ("Sideways, to the right", "T right"),
+    ("It glided over to the right", "T right"),
+    ("Moves left", "T left"),
+    ("Moving rightwards", "T right"),
+    # vertical
+    ("The camera rose", "T up"),
+    ("It rises", "T up"),
+    ("Rising higher", "T up"),
+    ("Climbing", "T up"),
+    ("It climbed up", "T up"),
+    ("Ascending", "T up"),
+    ("It went up", "T up"),
+    ("Moved upward", "T up"),
+    ("It was elevated", "T up"),
+    ("Lifted higher", "T up"),
+    ("Pedestaled up", "T up"),
+    ("Boomed up", "T up"),
+    ("Gained height", "T up"),
+    ("From a higher vantage point", "T up"),
+    ("It sank", "T down"),
+    ("Sinking lower", "T down"),
+    ("Descending", "T down"),
+    ("It dropped down", "T down"),
+    ("It was lowered a bit", "T down"),
+    ("Went down", "T down"),
+    ("Moved downward", "T down"),
+    ("Lost height", "T down"),
+    ("At a lower elevation", "T down"),
+    ("It came down", "T down"),
+    ("It fell", "T down"),
+    ("Crouched lower", "T down"),
+    # toward and away from the scene
+    ("Moved forward", "T forward"),
+    ("It advanced", "T forward"),
+    ("Advancing toward the scene", "T forward"),
+    ("Proceeding ahead", "T forward"),
+    ("It approached the scene", "T forward"),
+    ("Approaching", "T forward"),
+    ("Stepped closer", "T forward"),
+    ("Came closer", "T forward"),
+    ("Got nearer to the subject", "T forward"),
+    ("Walked forward", "T forward"),
+    ("It dollied in", "T forward"),
+    ("Pushed in", "T forward"),
+    ("Moved in closer", "T forward"),
+    ("Stepped in", "T forward"),
+    ("Moved toward the scene", "T forward"),
+    ("Moved backward", "T backward"),
+    ("Backed up", "T backward"),
+    ("It backed off", "T backward"),
+    ("Backing away", "T backward"),
+    ("Stepped back", "T backward"),
+    ("Withdrawing", "T backward"),
+    ("It retreated", "T backward"),
+    ("Pulled back", "T backward"),
+    ("Pulled out", "T backward"),
+    ("Dollied out", "T backward"),
+    ("Moved away from the scene", "T backward"),
+    ("Farther from the subject", "T backward"),
+    ("Further away", "T backward"),
+    ("Receded", "T backward"),
+    ("Moved back", "T backward"),
+    # diagonals
+    ("Moved forward and to the left", "T forward left"),
+    ("Stepped forward-left", "T forward left"),
+    ("Went up and to the right", "T up right"),
+]
+
+ROTATIONS = [
+    # yaw
+    ("Turned to the left", "R yaw left"),
+    ("It turns right", "R yaw right"),
+    ("Turning leftward", "R yaw left"),
+    ("Panned left", "R yaw left"),
+    ("Panning to the right", "R yaw right"),
+    ("Yawed left", "R yaw left"),
+    ("Swiveled right", "R yaw right"),
+    ("Swivelled to the left", "R yaw left"),
+    ("Pivoted right", "R yaw right"),
+    ("Veered to the left", "R yaw left"),
+    ("Swung right", "R yaw right"),
+    ("Swung its view to the left", "R yaw left"),
+    ("Looked to the left", "R yaw left"),
+    ("Glanced right", "R yaw right"),
+    ("Its heading changed to the right", "R yaw right"),
+    ("Pointed further left", "R yaw left"),
+    ("Aimed more to the right", "R yaw right"),
+    ("Faced left", "R yaw left"),
+    ("Now faces more to the left", "R yaw left"),
+    ("Rotated to the right", "R yaw right"),
+    ("Rotated left about the vertical axis", "R yaw left"),
+    ("Turned around", "R yaw around"),
+    ("Did an about-face", "R yaw around"),
+    # pitch
+    ("Tilted up", "R pitch up"),
+    ("Tilting downward", "R pitch down"),
+    ("It tilts upward", "R pitch up"),
+    ("Pitched up", "R pitch up"),
+    ("Pitching down", "R pitch down"),
+    ("Nodded down", "R pitch down"),
+    ("Looked up", "R pitch up"),
+    ("Looking downward", "R pitch down"),
+    ("Looked down at the floor", "R pitch down"),
+    ("Angled upward", "R pitch up"),
+    ("Angled the camera down", "R pitch down"),
+    ("Aimed higher", "R pitch up"),
+    ("Pointed lower", "R pitch down"),
+    ("Craned up", "R pitch up"),
+    ("Tipped downward", "R pitch down"),
+    ("Its view tilted up", "R pitch up"),
+    ("Tilted toward the ceiling", "R pitch up"),
+    ("Tilted toward the ground", "R pitch down"),
+    ("Its line of sight dropped", "R pitch down"),
+    ("Its aim went up", "R pitch up"),
+    ("Tilted its lens upwards", "R pitch up"),
+    # roll
+    ("Rolled clockwise", "R roll clockwise"),
+    ("Rolling counterclockwise", "R roll counterclockwise"),
+    ("Spun clockwise", "R roll clockwise"),
+    ("Spinning anticlockwise", "R roll counterclockwise"),
+    ("Canted counter-clockwise", "R roll counterclockwise"),
+    ("Banked clockwise", "R roll clockwise"),
+    ("Twisted anti-clockwise", "R roll counterclockwise"),
+    ("Rotated clockwise around the optical axis", "R roll clockwise"),
+    ("Rotated counterclockwise about its viewing axis", "R roll counterclockwise"),
+    ("Turned clockwise about the line of sight", "R roll clockwise"),
+    ("Clockwise", "R roll clockwise"),
+    ("A clockwise roll", "R roll clockwise"),
+    ("Rolled CW", "R roll clockwise"),
+    ("Rolled 20 degrees clockwise", "R roll clockwise"),
+    ("Rotated in the clockwise direction", "R roll clockwise"),
+    # negated rotations: no turn about that axis
+    ("Did not turn", "R yaw none"),
+    ("Without tilting", "R pitch none"),
+    ("No roll", "R roll none"),
+]
+
+STILL = [
+    ("It stayed still", "S"),
+    ("Stayed put", "S"),
+    ("Remained stationary", "S"),
+    ("Did not move", "S"),
+    ("Didn't move at all", "S"),
+    ("The camera did not budge", "S"),
+    ("No movement", "S"),
+    ("No change", "S"),
+    ("Unchanged", "S"),
+    ("Stationary", "S"),
+    ("Held its position", "S"),
+    ("Kept the same position", "S"),
+    ("Stayed at the same spot", "S"),
+    ("Stayed in the same place", "S"),
+    ("Remained where it was", "S"),
+    ("It was not moved", "S"),
+    ("Same spot", "S"),
+    ("Did not move or turn", "S"),
+    ("Nothing changed", "S"),
+    ("Motionless", "S"),
+    ("Stood still", "S"),
+]
+
+POSITIONS = [
+    ("Above it", "B up"),
+    ("To its left", "B left"),
+    ("Behind the first camera", "B backward"),
+    ("In front of the first camera", "B forward"),
+    ("Ahead of it", "B forward"),
+    ("To the shooter's left", "B left"),
+    ("On the first camera's right", "B right"),
+    ("Below and to the left", "B down left"),
+    ("Lower than the first camera", "B down"),
+    ("Higher than before", "B up"),
+    ("Right behind it", "B backward"),
+    ("Right above it", "B up"),
+    ("Directly below it", "B down"),
+    ("Located to the left", "P left"),
+    ("Positioned above", "P up"),
+    ("Situated behind the first", "P backward"),
+    ("It was taken from a spot to the right", "P right"),
+    ("Taken from higher up", "P up"),
+    ("Shot from further left", "P left"),
+    ("Further back", "T backward"),
+    ("Leftward", "B left"),
+    ("Upward", "B up"),
+]
+
+COMPOUNDS = [
+    ("Moved left and turned right", "C R yaw right + T left"),
+    ("Rose while panning left", "C R yaw left + T up"),
+    ("Stepped forward and tilted down", "C R pitch down + T forward"),
+    ("Turned left, then moved forward", "C R yaw left + T forward"),
+    ("Slid right as it rolled clockwise", "C R roll clockwise + T right"),
+    ("Moved left without turning", "C R yaw none + T left"),
+]
+
+# Words that look like motion but say something else, or say two things, or too little: never read
+# as a claim (a wrong claim can give a wrong answer; an unread one only stops it).
+NEAR_MISSES = [
+    # the scene moving in the frame is the camera's motion reversed: not read as the camera's
+    ("The scene shifted to the left", "U"),
+    ("Objects moved right in the frame", "U"),
+    ("Everything in view slid left", "U"),
+    ("The background drifted up", "U"),
+    ("The image content moved down", "U"),
+    ("The picture shifted right", "U"),
+    ("The subject moved closer", "U"),
+    # a zoom changes the focal length, not where the camera is
+    ("It zoomed in", "U"),
+    ("Zoomed out", "U"),
+    # a return to a place is no direction of its own
+    ("Went back to the first position", "U"),
+    ("Came back", "U"),
+    # "ended up" and "turned out" are idioms, not an upward step or a turn outward
+    ("It turned out fine", "U"),
+    ("Looked the same", "U"),
+    ("It left the room", "U"),
+    # too little said
+    ("Turned", "U"),
+    ("Moved", "U"),
+    ("Sideways", "U"),
+    ("Dipped", "U"),
+    ("Next to it", "U"),
+    ("Beside it", "U"),
+    ("Slightly", "U"),
+    ("Cannot be determined", "U"),
+    ("Upside down", "U"),
+    # a direction that does not fit its verb's axis
+    ("Tilted left", "U"),
+    ("Rolled right", "U"),
+    ("Panned up", "U"),
+    ("Panned clockwise", "U"),
+    # a negated direction says what did not happen, not what did
+    ("Did not turn left", "U"),
+    ("Did not move left", "U"),
+    ("Did not tilt up", "U"),
+    ("Not to the left", "U"),
+    ("It went left instead of right", "U"),
+    # two alternatives, or opposite directions at once
+    ("Left or right", "U2"),
+    ("Either up or down", "U2"),
+    ("Turned left or right", "U2"),
+    ("Up and down", "U2"),
+    ("Back and forth", "U2"),
+]
+
+TABLE = TRANSLATIONS + ROTATIONS + STILL + POSITIONS + COMPOUNDS + NEAR_MISSES
+
+
+def test_the_table_is_large_and_covers_every_kind() -> None:
+    assert len(TABLE) >= 120
+    kinds = {expected.split()[0] for _, expected in TABLE}
+    assert kinds >= {"T", "P", "R", "S", "B", "C", "U", "U2"}
+    senses = {" ".join(expected.split()[:3]) for _, expected in ROTATIONS}
+    for axis, sense in (("yaw", "left"), ("yaw", "right"), ("pitch", "up"), ("pitch", "down")):
+        assert f"R {axis} {sense}" in senses
+    assert {"R roll clockwise", "R roll counterclockwise"} <= senses
+
+
+@pytest.mark.parametrize(("wording", "expected"), TABLE)
+def test_each_option_wording_reads_as_its_claim(wording: str, expected: str) -> None:
+    claim = read_phrase(wording)
+    assert short(claim) == expected, (wording, claim)
+
+
+@pytest.mark.parametrize(("wording", "expected"), NEAR_MISSES)
+def test_near_misses_say_why_they_stay_unread(wording: str, expected: str) -> None:
+    claim = read_phrase(wording)
+    assert isinstance(claim, Unread) and claim.why, claim
+
+
+def test_the_content_inversion_is_named_as_the_reason() -> None:
+    claim = read_phrase("The scene shifted to the left")
+    assert isinstance(claim, Unread) and "scene" in claim.why
+
+
+@pytest.mark.parametrize(
+    ("stem", "expected"),
+    [
+        ("From image 1 to image 2, which way did the camera move sideways?", "T left"),
+        ("Between photo 1 and photo 2, where was the second camera relative to the first?", "P left"),
+        ("From image 1 to image 2, which way did the camera pan?", "R yaw left"),
+        ("From image 1 to image 2, which way did the camera tilt?", "R pitch up"),
+    ],
+)
+def test_a_bare_direction_takes_the_kind_the_stem_asks(stem: str, expected: str) -> None:
+    """'Leftward' / 'Upward' carry no kind: the stem's quantity gives it, when the stem is certain."""
+    way = expected.split()[-1]
+    options = {"left": "Leftward", "right": "Rightward", "up": "Upward", "down": "Downward"}
+    others = [word for key, word in options.items() if key != way][:1]
+    text = f"{stem} Options: A: {options[way]}, B: {others[0]}"
+    reading = read_question(text, 2)
+    assert short(reading.options["A"]) == expected, reading
