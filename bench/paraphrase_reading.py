@@ -15,16 +15,16 @@ from __future__ import annotations
 import argparse
 from collections import Counter
 
-from shared.questions.claims import is_read, resolve_bare
+from shared.questions.claims import is_read
 from shared.questions.reading import QuestionReading, read_question
 from tests.support.paraphrases import SPLITS, ParaphraseItem, text_corpus
 
 
 def claim_dict(claim, quantity: str) -> dict:
-    """A read claim in the corpus's plain form (a bare direction taken as the quantity asked). In a
-    position question a step claim counts as the position (the same geometry, issue 34: the second
-    camera's centre in the first camera's frame)."""
-    claim = resolve_bare(claim, quantity)
+    """A read claim in the corpus's plain form. A bare direction is as the reading left it: the
+    reading gives it the kind the stem asks when the stem says it, and leaves it bare (so the
+    question abstains) when not. In a position question a step claim counts as the position (the
+    same geometry, issue 34: the second camera's centre in the first camera's frame)."""
     data = claim.model_dump(exclude={"source", "why", "degrees"})
     if "ways" in data:
         data["ways"] = list(data["ways"])
@@ -61,7 +61,7 @@ def option_outcomes(item: ParaphraseItem, reading: QuestionReading) -> list[str]
         claim = reading.options.get(letter)
         if claim is not None and claim_dict(claim, reading.quantity) == expected:
             outcomes.append("option right")
-        elif claim is None or not is_read(resolve_bare(claim, reading.quantity)):
+        elif claim is None or not is_read(claim):
             outcomes.append("option unread")
         else:
             outcomes.append("option misread")

@@ -61,6 +61,8 @@ _IRREGULAR = {
     "spin": ("spun",),
     "slide": ("slid",),
     "withdraw": ("withdrew", "withdrawn"),
+    "draw": ("drew", "drawn"),
+    "take": ("took", "taken"),
 }
 # A final consonant after one short vowel may double: step/stepped, pan/panned, sidestep/sidestepping
 # (both spellings are kept: pivoted, travelled/traveled).
@@ -112,18 +114,19 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"right(?= (?:above|below|behind|in front|ahead|over|under|beneath|underneath|beside|next)\b)|"
      r"(?:further|farther)(?= (?:to |toward |towards |on )?(?:the |its |their )?(?:left|right|up|upward|"
      r"down|downward|forward|ahead|in)\b)|"
-     r"(?:end|ends|ended|ending) up|over(?= to\b)|lateral(?:ly)?|at all|than (?:before|previously|earlier|"
+     r"(?:end|ends|ended|ending) up|over(?= to\b)|lateral(?:ly)?|vertical(?:ly)?|horizontal(?:ly)?|"
+     r"at all|than (?:before|previously|earlier|"
      r"originally|it was|at first)|vantage point|view ?point|standpoint", Sense("filler")),
     # ---- negation of the next verb
     (r"did not|didn t|does not|doesn t|not|without|no|never|neither|nor|zero", Sense("not")),
     # ---- two claims offered as one ("backward or to the left"): the option says two things
     (r"or|either", Sense("or")),
     # ---- the camera's orientation as a noun: "its aim rose", "the heading swung left"
-    (r"(?:its|the|camera s|the camera s) (?:aim|heading|gaze|line of sight|view(?:ing)? direction|"
-     r"orientation|"
-     r"pointing direction|optical axis)", Sense("aimnoun")),
+    (r"(?:its|the|camera s|the camera s) (?:aim|heading|gaze|line of sight|"
+     r"(?:view|viewing|facing|pointing|looking) direction|direction of (?:view|gaze|sight)|"
+     r"orientation|optical axis)", Sense("aimnoun")),
     (r"(?:about|around|round|along|on) (?:its |the )?(?:(?:lens s |lens |optical |viewing |view |forward |"
-     r"camera s )?axis|line of sight)",
+     r"camera s )?axis|line of sight|(?:viewing|view|facing|pointing|looking|forward) direction)",
      Sense("axis", "roll")),
     (r"(?:about|around|round|on) (?:its |the |a )?vertical axis", Sense("axis", "yaw")),
     # ---- rotation about the optical axis (before the verbs that share words with it)
@@ -146,7 +149,7 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      + _verb("glance", "peer") + "|"
      r"direction (?:it|the camera) (?:faces|faced|points|pointed)|heading", Sense("aim")),
     # ---- position of one camera relative to another
-    (r"locat\w*|(?<!its )(?<!the )position\w*|plac(?:e|ed)|situat\w*|lies|lay|lying|sits|sat|stands|stood|"
+    (r"locat(?:ed|es|ing)|position(?:ed|ing)|placed|situat(?:ed|es|ing)|lies|lay|lying|sits|sat|stands|stood|"
      r"(?:was |were |is )?taken from|shot from|captured from|set up", Sense("place")),
     # ---- a step toward an edge of the photo: the frame's own directions
     (r"(?:toward|towards|to) (?:the )?(?:frame|image|picture|photo|view)(?: s)? (?:upper|"
@@ -172,15 +175,23 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      rf"(?:{_verb('move', 'step', 'walk', 'lean')}) in(?: closer| nearer)?(?=$| and\b| then\b| toward)",
      Sense(_STEP, "forward")),
     (r"withdr\w*|retreat\w*|reced\w*|back(?:ed|s|ing)? (?:up|off|away|out)|step(?:ped|s|ping)? back|"
-     r"pull(?:ed|s|ing)? (?:back|out|away)|dolly(?:ing)? out|dollied out|farther|"
-     r"further away|"
-     r"further back|away from", Sense(_STEP, "backward")),
+     r"pull(?:ed|s|ing)? (?:back|out|away)|dolly(?:ing)? out|dollied out|"
+     r"(?:farther|further)(?: away| back| off)?|away from",
+     Sense(_STEP, "backward")),
+    # ---- the camera's height said as a quantity that grew or shrank
+    (r"(?:its |the |camera s |the camera s )?(?:height|elevation|altitude) (?:"
+     + _verb("increase", "grow") + r"|grew|grown)", Sense(_STEP, "up")),
+    (r"(?:its |the |camera s |the camera s )?(?:height|elevation|altitude) (?:"
+     + _verb("decrease", "shrink", "reduce") + r"|shrank|shrunk)", Sense(_STEP, "down")),
     (r"sideways|sidewise|laterally|shift\w*|slid\w*|translat\w*|displac\w*|relocat\w*|reposition\w*|"
      r"glid\w*|drift\w*|step\w*|walk\w*|"
      r"dolly|dollied|carr(?:y|ied)|travel\w*|head(?:ed|ing)? (?=left|right|up|down|forward|back)|"
-     + _verb("track", "scoot", "nudge"),
+     + _verb("track", "scoot", "nudge")
+     + r"|edg(?:ed|es|ing)|inch(?:ed|es|ing)|"
+     + rf"(?:{_verb('take')}) (?:a |one |two |three |several |a few |some )?"
+     r"(?:small |big |short |long |single )?(?:steps?|paces?)",
      Sense(_STEP)),
-    (r"mov\w*|motion|" + _verb("go", "come", "get", "bring"), Sense("weak")),
+    (r"mov\w*|motion|" + _verb("go", "come", "get", "bring", "draw"), Sense("weak")),
     (r"chang\w*|differ\w*|happen\w*", Sense("weak", "any")),
     # ---- directions
     (r"(?:to |toward |towards |on |at )?(?:the |its |their |his |her |your |my )?left(?:ward|"
@@ -486,12 +497,38 @@ def read_phrase(text: str) -> Claim:
     if rotations and any(isinstance(c, Still) for c in claims):
         # "stayed in place and turned left": in place is no step, and the turn is the claim
         claims = [c for c in claims if not isinstance(c, Still)]
-    claims = list(dict.fromkeys(claims))
+    claims = _merged(claims, text)
+    if isinstance(claims, Unread):
+        return claims
     if len(claims) == 1:
         return claims[0].model_copy(update={"source": text})
     if any(isinstance(c, Bare) for c in claims):
         return Unread(source=text, why="directions that belong to no verb next to a verb")
     return Compound(parts=tuple(claims), source=text)  # type: ignore[arg-type]
+
+
+def _merged(claims: list[Claim], text: str) -> list[Claim] | Unread:
+    """Parts of one kind said twice are one claim: "stepped backward, away from the scene" is one
+    step back, "stepped back and moved left" one diagonal step; two senses about one axis ("turned
+    left, then right") are two claims."""
+    merged: list[Claim] = []
+    for claim in claims:
+        same = next((m for m in merged if type(m) is type(claim)), None)
+        if isinstance(claim, Translation | Position) and isinstance(same, Translation | Position):
+            ways = tuple(dict.fromkeys((*same.ways, *claim.ways)))
+            if conflict := _conflict(list(ways)):
+                return Unread(source=text, why=conflict, two_claims=True)
+            merged[merged.index(same)] = same.model_copy(update={"ways": ways})
+            continue
+        if isinstance(claim, Rotation):
+            twin = next((m for m in merged if isinstance(m, Rotation) and m.axis == claim.axis), None)
+            if twin is not None and twin.sense != claim.sense:
+                return Unread(source=text, why=f"it names two {claim.axis} senses", two_claims=True)
+            if twin is not None:
+                continue
+        if claim not in merged:
+            merged.append(claim)
+    return merged
 
 
 def stem_senses(text: str) -> list[Sense]:

@@ -331,13 +331,20 @@ def _abstain(
     return None
 
 
-def _bare_sense(quantity: Quantity, ask: str) -> Quantity:
-    """What a bare direction means: the quantity asked, or in a question about any motion the
-    stem's verb ("how did it move? Forward" is a step)."""
-    if quantity != "motion":
+def _bare_sense(quantity: Quantity, ask: str, options: dict[str, Claim]) -> Quantity:
+    """What a bare direction means: the quantity the stem asks when a word of one kind says it
+    ("which way did it pan? Left" is a yaw); with an everyday verb ("how did it move? Forward") a
+    step, unless another option is a turn. The other options alone never give a bare one its kind
+    ("It ended up further left" beside turns may be a step): it stays bare, and the reading abstains."""
+    stem, strong, _ = _stem_quantity(asking_sentences(ask))
+    if stem in ("translation", "rotation", "position") and strong:
+        return stem
+    turns = any("rotation" in claim_kinds(claim) for claim in options.values())
+    if stem == "translation" and not turns and quantity in ("translation", "position", "still"):
+        return quantity if quantity != "still" else "translation"
+    if quantity == "position" and stem is None and not turns:
         return quantity
-    stem, _, _ = _stem_quantity(asking_sentences(ask))
-    return stem if stem in ("translation", "rotation", "position") else quantity
+    return "motion"
 
 
 def _with_bare_resolved(options: dict[str, Claim], quantity: Quantity) -> dict[str, Claim]:
@@ -353,7 +360,7 @@ def read_question(text: str, image_count: int | None = None) -> QuestionReading:
     hypothetical = bool(_WHAT_IF.search(normalized(asking_sentences(ask))))
     if quantity not in CAMERA_QUANTITIES or hypothetical or (not _lead(options) and not _is_camera_ask(ask)):
         quantity = "object_relation" if _OBJECT_ASK.search(normalized(ask)) else "other"
-    options = _with_bare_resolved(options, _bare_sense(quantity, ask))
+    options = _with_bare_resolved(options, _bare_sense(quantity, ask, options))
     pair = _pair(ask, image_count, camera=quantity in CAMERA_QUANTITIES)
     frame, frame_source, frame_certain = _frame(ask, pair.views, image_count)
     return QuestionReading(
