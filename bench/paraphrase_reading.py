@@ -23,13 +23,16 @@ from tests.support.paraphrases import SPLITS, ParaphraseItem, text_corpus
 def claim_dict(claim, quantity: str) -> dict:
     """A read claim in the corpus's plain form. A bare direction is as the reading left it: the
     reading gives it the kind the stem asks when the stem says it, and leaves it bare (so the
-    question abstains) when not. In a position question a step claim counts as the position (the
-    same geometry, issue 34: the second camera's centre in the first camera's frame)."""
+    question abstains) when not. A step and a position are the same geometry (issue 34: the second
+    camera's centre in the first camera's frame): in a position question a step claim counts as the
+    position, and in a translation question a position claim ("It stood higher") as the step."""
     data = claim.model_dump(exclude={"source", "why", "degrees"})
     if "ways" in data:
         data["ways"] = list(data["ways"])
     if quantity == "position" and data["kind"] == "translation":
         data["kind"] = "position"
+    if quantity == "translation" and data["kind"] == "position":
+        data["kind"] = "translation"
     return data
 
 

@@ -10,8 +10,12 @@ Expected claims are written in a short form: ``T left`` (a translation; several 
 
 from __future__ import annotations
 
+import random
+from collections import Counter
+
 import pytest
 
+from bench.paraphrase_reading import option_outcomes
 from shared.questions.claims import (
     Bare,
     Claim,
@@ -24,6 +28,8 @@ from shared.questions.claims import (
 )
 from shared.questions.lexicon import read_phrase
 from shared.questions.reading import read_question
+from tests.support.option_wordings import OPTION_WORDINGS
+from tests.support.paraphrases import load_wordings, phrase, random_spec
 
 _WAY_ORDER = ("forward", "backward", "up", "down", "left", "right")
 
@@ -67,6 +73,7 @@ TRANSLATIONS = [
     ("Travelled right", "T right"),
     ("Moved further to the left", "T left"),
     ("It moved more to the right", "T right"),
+    ("It ended up further left", "B left"),
     ("Its position shifted to the left", "T left"),
     ("The shooter stepped to their right", "T right"),
     ("Moved toward the left side of the frame", "T left"),
@@ -363,3 +370,39 @@ def test_a_bare_direction_takes_the_kind_the_stem_asks(stem: str, expected: str)
     text = f"{stem} Options: A: {options[way]}, B: {others[0]}"
     reading = read_question(text, 2)
     assert short(reading.options["A"]) == expected, reading
+
+
+# ---- whole questions: the corpus's tuning stems and pairs with this file's own option wordings ----
+
+
+def _own_option_corpus(count: int, seed: int) -> list:
+    """Questions built by the paraphrase corpus from its tuning stems, pairs and layouts, with the
+    option lists replaced by tests/support/option_wordings.py (written for the lexicon, never
+    drawn from the held-out lists)."""
+    wordings = load_wordings("tuning")
+    for name, entries in OPTION_WORDINGS.items():
+        wordings[name] = [{"id": f"{name}.own{i:02d}", "text": text} for i, text in enumerate(entries)]
+    rng = random.Random(f"own-options:{seed}")
+    return [phrase(random_spec(rng, None), wordings, "tuning", f"own-{i:04d}", rng) for i in range(count)]
+
+
+def test_own_option_wordings_cover_every_list_and_claim() -> None:
+    corpus_lists = {name for name in load_wordings("tuning") if name.startswith("option.")}
+    assert set(OPTION_WORDINGS) == corpus_lists
+    for name, entries in OPTION_WORDINGS.items():
+        keys = set(load_wordings("tuning")[name][0]["text"])
+        assert all(set(entry) == keys for entry in entries), name
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_whole_questions_with_own_option_wordings_read_every_option_right(seed: int) -> None:
+    outcomes: Counter = Counter()
+    wrong = []
+    for item in _own_option_corpus(300, seed):
+        reading = read_question(item.text, item.image_count)
+        found = option_outcomes(item, reading)
+        outcomes.update(found)
+        wrong += [(item.text, reading.options) for outcome in found if outcome == "option misread"]
+    assert outcomes["option misread"] == 0, wrong[:3]
+    assert outcomes["option unread"] == 0
+    assert outcomes["option right"] == 4 * 300

@@ -96,7 +96,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"(?:stay|stayed|stays|staying|kept|keep|stood|stand|held|hold|remained|remain|remains)\s+"
      r"(?:completely\s+|perfectly\s+)?(?:still|put|stationary|motionless|fixed|steady|in place|where it was|"
      r"(?:at|in) the same (?:spot|place|position|point|location))", Sense("still")),
-    (r"(?:did not|didn t|never) (?:move|shift) (?:or|nor) (?:turn|rotate)|"
+    (r"(?:the )?same (?:position|place|spot|location|pose) and (?:orientation|heading|direction|aim|angle)|"
+     r"(?:did not|didn t|never) (?:move|shift) (?:or|nor) (?:turn|rotate)|"
      r"nothing (?:changed|moved|happened)", Sense("still")),
     (r"(?:did not|didn t|does not|doesn t|never)\s+(?:move|budge|change position|"
      r"shift)\b(?!\s+(?:left|right|up|down|forward|back))",
@@ -115,6 +116,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"(?:further|farther)(?= (?:to |toward |towards |on )?(?:the |its |their )?(?:left|right|up|upward|"
      r"down|downward|forward|ahead|in)\b)|"
      r"(?:end|ends|ended|ending) up|over(?= to\b)|lateral(?:ly)?|vertical(?:ly)?|horizontal(?:ly)?|"
+     r"where (?:the )?(?:first |earlier |other |previous |reference )?(?:image|photo|picture|view|shot|frame|"
+     r"camera|snapshot)(?: \w+)? (?:was|is|had been) (?:taken|shot|captured|located|positioned)|"
      r"at all|than (?:before|previously|earlier|"
      r"originally|it was|at first)|vantage point|view ?point|standpoint", Sense("filler")),
     # ---- negation of the next verb
@@ -125,6 +128,16 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"(?:its|the|camera s|the camera s) (?:aim|heading|gaze|line of sight|"
      r"(?:view|viewing|facing|pointing|looking) direction|direction of (?:view|gaze|sight)|"
      r"orientation|optical axis)", Sense("aimnoun")),
+    # ---- a step along the way the camera looks is forward, against it backward
+    (r"along (?:its |the )?(?:(?:viewing|view|facing|pointing|looking) direction|line of sight|"
+     r"optical axis|direction (?:it|the camera) (?:faced|faces|was facing|is facing|pointed|points))",
+     Sense("way", "forward")),
+    (r"against (?:its |the )?(?:(?:viewing|view|facing|pointing|looking) direction|line of sight|"
+     r"optical axis)",
+     Sense("way", "backward")),
+    # ---- a yaw's sense seen from above (clockwise from above is a turn right)
+    (r"(?:as )?(?:seen|viewed|looking down) from (?:above|overhead)|(?:as )?seen from the top",
+     Sense("axis", "yaw_from_above")),
     (r"(?:about|around|round|along|on) (?:its |the )?(?:(?:lens s |lens |optical |viewing |view |forward |"
      r"camera s )?axis|line of sight|(?:viewing|view|facing|pointing|looking|forward) direction)",
      Sense("axis", "roll")),
@@ -228,7 +241,9 @@ _FILLER = frozenset(
     "diagonally diagonal straight directly scene subject objects object photographed place point spot "
     "location "
     "position height level reference off out original initial previous other ones earlier later "
-    "now own few couple several while vantage standpoint than before".split()
+    "now own few couple several while vantage standpoint than before along nose shooting capture "
+    "m cm mm meter meters metre metres centimeter centimeters centimetre centimetres feet foot ft inches "
+    "half quarter yard yards unit units".split()
 )
 
 
@@ -291,16 +306,21 @@ class _Part:
 _AXES = ("yaw", "pitch", "roll")
 _VERBS = ("step", "weak", "aim", "yaw", "pitch", "roll", "place", "still")
 _STEPPING = ("step", "weak", "place")
+_TURNING = ("aim", "yaw", "pitch", "roll")
 
 
-def _joins(open_: _Part | None, verb: Sense, aiming: bool) -> bool:
+def _joins(open_: _Part | None, verb: Sense, aiming: bool, negate: bool = False) -> bool:
     """Whether a verb belongs to the part before it: directions with no verb yet ("Left, moved"),
     a step verb after a stepping verb with no direction yet ("stepped closer", "stood farther
-    back"), or any verb after an orientation noun ("its aim rose")."""
-    if open_ is None or open_.negated:
+    back"), a verb of aiming after a turn with no side yet ("rotated to face left"), or any verb
+    after an orientation noun ("its aim rose"). A negated verb opens its own part ("Up, without
+    turning")."""
+    if open_ is None or open_.negated or negate:
         return False
     if open_.verb is None or aiming:
         return True
+    if open_.verb.kind in _TURNING and not open_.ways and not open_.senses:
+        return verb.kind == "aim" and not verb.value
     if open_.verb.kind not in _STEPPING or open_.ways or verb.kind not in ("step", "weak"):
         return False
     # "walked a few steps left", "got nearer": one step said with two verbs
@@ -309,9 +329,9 @@ def _joins(open_: _Part | None, verb: Sense, aiming: bool) -> bool:
 
 def _add_verb(parts: list[_Part], token: Token, negate: bool, aiming: bool) -> None:
     open_ = parts[-1] if parts else None
-    joins = _joins(open_, token.sense, aiming)
+    joins = _joins(open_, token.sense, aiming, negate)
     part = open_ if joins and open_ is not None else _Part()
-    keep_open_kind = joins and part.verb is not None and part.verb.kind in ("place", "step", "aim")
+    keep_open_kind = joins and part.verb is not None and part.verb.kind in ("place", "step", *_TURNING)
     if not keep_open_kind:
         part.verb = Sense("aim") if aiming else token.sense
     part.negated = part.negated or negate
@@ -379,6 +399,17 @@ def _rotation(part: _Part, degrees: float | None, source: str) -> Claim:
         return Rotation(axis=axis or "yaw", sense="none", source=source)
     if len(senses) > 1:
         return Unread(source=source, why="it names both clockwise and counterclockwise")
+    if (
+        senses
+        and axis == "yaw_from_above"
+        and not ways
+        and (part.verb is None or part.verb.kind in ("aim", "yaw"))
+    ):
+        # seen from above, a clockwise turn swings the view to the right
+        side = "right" if senses[0] == "clockwise" else "left"
+        return Rotation(axis="yaw", sense=side, degrees=degrees, source=source)
+    if axis == "yaw_from_above":
+        return Unread(source=source, why="a sense seen from above fits only a turn")
     if senses:
         if ways or axis not in (None, "roll"):
             return Unread(source=source, why="it names a roll's sense with another direction")
@@ -431,7 +462,9 @@ def _part_claim(part: _Part, degrees: float | None, source: str) -> Claim:
 _TARGET = re.compile(
     r"^(?:(?:it|the camera|camera)\s+)?(?:(?:came|got|moved|went|is|was|ended up)\s+)?"
     r"(?P<change>closer|nearer|farther|further)\s+(?:away\s+)?(?:to|from)\s+"
-    r"(?P<object>(?!the (?:scene|subject|left|right|top|bottom|front|back|rear)\b)(?:the|a|an)\s+[a-z ]+)$"
+    r"(?P<object>(?!the (?:scene|subject|left|right|top|bottom|front|back|rear|objects?|things|view|room|"
+    r"contents?|surroundings|background|foreground|camera|first|second|other|previous|original)\b)"
+    r"(?:the|a|an)\s+[a-z ]+)$"
 )
 
 
@@ -445,7 +478,13 @@ _CONTENT = re.compile(
 _CAMERA_SUBJECT = re.compile(
     r"\b(?:camera|it|photographer|shooter|viewer|lens|\d+|first|second|third|last)\b"
 )
-_IN_THE_PICTURE = re.compile(r"\bin (?:the )?(?:frame|image|picture|photo|shot)\b")
+# "moved left in the frame" (content), not "moved left in image 1's frame" (whose directions)
+_IN_THE_PICTURE = re.compile(
+    r"\bin (?:the )?(?:frame|image|picture|photo|shot)\b(?! \d| s\b| (?:one|two|three|four|five)\b)"
+)
+# What the camera sees as the subject of a step ("the view shifted left"): a pan moves the view as
+# much as a step does, so which motion is meant is not said.
+_VIEW_SUBJECT = re.compile(r"\b(?:view|shot|framing|perspective|composition|field of view|picture frame)\b")
 _NO_CLAIM = {
     "zoom": "a zoom changes the focal length, not the camera's place",
     "return": "a return to an earlier place states no direction",
@@ -465,6 +504,8 @@ def _no_claim(words: str, found: list[Token]) -> str | None:
             f"it says the {content.group()} moved: content shifts in the frame opposite to the camera, "
             "which is not read"
         )
+    if verb is not None and verb.sense.kind in ("step", "weak") and _VIEW_SUBJECT.search(subject):
+        return "it says the view moved, which a step and a turn both do"
     if verb is not None and _IN_THE_PICTURE.search(words[verb.end :]):
         return "it describes motion within the picture, not the camera's"
     return None
