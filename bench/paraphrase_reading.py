@@ -62,13 +62,18 @@ def option_outcomes(item: ParaphraseItem, reading: QuestionReading) -> list[str]
     outcomes = []
     for letter, expected in item.options.items():
         claim = reading.options.get(letter)
-        if claim is not None and claim_dict(claim, reading.quantity) == expected:
-            outcomes.append("option right")
-        elif claim is None or not is_read(claim):
+        if claim is None or not is_read(claim):
             outcomes.append("option unread")
+        elif _geometry(claim_dict(claim, reading.quantity)) == _geometry(expected):
+            outcomes.append("option right")
         else:
             outcomes.append("option misread")
     return outcomes
+
+
+def _geometry(claim: dict) -> dict:
+    """A claim with a step and a position taken as the same geometry (what the matcher compares)."""
+    return {**claim, "kind": "step"} if claim.get("kind") in ("translation", "position") else claim
 
 
 def measure(

@@ -260,6 +260,8 @@ POSITIONS = [
     ("Taken from higher up", "P up"),
     ("Shot from further left", "P left"),
     ("Further back", "T backward"),
+    ("The second camera is to the left of the first", "B left"),
+    ("The later photo was taken from further right", "P right"),
     ("Leftward", "B left"),
     ("Upward", "B up"),
 ]
@@ -284,6 +286,16 @@ NEAR_MISSES = [
     ("The image content moved down", "U"),
     ("The picture shifted right", "U"),
     ("The subject moved closer", "U"),
+    # the view moved, or was moved, by a step verb: a pan moves the view as much as a step does
+    ("The view shifted to the left", "U"),
+    ("Raised its view", "U"),
+    ("Moved the framing to the right", "U"),
+    # the first camera's place relative to the second is the reverse of what is asked
+    ("The first camera is to the left of the second", "U"),
+    ("The reference photo was taken higher", "U"),
+    # where a motion came from is the opposite of where it went
+    ("It came in from the left", "U"),
+    ("Approached from the right", "U"),
     # a zoom changes the focal length, not where the camera is
     ("It zoomed in", "U"),
     ("Zoomed out", "U"),

@@ -106,6 +106,9 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"stationary|motionless|unmoved|static|unchanged|(?:the )?same (?:position|place|spot|location|"
      r"pose|point|viewpoint)|"
      r"in place|did not budge|no displacement", Sense("still")),
+    # ---- where a motion came from ("came in from the left"): the opposite of where it went
+    (r"from (?:the |its )?(?:left|right|above|below|behind|front|back|top|bottom|"
+     r"left hand side|right hand side|left side|right side)", Sense("source")),
     # ---- a zoom changes the focal length, not the camera's place: no claim the lexicon reads
     (_verb("zoom") + r"(?: in| out)?", Sense("zoom")),
     # ---- a return to where it was ("went back to", "came back"): no direction of its own
@@ -476,7 +479,8 @@ _CONTENT = re.compile(
     r"room|furniture|subject|image|picture|photo|frame)\b"
 )
 _CAMERA_SUBJECT = re.compile(
-    r"\b(?:camera|it|photographer|shooter|viewer|lens|\d+|first|second|third|last)\b"
+    r"\b(?:camera|it|photographer|shooter|viewer|lens|\d+|first|second|third|last|later|latter|new|final|"
+    r"next)\b"
 )
 # "moved left in the frame" (content), not "moved left in image 1's frame" (whose directions)
 _IN_THE_PICTURE = re.compile(
@@ -485,7 +489,18 @@ _IN_THE_PICTURE = re.compile(
 # What the camera sees as the subject of a step ("the view shifted left"): a pan moves the view as
 # much as a step does, so which motion is meant is not said.
 _VIEW_SUBJECT = re.compile(r"\b(?:view|shot|framing|perspective|composition|field of view|picture frame)\b")
+# ... or as the object of a step ("raised its view", "shifted the framing left")
+_VIEW_OBJECT = re.compile(
+    r" (?:its|the|camera s|the camera s) (?:view|shot|framing|perspective|composition)\b"
+)
+# The first (reference) camera as the subject ("the first camera is to the left of the second"):
+# its place relative to the second is the second's place reversed; not read.
+_REFERENCE_SUBJECT = re.compile(
+    r"^(?:the )?(?:first|earlier|reference|original|initial|previous|former|starting|older) "
+    r"(?:camera|image|photo|picture|view|shot|snapshot|frame|one|position|viewpoint)\b"
+)
 _NO_CLAIM = {
+    "source": "a direction it came from is the opposite of the way it went",
     "zoom": "a zoom changes the focal length, not the camera's place",
     "return": "a return to an earlier place states no direction",
 }
@@ -499,13 +514,18 @@ def _no_claim(words: str, found: list[Token]) -> str | None:
     verb = next((t for t in found if t.sense.kind in _VERBS), None)
     subject = words[: verb.start] if verb is not None else ""
     content = _CONTENT.search(subject)
-    if content and not _CAMERA_SUBJECT.search(subject):
+    if content and not _CAMERA_SUBJECT.search(subject) and verb is not None and verb.sense.kind != "place":
         return (
             f"it says the {content.group()} moved: content shifts in the frame opposite to the camera, "
             "which is not read"
         )
-    if verb is not None and verb.sense.kind in ("step", "weak") and _VIEW_SUBJECT.search(subject):
+    stepping = verb is not None and verb.sense.kind in ("step", "weak")
+    if stepping and _VIEW_SUBJECT.search(subject):
         return "it says the view moved, which a step and a turn both do"
+    if stepping and verb is not None and _VIEW_OBJECT.match(words, verb.end):
+        return "it says the view was moved, which a step and a turn both do"
+    if _REFERENCE_SUBJECT.match(words):
+        return "it says where the first camera is, relative to the second (the reverse of what is asked)"
     if verb is not None and _IN_THE_PICTURE.search(words[verb.end :]):
         return "it describes motion within the picture, not the camera's"
     return None
