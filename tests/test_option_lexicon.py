@@ -140,6 +140,12 @@ TRANSLATIONS = [
     ("Further away", "T backward"),
     ("Receded", "T backward"),
     ("Moved back", "T backward"),
+    ("It went back", "T backward"),
+    ("It moved in the direction it was facing", "T forward"),
+    ("Moved opposite to the direction the camera was pointing", "T backward"),
+    ("Moved along its line of sight", "T forward"),
+    ("It moved to a greater height", "T up"),
+    ("Sidled to the right", "T right"),
     # diagonals
     ("Moved forward and to the left", "T forward left"),
     ("Stepped forward-left", "T forward left"),
@@ -171,6 +177,9 @@ ROTATIONS = [
     ("Rotated left about the vertical axis", "R yaw left"),
     ("Turned around", "R yaw around"),
     ("Did an about-face", "R yaw around"),
+    ("Rotated clockwise as seen from above", "R yaw right"),
+    ("It turned its head to the left", "R yaw left"),
+    ("It rotated to face more to the right", "R yaw right"),
     # pitch
     ("Tilted up", "R pitch up"),
     ("Tilting downward", "R pitch down"),
@@ -237,6 +246,9 @@ STILL = [
     ("Nothing changed", "S"),
     ("Motionless", "S"),
     ("Stood still", "S"),
+    ("Its pose did not change", "S"),
+    ("Neither its position nor its orientation changed", "S"),
+    ("Same position and orientation", "S"),
 ]
 
 POSITIONS = [

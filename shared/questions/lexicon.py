@@ -94,9 +94,14 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"pose|spot|location)"
      r"(?: and (?:its )?(?:aim|orientation|heading|direction|angle))?", Sense("still")),
     (r"(?:stay|stayed|stays|staying|kept|keep|stood|stand|held|hold|remained|remain|remains)\s+"
-     r"(?:completely\s+|perfectly\s+)?(?:still|put|stationary|motionless|fixed|steady|in place|where it was|"
+     r"(?:completely\s+|perfectly\s+|exactly\s+|precisely\s+|right\s+)?"
+     r"(?:still|put|stationary|motionless|fixed|steady|in place|where it was|"
      r"(?:at|in) the same (?:spot|place|position|point|location))", Sense("still")),
-    (r"(?:the )?same (?:position|place|spot|location|pose) and (?:orientation|heading|direction|aim|angle)|"
+    (r"(?:its |the )?(?:pose|position|place|location|viewpoint)(?: and (?:its )?(?:orientation|heading|"
+     r"direction|aim|angle))? (?:did not|didn t|never|has not|hasn t) (?:change|move|shift)|"
+     r"neither (?:its )?(?:position|location|place) nor (?:its )?(?:orientation|heading|direction|aim|angle) "
+     r"(?:changed|moved|shifted)|no (?:motion|movement|change) (?:occurred|took place|happened)|"
+     r"(?:the )?same (?:position|place|spot|location|pose) and (?:orientation|heading|direction|aim|angle)|"
      r"(?:did not|didn t|never) (?:move|shift) (?:or|nor) (?:turn|rotate)|"
      r"nothing (?:changed|moved|happened)", Sense("still")),
     (r"(?:did not|didn t|does not|doesn t|never)\s+(?:move|budge|change position|"
@@ -112,13 +117,15 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     # ---- a zoom changes the focal length, not the camera's place: no claim the lexicon reads
     (_verb("zoom") + r"(?: in| out)?", Sense("zoom")),
     # ---- a return to where it was ("went back to", "came back"): no direction of its own
-    (r"back to|(?:came|come|comes|coming|went|go|goes|going) back|" + _verb("return"), Sense("return")),
+    (r"back to|(?:came|come|comes|coming) back|" + _verb("return"), Sense("return")),
     # ---- words that only grade or place a direction: "right behind it", "further to the left",
     # "ended up to the right", "glided over to the right"
     (r"right(?= (?:above|below|behind|in front|ahead|over|under|beneath|underneath|beside|next)\b)|"
      r"(?:further|farther)(?= (?:to |toward |towards |on )?(?:the |its |their )?(?:left|right|up|upward|"
      r"down|downward|forward|ahead|in)\b)|"
-     r"(?:end|ends|ended|ending) up|over(?= to\b)|lateral(?:ly)?|vertical(?:ly)?|horizontal(?:ly)?|"
+     r"(?:end|ends|ended|ending) up|"
+     r"(?:its|the camera s|his|her|their) head(?= (?:to|toward|towards|left|right|"
+     r"up|down)\b)|over(?= to\b)|lateral(?:ly)?|vertical(?:ly)?|horizontal(?:ly)?|"
      r"where (?:the )?(?:first |earlier |other |previous |reference )?(?:image|photo|picture|view|shot|frame|"
      r"camera|snapshot)(?: \w+)? (?:was|is|had been) (?:taken|shot|captured|located|positioned)|"
      r"at all|than (?:before|previously|earlier|"
@@ -132,6 +139,10 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"(?:view|viewing|facing|pointing|looking) direction|direction of (?:view|gaze|sight)|"
      r"orientation|optical axis)", Sense("aimnoun")),
     # ---- a step along the way the camera looks is forward, against it backward
+    (r"(?:in|toward|towards) the (?:same )?direction (?:it|the camera) (?:was |is )?(?:facing|faced|faces|"
+     r"pointing|pointed|points|looking|looked|looks)", Sense("way", "forward")),
+    (r"(?:opposite|contrary) (?:to )?the direction (?:it|the camera) (?:was |is )?(?:facing|faced|faces|"
+     r"pointing|pointed|points|looking|looked|looks)", Sense("way", "backward")),
     (r"along (?:its |the )?(?:(?:viewing|view|facing|pointing|looking) direction|line of sight|"
      r"optical axis|direction (?:it|the camera) (?:faced|faces|was facing|is facing|pointed|points))",
      Sense("way", "forward")),
@@ -177,13 +188,15 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"(?:toward|towards|to) (?:the )?(?:frame|image|picture|photo|"
      r"view)(?: s)? right edge", Sense(_STEP, "right")),
     # ---- translation verbs that carry their way
-    (_verb("sidestep", "strafe", "truck", "crab"), Sense(_STEP)),
+    (_verb("sidestep", "strafe", "truck", "crab", "sidle"), Sense(_STEP)),
     (r"climb\w*|ascen\w*|rose|ris(?:e|en|es|ing)|rais\w*|lift\w*|elevat\w*|gain(?:ed|s|ing)? height|"
-     r"at a (?:greater|higher) (?:height|elevation|level)|(?:from|at) a higher|higher up|"
+     r"(?:at|to) a (?:greater|higher|larger) (?:height|elevation|level|altitude)|"
+     r"(?:from|at) a higher|higher up|"
      r"pedestal(?:ed)? up|boom(?:ed)? up|" + _verb("hoist"),
      Sense(_STEP, "up")),
     (r"descen\w*|sank|sink\w*|sunk|dropp?\w*|lower(?:ed|ing|s)|los(?:t|es|ing) height|"
-     r"at a lower (?:height|elevation|level)|(?:from|at) a lower|lower down|pedestal(?:ed)? down|"
+     r"(?:at|to) a (?:lower|lesser|smaller|reduced) (?:height|elevation|level|altitude)|"
+     r"(?:from|at) a lower|lower down|pedestal(?:ed)? down|"
      r"boom(?:ed)? down|" + _verb("fall", "crouch", "stoop", "squat"),
      Sense(_STEP, "down")),
     (r"advanc\w*|proceed\w*|approach\w*|push(?:ed|es|ing)? in|dolly(?:ing)? in|dollied in|"
@@ -246,7 +259,8 @@ _FILLER = frozenset(
     "position height level reference off out original initial previous other ones earlier later "
     "now own few couple several while vantage standpoint than before along nose shooting capture "
     "m cm mm meter meters metre metres centimeter centimeters centimetre centimetres feet foot ft inches "
-    "half quarter yard yards unit units".split()
+    "half quarter yard yards unit units physically exactly precisely actually really overall net "
+    "entire whole itself body".split()
 )
 
 
