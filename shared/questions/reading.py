@@ -348,7 +348,17 @@ def _bare_sense(quantity: Quantity, ask: str, options: dict[str, Claim]) -> Quan
 
 
 def _with_bare_resolved(options: dict[str, Claim], quantity: Quantity) -> dict[str, Claim]:
-    return {letter: resolve_bare(claim, quantity) for letter, claim in options.items()}
+    return {
+        letter: resolve_bare(_only_a_step(claim, quantity), quantity) for letter, claim in options.items()
+    }
+
+
+def _only_a_step(claim: Claim, quantity: Quantity) -> Claim:
+    """ "Ahead" / "Toward the scene" can only be a step (no turn goes forward): a step, or the
+    position in a position question, whatever else the stem leaves open."""
+    if isinstance(claim, Bare) and set(claim.ways) == {"forward"}:
+        return resolve_bare(claim, "position" if quantity == "position" else "translation")
+    return claim
 
 
 def read_question(text: str, image_count: int | None = None) -> QuestionReading:
