@@ -285,6 +285,9 @@ COMPOUNDS = [
     ("Turned left, then moved forward", "C R yaw left + T forward"),
     ("Slid right as it rolled clockwise", "C R roll clockwise + T right"),
     ("Moved left without turning", "C R yaw none + T left"),
+    ("Moved to the right without rotating", "C R pitch none + R roll none + R yaw none + T right"),
+    ("Turned leftwards by a small angle", "R yaw left"),
+    ("Camera translated left and rotated right", "C R yaw right + T left"),
 ]
 
 # Words that look like motion but say something else, or say two things, or too little: never read

@@ -123,7 +123,7 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"right(?= (?:above|below|behind|in front|ahead|over|under|beneath|underneath|beside|next)\b)|"
      r"(?:further|farther)(?= (?:to |toward |towards |on )?(?:the |its |their )?(?:left|right|up|upward|"
      r"down|downward|forward|ahead|in)\b)|"
-     r"(?:end|ends|ended|ending) up|"
+     r"(?:end|ends|ended|ending) up|(?:by|through) (?:a |an )?(?:\w+ )?angle(?: of)?|"
      r"(?:its|the camera s|his|her|their) head(?= (?:to|toward|towards|left|right|"
      r"up|down)\b)|over(?= to\b)|lateral(?:ly)?|vertical(?:ly)?|horizontal(?:ly)?|"
      r"where (?:the )?(?:first |earlier |other |previous |reference )?(?:image|photo|picture|view|shot|frame|"
@@ -205,7 +205,7 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      Sense(_STEP, "forward")),
     (r"withdr\w*|retreat\w*|reced\w*|back(?:ed|s|ing)? (?:up|off|away|out)|step(?:ped|s|ping)? back|"
      r"pull(?:ed|s|ing)? (?:back|out|away)|dolly(?:ing)? out|dollied out|"
-     r"(?:farther|further)(?: away| back| off)?|away from",
+     r"(?:farther|further)(?: away| back| off)?|away from|more distant",
      Sense(_STEP, "backward")),
     # ---- the camera's height said as a quantity that grew or shrank
     (r"(?:its |the |camera s |the camera s )?(?:height|elevation|altitude) (?:"
@@ -565,6 +565,8 @@ def read_phrase(text: str) -> Claim:
     stated = _DEGREES.search(words)
     degrees = float(stated.group(1)) if stated else None
     claims = [_part_claim(part, degrees, " ".join(part.words)) for part in _parts(found)]
+    # "moved right without rotating": "no rotation" is itself a compound (no turn about any axis)
+    claims = [p for c in claims for p in (c.parts if isinstance(c, Compound) else (c,))]
     unread = next((c for c in claims if isinstance(c, Unread)), None)
     if unread is not None:
         return unread.model_copy(update={"source": text})
