@@ -433,3 +433,24 @@ def test_whole_questions_with_own_option_wordings_read_every_option_right(seed: 
     assert outcomes["option misread"] == 0, wrong[:3]
     assert outcomes["option unread"] == 0
     assert outcomes["option right"] == 4 * 300
+
+
+@pytest.mark.parametrize(
+    ("option", "expected"),
+    [
+        ("Image 2 was taken to the left of image 1", "P left"),
+        ("Photo 2 is above photo 1", "P up"),
+        ("Moved left relative to image 1", "T left"),
+        # the pair reversed: its claim is the pair's claim reversed, so it is not read
+        ("Image 1 was taken to the left of image 2", "U"),
+        ("Photo 1 is above photo 2", "U"),
+        # photos outside the pair
+        ("Image 3 was taken to the left of image 1", "U"),
+    ],
+)
+def test_options_that_name_photos_must_name_the_pair_in_its_order(option: str, expected: str) -> None:
+    other = "Image 2 was taken below image 1"
+    text = f"Where was image 2 taken relative to image 1? Options: A: {option}, B: {other}"
+    reading = read_question(text, 3)
+    assert reading.views == (1, 2)
+    assert short(reading.options["A"]) == expected, reading.options["A"]

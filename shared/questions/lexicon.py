@@ -123,6 +123,10 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"right(?= (?:above|below|behind|in front|ahead|over|under|beneath|underneath|beside|next)\b)|"
      r"(?:further|farther)(?= (?:to |toward |towards |on )?(?:the |its |their )?(?:left|right|up|upward|"
      r"down|downward|forward|ahead|in)\b)|"
+     r"point of view|perspective|(?:as )?(?:seen|viewed) from (?:the |its )?(?:\w+ )?(?:camera|image|photo|"
+     r"picture|view|shot|photographer|shooter|viewer)(?: s (?:side|position|place))?|"
+     r"as (?:the |it )?(?:camera |photographer |shooter |viewer )?(?:sees|saw|see) (?:it|them)|"
+     r"with respect to|in (?:terms of|the direction of)(?= (?:the |its )?(?:left|right))|"
      r"(?:end|ends|ended|ending) up|(?:by|through) (?:a |an )?(?:\w+ )?angle(?: of)?|"
      r"(?:its|the camera s|his|her|their) head(?= (?:to|toward|towards|left|right|"
      r"up|down)\b)|over(?= to\b)|lateral(?:ly)?|vertical(?:ly)?|horizontal(?:ly)?|"
@@ -177,7 +181,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"direction (?:it|the camera) (?:faces|faced|points|pointed)|heading", Sense("aim")),
     # ---- position of one camera relative to another
     (r"locat(?:ed|es|ing)|position(?:ed|ing)|placed|situat(?:ed|es|ing)|lies|lay|lying|sits|sat|stands|stood|"
-     r"(?:was |were |is )?taken from|shot from|captured from|set up", Sense("place")),
+     r"(?:was |were |is )?taken from|shot from|captured from|set up|"
+     r"(?:was|were|is|been) (?:taken|shot|captured|snapped|photographed)", Sense("place")),
     # ---- a step toward an edge of the photo: the frame's own directions
     (r"(?:toward|towards|to) (?:the )?(?:frame|image|picture|photo|view)(?: s)? (?:upper|"
      r"top) edge", Sense(_STEP, "up")),
@@ -608,9 +613,40 @@ def _merged(claims: list[Claim], text: str) -> list[Claim] | Unread:
     return merged
 
 
+_VIEW_NOUN = r"(?:image|photo|picture|view|shot|frame|camera|snapshot)(?: number| no| #)?"
+_SUBJECT_VIEW = re.compile(rf"^(?:the )?{_VIEW_NOUN} (\d+)\b|^(?:the )?(\d+)(?:st|nd|rd|th)? {_VIEW_NOUN}\b")
+_REFERENCE_VIEW = re.compile(
+    rf"\b(?:of|than|from|to|relative to|compared (?:to|with)|with respect to|above|below|under|beneath|"
+    rf"behind|over) (?:the )?"
+    rf"(?:{_VIEW_NOUN} (\d+)|(\d+)(?:st|nd|rd|th)? {_VIEW_NOUN})(?: s)?\b"
+)
+
+
+def views_named(text: str) -> tuple[int | None, int | None]:
+    """(the view an option is about, the view it is relative to), each by its number when the option
+    names one ("Image 2 was taken to the left of image 1": (2, 1)); the reading checks them
+    against the pair, since the lexicon does not know it."""
+    words = normalized(text)
+    subject = _SUBJECT_VIEW.search(words)
+    reference = _REFERENCE_VIEW.search(words, subject.end() if subject else 0)
+    first = next((int(g) for g in subject.groups() if g), None) if subject else None
+    second = next((int(g) for g in reference.groups() if g), None) if reference else None
+    return first, second
+
+
 def stem_senses(text: str) -> list[Sense]:
     """Every meaning the lexicon finds in a question's stem, in order."""
     return [token.sense for token in tokens(normalized(text))]
 
 
-__all__ = ["LEXICON", "Sense", "Token", "normalized", "read_phrase", "stem_senses", "tokens", "unknown_words"]
+__all__ = [
+    "LEXICON",
+    "Sense",
+    "Token",
+    "normalized",
+    "read_phrase",
+    "stem_senses",
+    "tokens",
+    "unknown_words",
+    "views_named",
+]

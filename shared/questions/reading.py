@@ -37,7 +37,7 @@ from shared.questions.claims import (
     is_read,
     resolve_bare,
 )
-from shared.questions.lexicon import normalized, read_phrase, stem_senses
+from shared.questions.lexicon import normalized, read_phrase, stem_senses, views_named
 from shared.questions.view_pair import PairReading, read_pair
 
 Quantity = Literal["translation", "rotation", "position", "motion", "still", "object_relation", "other"]
@@ -372,6 +372,7 @@ def read_question(text: str, image_count: int | None = None) -> QuestionReading:
         quantity = "object_relation" if _OBJECT_ASK.search(normalized(ask)) else "other"
     options = _with_bare_resolved(options, _bare_sense(quantity, ask, options))
     pair = _pair(ask, image_count, camera=quantity in CAMERA_QUANTITIES)
+    options = _views_checked(options, option_texts, pair.views)
     frame, frame_source, frame_certain = _frame(ask, pair.views, image_count)
     return QuestionReading(
         text=(text or "").strip(),
@@ -390,6 +391,24 @@ def read_question(text: str, image_count: int | None = None) -> QuestionReading:
         abstain_reason=_abstain(quantity, pair, options, doubt),
         summary=_summary(quantity, pair, frame),
     )
+
+
+def _views_checked(
+    options: dict[str, Claim], texts: dict[str, str], views: tuple[int, int] | None
+) -> dict[str, Claim]:
+    """An option that names photos by number ("Image 1 was taken to the left of image 2") states
+    its claim about those photos: kept when they are the pair's (the second about the first),
+    unread when they are the other way round (its claim is the pair's reversed) or not the pair."""
+    checked = dict(options)
+    for letter, claim in options.items():
+        about, relative_to = views_named(texts.get(letter, ""))
+        if (about is None and relative_to is None) or not is_read(claim):
+            continue
+        if views is None or about not in (None, views[1]) or relative_to not in (None, views[0]):
+            checked[letter] = Unread(
+                source=claim.source, why="it names the photos in another order or other photos than the pair"
+            )
+    return checked
 
 
 def _lead(options: dict[str, Claim]) -> bool:

@@ -27,10 +27,6 @@ OPTION_WORDINGS: dict[str, list[dict[str, str]]] = {
             "right": "The camera's position moved right by roughly half a meter",
         },
         {"left": "Translation to the left", "right": "Translation to the right"},
-        {
-            "left": "It was shifted leftwards, relative to image 1",
-            "right": "It was shifted rightwards, relative to image 1",
-        },
         {"left": "A sideways step left", "right": "A sideways step right"},
         {
             "left": "The photographer moved over to the left",
