@@ -247,6 +247,8 @@ STILL = [
     ("Motionless", "S"),
     ("Stood still", "S"),
     ("Its pose did not change", "S"),
+    ("There was no visible movement", "S"),
+    ("Stayed roughly where it was", "S"),
     ("Neither its position nor its orientation changed", "S"),
     ("Same position and orientation", "S"),
 ]

@@ -94,7 +94,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"pose|spot|location)"
      r"(?: and (?:its )?(?:aim|orientation|heading|direction|angle))?", Sense("still")),
     (r"(?:stay|stayed|stays|staying|kept|keep|stood|stand|held|hold|remained|remain|remains)\s+"
-     r"(?:completely\s+|perfectly\s+|exactly\s+|precisely\s+|right\s+)?"
+     r"(?:(?:completely|perfectly|exactly|precisely|right|roughly|approximately|basically|essentially|"
+     r"more or less|almost|nearly|virtually|practically)\s+)?"
      r"(?:still|put|stationary|motionless|fixed|steady|in place|where it was|"
      r"(?:at|in) the same (?:spot|place|position|point|location))", Sense("still")),
     (r"(?:its |the )?(?:pose|position|place|location|viewpoint)(?: and (?:its )?(?:orientation|heading|"
@@ -265,7 +266,7 @@ _FILLER = frozenset(
     "now own few couple several while vantage standpoint than before along nose shooting capture "
     "m cm mm meter meters metre metres centimeter centimeters centimetre centimetres feet foot ft inches "
     "half quarter yard yards unit units physically exactly precisely actually really overall net "
-    "entire whole itself body".split()
+    "entire whole itself body there significant noticeable appreciable obvious visible clear real".split()
 )
 
 
