@@ -202,6 +202,11 @@ ROTATIONS = [
     ("Its line of sight dropped", "R pitch down"),
     ("Its aim went up", "R pitch up"),
     ("Tilted its lens upwards", "R pitch up"),
+    ("Upward tilt movement", "R pitch up"),
+    ("The camera's angle changed upward", "R pitch up"),
+    ("Leftward yaw rotation", "R yaw left"),
+    ("The direction of the camera changed to the right", "R yaw right"),
+    ("Clockwise roll rotation", "R roll clockwise"),
     # roll
     ("Rolled clockwise", "R roll clockwise"),
     ("Rolling counterclockwise", "R roll counterclockwise"),

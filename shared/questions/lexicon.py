@@ -87,6 +87,7 @@ def _verb(*bases: str) -> str:
     return "|".join(sorted(set(forms), key=len, reverse=True))
 
 
+_KIND_NOUN = r"(?: (?:rotation|movement|motion|turn|change|shift))?"
 _STEP = "step"
 _ROWS: tuple[tuple[str, Sense], ...] = (
     # ---- still: no motion at all (before the verbs, so "did not move" is read whole)
@@ -164,15 +165,19 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     # ---- rotation about the optical axis (before the verbs that share words with it)
     (r"(?:rotat\w*|turn\w*|spun|spin\w*|twist\w*)\s+(?:about|around|round|on)\s+(?:its\s+|the\s+)?"
      r"(?:lens|optical|viewing|view|camera s|line of sight|forward)\s*(?:axis)?", Sense("roll")),
-    (r"roll\w*|spin\w*|spun|cant\w*|bank\w*|twist\w*|barrel roll", Sense("roll")),
+    # "a yaw rotation", "tilt movement": the noun after an axis word adds nothing
+    (r"(?:roll\w*|spin\w*|spun|cant\w*|bank\w*|twist\w*|barrel roll)" + _KIND_NOUN, Sense("roll")),
     (r"counter clockwise|counterclockwise|anticlockwise|anti clockwise|"
      r"ccw", Sense("sense", "counterclockwise")),
     (r"clockwise|cw", Sense("sense", "clockwise")),
     # ---- rotation
-    (r"tilt\w*|pitch\w*|nod\w*|cran\w*|tip(?:s|ped|ping)?|angl(?:e|ed|es|ing)(?: the (?:view|camera|"
-     r"shot|lens))?",
+    (r"(?:its|the|camera s|the camera s) (?:viewing |camera |tilt )?angle|(?:the )?direction of the camera|"
+     r"(?:the )?camera (?:direction|heading|orientation)", Sense("aimnoun")),
+    (r"(?:tilt\w*|pitch\w*|nod\w*|cran\w*|tip(?:s|ped|ping)?|angl(?:e|ed|es|ing)(?: the (?:view|camera|"
+     r"shot|lens))?)" + _KIND_NOUN,
      Sense("pitch")),
-    (r"yaw\w*|veer\w*|pan(?:s|ned|ning)?|swivel\w*|swung|swing\w*|pivot\w*|look(?:ed|s|ing)? aside",
+    (r"(?:yaw\w*|veer\w*|pan(?:s|ned|ning)?|swivel\w*|swung|swing\w*|pivot\w*|look(?:ed|s|ing)? aside)"
+     + _KIND_NOUN,
      Sense("yaw")),
     (r"u turn|about face|about turn|turn(?:ed|s|ing)? (?:a|the) other way|"
      r"face(?:d)? the opposite (?:way|direction)",
