@@ -128,7 +128,7 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"point of view|perspective|(?:as )?(?:seen|viewed) from (?:the |its )?(?:\w+ )?(?:camera|image|photo|"
      r"picture|view|shot|photographer|shooter|viewer)(?: s (?:side|position|place))?|"
      r"as (?:the |it )?(?:camera |photographer |shooter |viewer )?(?:sees|saw|see) (?:it|them)|"
-     r"with respect to|in (?:terms of|the direction of)(?= (?:the |its )?(?:left|right))|"
+     r"with respect to|next to|beside|alongside|in (?:terms of|the direction of)(?= (?:the |its )?(?:left|right))|"
      r"(?:end|ends|ended|ending) up|(?:by|through) (?:a |an )?(?:\w+ )?angle(?: of)?|"
      r"(?:its|the camera s|his|her|their) head(?= (?:to|toward|towards|left|right|"
      r"up|down)\b)|over(?= to\b)|lateral(?:ly)?|vertical(?:ly)?|horizontal(?:ly)?|"
