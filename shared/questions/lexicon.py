@@ -128,7 +128,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"point of view|perspective|(?:as )?(?:seen|viewed) from (?:the |its )?(?:\w+ )?(?:camera|image|photo|"
      r"picture|view|shot|photographer|shooter|viewer)(?: s (?:side|position|place))?|"
      r"as (?:the |it )?(?:camera |photographer |shooter |viewer )?(?:sees|saw|see) (?:it|them)|"
-     r"with respect to|next to|beside|alongside|in (?:terms of|the direction of)(?= (?:the |its )?(?:left|right))|"
+     r"with respect to|next to|beside|alongside|"
+     r"in (?:terms of|the direction of)(?= (?:the |its )?(?:left|right))|"
      r"(?:end|ends|ended|ending) up|(?:by|through) (?:a |an )?(?:\w+ )?angle(?: of)?|"
      r"(?:its|the camera s|his|her|their) head(?= (?:to|toward|towards|left|right|"
      r"up|down)\b)|over(?= to\b)|lateral(?:ly)?|vertical(?:ly)?|horizontal(?:ly)?|"
@@ -571,6 +572,8 @@ def read_phrase(text: str) -> Claim:
     if refusal := _no_claim(words, found):
         return Unread(source=text, why=refusal)
     found = [token for token in found if token.sense.kind != "filler"]
+    if not found:
+        return Unread(source=text, why="it states no direction, kind of motion or stillness")
     if any(token.sense.kind == "or" for token in found):
         return Unread(source=text, why="it offers two claims joined by 'or'", two_claims=True)
     stated = _DEGREES.search(words)
