@@ -467,3 +467,15 @@ def test_options_that_name_photos_must_name_the_pair_in_its_order(option: str, e
     reading = read_question(text, 3)
     assert reading.views == (1, 2)
     assert short(reading.options["A"]) == expected, reading.options["A"]
+
+
+def test_any_mix_of_the_table_s_words_reads_without_error_and_never_as_an_empty_claim() -> None:
+    """Words of the table shuffled into 2-6 word phrases: every phrase gets a claim (never an
+    exception, never a compound with no parts)."""
+    vocabulary = sorted({word for wording, _ in TABLE for word in wording.replace(",", "").split()})
+    rng = random.Random(34)
+    for _ in range(3000):
+        phrase_ = " ".join(rng.choice(vocabulary) for _ in range(rng.randint(2, 6)))
+        claim = read_phrase(phrase_)
+        assert not (isinstance(claim, Compound) and not claim.parts), phrase_
+        assert isinstance(claim, Unread) or short(claim) != "U", phrase_

@@ -581,6 +581,8 @@ def read_phrase(text: str) -> Claim:
     claims = [_part_claim(part, degrees, " ".join(part.words)) for part in _parts(found)]
     # "moved right without rotating": "no rotation" is itself a compound (no turn about any axis)
     claims = [p for c in claims for p in (c.parts if isinstance(c, Compound) else (c,))]
+    if not claims:  # a negation, "or", with nothing it applies to
+        return Unread(source=text, why="it states no direction, kind of motion or stillness")
     unread = next((c for c in claims if isinstance(c, Unread)), None)
     if unread is not None:
         return unread.model_copy(update={"source": text})
