@@ -146,6 +146,10 @@ TRANSLATIONS = [
     ("Moved along its line of sight", "T forward"),
     ("It moved to a greater height", "T up"),
     ("Sidled to the right", "T right"),
+    ("Scooted over left", "T left"),
+    ("Shuffled to the right", "T right"),
+    ("Knelt down", "T down"),
+    ("It was moved forward", "T forward"),
     # diagonals
     ("Moved forward and to the left", "T forward left"),
     ("Stepped forward-left", "T forward left"),
@@ -202,6 +206,8 @@ ROTATIONS = [
     ("Its line of sight dropped", "R pitch down"),
     ("Its aim went up", "R pitch up"),
     ("Tilted its lens upwards", "R pitch up"),
+    ("Pointed the camera down", "R pitch down"),
+    ("It was tilted down", "R pitch down"),
     ("Upward tilt movement", "R pitch up"),
     ("The camera's angle changed upward", "R pitch up"),
     ("Leftward yaw rotation", "R yaw left"),
@@ -349,6 +355,12 @@ NEAR_MISSES = [
     ("Rolled right", "U"),
     ("Panned up", "U"),
     ("Panned clockwise", "U"),
+    ("Tilted forward", "U"),
+    ("Rolled back", "U"),
+    ("It twisted to the left", "U"),
+    # a sign with no stated convention
+    ("Positive yaw", "U"),
+    ("Rotated by -30 degrees", "U"),
     # a negated direction says what did not happen, not what did
     ("Did not turn left", "U"),
     ("Did not move left", "U"),

@@ -200,7 +200,7 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"(?:toward|towards|to) (?:the )?(?:frame|image|picture|photo|"
      r"view)(?: s)? right edge", Sense(_STEP, "right")),
     # ---- translation verbs that carry their way
-    (_verb("sidestep", "strafe", "truck", "crab", "sidle"), Sense(_STEP)),
+    (_verb("sidestep", "strafe", "truck", "crab", "sidle", "shuffle"), Sense(_STEP)),
     (r"climb\w*|ascen\w*|rose|ris(?:e|en|es|ing)|rais\w*|lift\w*|elevat\w*|gain(?:ed|s|ing)? height|"
      r"(?:at|to) a (?:greater|higher|larger) (?:height|elevation|level|altitude)|"
      r"(?:from|at) a higher|higher up|"
@@ -209,7 +209,7 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"descen\w*|sank|sink\w*|sunk|dropp?\w*|lower(?:ed|ing|s)|los(?:t|es|ing) height|"
      r"(?:at|to) a (?:lower|lesser|smaller|reduced) (?:height|elevation|level|altitude)|"
      r"(?:from|at) a lower|lower down|pedestal(?:ed)? down|"
-     r"boom(?:ed)? down|" + _verb("fall", "crouch", "stoop", "squat"),
+     r"boom(?:ed)? down|" + _verb("fall", "crouch", "stoop", "squat", "kneel") + "|knelt",
      Sense(_STEP, "down")),
     (r"advanc\w*|proceed\w*|approach\w*|push(?:ed|es|ing)? in|dolly(?:ing)? in|dollied in|"
      r"clos(?:er|ed in)|nearer|deeper into|came in|"
@@ -272,7 +272,7 @@ _FILLER = frozenset(
     "now own few couple several while vantage standpoint than before along nose shooting capture "
     "m cm mm meter meters metre metres centimeter centimeters centimetre centimetres feet foot ft inches "
     "half quarter yard yards unit units physically exactly precisely actually really overall net "
-    "entire whole itself body there significant noticeable appreciable obvious visible clear real".split()
+    "over entire whole itself body there significant noticeable appreciable obvious visible clear real".split()
 )
 
 
