@@ -272,7 +272,8 @@ _FILLER = frozenset(
     "now own few couple several while vantage standpoint than before along nose shooting capture "
     "m cm mm meter meters metre metres centimeter centimeters centimetre centimetres feet foot ft inches "
     "half quarter yard yards unit units physically exactly precisely actually really overall net "
-    "over entire whole itself body there significant noticeable appreciable obvious visible clear real".split()
+    "over entire whole itself body there significant noticeable appreciable obvious visible clear "
+    "real".split()
 )
 
 
