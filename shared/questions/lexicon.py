@@ -10,13 +10,25 @@ lower-cased text, punctuation and hyphens as spaces) and its meaning (a `Sense` 
   upward" a pitch); ``yaw``, ``pitch``, ``roll``: verbs of one axis ("pan", "tilt", "spin");
 - ``place``: a verb of position ("located", "taken from", "sits");
 - ``way``: a direction (left, right, up, down, forward, backward), ``sense``: clockwise or not;
-- ``still``: no motion; ``not``: negation of the next verb.
+- ``still``: no motion; ``not``: negation of the next verb;
+- ``filler``: words that only grade or frame a direction ("further to the left", "right behind
+  it", "ended up", "from the photographer's point of view");
+- ``zoom``, ``return``, ``source``: words that state no camera claim (a zoom is the focal length;
+  "went back to" a place and "came in from the left" name no way the camera went).
 
-`read_phrase(text)` turns an option into one claim (shared/questions/claims.py): tokens in the order
-they come, each verb opening a part that the following directions belong to ("moved left and turned
-right" is two parts). Words outside the table leave the phrase `Unread`: never guessed. Opposite
-directions in one part ("back and forth"), or a direction that does not fit its verb's axis, also
-leave it unread, with the reason.
+Verbs are written by their base form and inflected by `_verb` (climb/climbs/climbed/climbing,
+step/stepped, slide/slid, withdraw/withdrew), so a row is a word, not a list of its forms.
+
+`read_phrase(text)` turns an option into one claim (shared/questions/claims.py) by composition:
+tokens in the order they come, each verb opening a part that the following directions belong to
+("moved left and turned right" is two parts; "stepped back, away from the scene" is one step). Words
+outside the table leave the phrase `Unread`: never guessed. Also unread, with the reason, is what
+could be read as the wrong claim: opposite directions in one part ("back and forth"), a direction
+that does not fit its verb's axis ("tilted left"), a negated direction ("did not turn left"), the
+scene or picture as the subject ("the scene slid left": content moves opposite to the camera), a
+view moved by a step verb ("the view shifted left": a pan does that too), and the first camera as
+the subject (its place relative to the second is the reverse). `views_named` gives the photos an
+option names by number, for the reading to check against the pair.
 """
 
 from __future__ import annotations
