@@ -140,7 +140,9 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"point of view|perspective|(?:as )?(?:seen|viewed) from (?:the |its )?(?:\w+ )?(?:camera|image|photo|"
      r"picture|view|shot|photographer|shooter|viewer)(?: s (?:side|position|place))?|"
      r"as (?:the |it )?(?:camera |photographer |shooter |viewer )?(?:sees|saw|see) (?:it|them)|"
-     r"with respect to|next to|beside|alongside|"
+     r"with respect to|next to|beside|alongside|steeply|"
+     r"(?:when |as )?(?:seen|viewed|looking) from behind(?: the camera| the lens)?|"
+     r"(?:when |while )?looking (?:through|along) the (?:lens|viewfinder|camera)|"
      r"in (?:terms of|the direction of)(?= (?:the |its )?(?:left|right))|"
      r"(?:end|ends|ended|ending) up|(?:by|through) (?:a |an )?(?:\w+ )?angle(?: of)?|"
      r"(?:its|the camera s|his|her|their) head(?= (?:to|toward|towards|left|right|"
@@ -175,6 +177,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"camera s )?axis|line of sight|(?:viewing|view|facing|pointing|looking|forward) direction)",
      Sense("axis", "roll")),
     (r"(?:about|around|round|on) (?:its |the |a )?vertical axis", Sense("axis", "yaw")),
+    (r"(?:in|within) (?:the )?image plane|in plane|(?:about|around|round|on) (?:its |the )?depth axis",
+     Sense("axis", "roll")),
     # ---- rotation about the optical axis (before the verbs that share words with it)
     (r"(?:rotat\w*|turn\w*|spun|spin\w*|twist\w*)\s+(?:about|around|round|on)\s+(?:its\s+|the\s+)?"
      r"(?:lens|optical|viewing|view|camera s|line of sight|forward)\s*(?:axis)?", Sense("roll")),
@@ -254,10 +258,11 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"wards)?(?: hand)?(?: side| edge)?",
      Sense("way", "right")),
     (r"up(?:ward|wards)?|upper|above|higher|top|overhead|skyward|"
-     r"(?:toward|towards|to|at) the (?:ceiling|sky)|taller|over(?= (?:it|them|the|its)\b)",
+     r"(?:toward|towards|to|at|face|faces|faced|facing) the (?:ceiling|sky)|taller|"
+     r"over(?= (?:it|them|the|its)\b)",
      Sense("way", "up")),
     (r"down(?:ward|wards)?|below|beneath|under(?:neath)?|lower|bottom|"
-     r"(?:toward|towards|to|at) the (?:floor|ground)",
+     r"(?:toward|towards|to|at|face|faces|faced|facing) the (?:floor|ground)",
      Sense("way", "down")),
     (r"forwards?|forth|ahead|in front|front|frontward|onward|towards? the (?:scene|subject)|"
      r"into the scene|inward",
@@ -392,6 +397,11 @@ def _parts(found: list[Token]) -> list[_Part]:
         kind = token.sense.kind
         if kind == "not":
             negate = True
+        elif kind == "aimnoun" and _aims_at(parts, negate):
+            # the orientation as the object ("turned its gaze upward", "lowered its aim"): the
+            # verb before it turned the camera
+            parts[-1].verb = Sense("aim")
+            parts[-1].words.append(token.words)
         elif kind == "aimnoun":  # "its aim", "the heading": the verb that follows turns the camera
             aiming = True
             parts.append(_Part(verb=Sense("aim"), words=[token.words]))
@@ -413,6 +423,17 @@ def _parts(found: list[Token]) -> list[_Part]:
             (target.senses if kind == "sense" else target.ways).append(str(token.sense.value))
             target.words.append(token.words)
     return parts
+
+
+def _aims_at(parts: list[_Part], negate: bool) -> bool:
+    """Whether an orientation noun is the object of the verb just before it: a turning verb with
+    no direction yet, or a raising or lowering one ("lowered its aim")."""
+    if not parts or negate or parts[-1].verb is None or parts[-1].negated:
+        return False
+    part = parts[-1]
+    if part.verb.kind in _TURNING:
+        return not part.ways and not part.senses
+    return part.verb.kind == "step" and part.ways in (["up"], ["down"])
 
 
 def _conflict(ways: list[str]) -> str | None:
@@ -523,7 +544,7 @@ _CAMERA_SUBJECT = re.compile(
 )
 # "moved left in the frame" (content), not "moved left in image 1's frame" (whose directions)
 _IN_THE_PICTURE = re.compile(
-    r"\bin (?:the )?(?:frame|image|picture|photo|shot)\b(?! \d| s\b| (?:one|two|three|four|five)\b)"
+    r"\bin (?:the )?(?:frame|image|picture|photo|shot)\b(?! \d| s\b| (?:one|two|three|four|five|plane)\b)"
 )
 # What the camera sees as the subject of a step ("the view shifted left"): a pan moves the view as
 # much as a step does, so which motion is meant is not said.
