@@ -499,3 +499,14 @@ def test_any_mix_of_the_table_s_words_reads_without_error_and_never_as_an_empty_
         claim = read_phrase(phrase_)
         assert not (isinstance(claim, Compound) and not claim.parts), phrase_
         assert isinstance(claim, Unread) or short(claim) != "U", phrase_
+
+
+def test_a_bare_forward_is_a_step_except_in_a_question_about_turning() -> None:
+    step = read_question(
+        "From image 1 to image 2, how did the camera move? Options: A: Ahead, B: Turned left", 2
+    )
+    assert short(step.options["A"]) == "T forward"
+    turn = read_question(
+        "From image 1 to image 2, which way did the camera turn? Options: A: Forward, B: Left", 2
+    )
+    assert short(turn.options["A"]) == "B forward" and turn.abstain_reason

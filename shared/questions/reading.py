@@ -356,7 +356,8 @@ def _with_bare_resolved(options: dict[str, Claim], quantity: Quantity) -> dict[s
 def _only_a_step(claim: Claim, quantity: Quantity) -> Claim:
     """ "Ahead" / "Toward the scene" can only be a step (no turn goes forward): a step, or the
     position in a position question, whatever else the stem leaves open."""
-    if isinstance(claim, Bare) and set(claim.ways) == {"forward"}:
+    if isinstance(claim, Bare) and set(claim.ways) == {"forward"} and quantity != "rotation":
+        # (in a question about turning, "Forward" may mean it kept facing ahead: left bare)
         return resolve_bare(claim, "position" if quantity == "position" else "translation")
     return claim
 
