@@ -312,6 +312,7 @@ COMPOUNDS = [
     ("Turned left, then moved forward", "C R yaw left + T forward"),
     ("Slid right as it rolled clockwise", "C R roll clockwise + T right"),
     ("Moved left without turning", "C R yaw none + T left"),
+    ("It approached the scene, then turned left", "C R yaw left + T forward"),
     ("Moved to the right without rotating", "C R pitch none + R roll none + R yaw none + T right"),
     ("Turned leftwards by a small angle", "R yaw left"),
     ("Camera translated left and rotated right", "C R yaw right + T left"),
@@ -328,6 +329,8 @@ NEAR_MISSES = [
     ("The image content moved down", "U"),
     ("The picture shifted right", "U"),
     ("The subject moved closer", "U"),
+    ("It turned left so the scene moved right", "U"),
+    ("It moved left, so objects shifted right", "U"),
     # the view moved, or was moved, by a step verb: a pan moves the view as much as a step does
     ("The view shifted to the left", "U"),
     ("Raised its view", "U"),
@@ -344,6 +347,7 @@ NEAR_MISSES = [
     # a return to a place is no direction of its own
     ("Went back to the first position", "U"),
     ("Came back", "U"),
+    ("The camera moved to the left, then turned back", "U"),
     # "ended up" and "turned out" are idioms, not an upward step or a turn outward
     ("It turned out fine", "U"),
     ("Looked the same", "U"),

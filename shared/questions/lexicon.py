@@ -131,7 +131,7 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     # ---- a zoom changes the focal length, not the camera's place: no claim the lexicon reads
     (_verb("zoom") + r"(?: in| out)?", Sense("zoom")),
     # ---- a return to where it was ("went back to", "came back"): no direction of its own
-    (r"back to|(?:came|come|comes|coming) back|" + _verb("return"), Sense("return")),
+    (r"back to|(?:came|come|comes|coming) back|turn(?:ed|s|ing)? back|" + _verb("return"), Sense("return")),
     # ---- words that only grade or place a direction: "right behind it", "further to the left",
     # "ended up to the right", "glided over to the right"
     (r"right(?= (?:above|below|behind|in front|ahead|over|under|beneath|underneath|beside|next)\b)|"
@@ -566,6 +566,28 @@ _NO_CLAIM = {
 }
 
 
+# A clause whose subject is the picture's content, right before its verb ("... so the scene moved
+# right", "... and objects shifted left").
+_CONTENT_CLAUSE = re.compile(
+    r"\b(?:the |its |all |some |everything |the whole )?(?P<noun>scene|scenery|objects?|contents?|things|"
+    r"everything|world|background|foreground|surroundings|room|furniture|subject|image|picture|photo|"
+    r"frame|horizon)(?: in (?:the )?(?:frame|view|image|picture|photo))?(?: (?:appears?|appeared|seems?|"
+    r"seemed) to)? $"
+)
+
+
+def _later_content_subject(words: str, found: list[Token]) -> str | None:
+    """The content noun that is the subject of a verb after the first one, if any."""
+    previous_end = None
+    for token in found:
+        if token.sense.kind in _VERBS and token.sense.kind != "place" and previous_end is not None:
+            clause = _CONTENT_CLAUSE.search(words[previous_end : token.start])
+            if clause:
+                return clause.group("noun")
+        previous_end = token.end
+    return None
+
+
 def _no_claim(words: str, found: list[Token]) -> str | None:
     """Why words that look like motion state no claim about the camera, else None."""
     for token in found:
@@ -584,6 +606,11 @@ def _no_claim(words: str, found: list[Token]) -> str | None:
         return "it says the view moved, which a step and a turn both do"
     if stepping and verb is not None and _VIEW_OBJECT.match(words, verb.end):
         return "it says the view was moved, which a step and a turn both do"
+    if later := _later_content_subject(words, found):
+        return (
+            f"a clause says the {later} moved: content shifts in the frame opposite to the camera, "
+            "which is not read"
+        )
     if _REFERENCE_SUBJECT.match(words):
         return "it says where the first camera is, relative to the second (the reverse of what is asked)"
     if verb is not None and _IN_THE_PICTURE.search(words[verb.end :]):
