@@ -266,6 +266,7 @@ STILL = [
     ("Motionless", "S"),
     ("Stood still", "S"),
     ("Its pose did not change", "S"),
+    ("No displacement and no rotation", "S"),
     ("There was no visible movement", "S"),
     ("Stayed roughly where it was", "S"),
     ("Neither its position nor its orientation changed", "S"),

@@ -99,6 +99,11 @@ def _verb(*bases: str) -> str:
     return "|".join(sorted(set(forms), key=len, reverse=True))
 
 
+# "... the direction it was facing", "... what the camera was looking at"
+_FACING = (
+    r"(?:it|the camera) (?:was |is )?(?:facing|faced|faces|pointing|pointed|points|looking|looked|looks|"
+    r"aimed|aiming)(?: at)?"
+)
 _KIND_NOUN = r"(?: (?:rotation|movement|motion|turn|change|shift))?"
 _STEP = "step"
 _ROWS: tuple[tuple[str, Sense], ...] = (
@@ -160,10 +165,9 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"(?:view|viewing|facing|pointing|looking) direction|direction of (?:view|gaze|sight)|"
      r"orientation|optical axis)", Sense("aimnoun")),
     # ---- a step along the way the camera looks is forward, against it backward
-    (r"(?:in|toward|towards) the (?:same )?direction (?:it|the camera) (?:was |is )?(?:facing|faced|faces|"
-     r"pointing|pointed|points|looking|looked|looks)", Sense("way", "forward")),
-    (r"(?:opposite|contrary) (?:to )?the direction (?:it|the camera) (?:was |is )?(?:facing|faced|faces|"
-     r"pointing|pointed|points|looking|looked|looks)", Sense("way", "backward")),
+    (r"(?:in|toward|towards) (?:the (?:same )?direction|what) " + _FACING, Sense("way", "forward")),
+    (r"(?:(?:opposite|contrary) (?:to )?|away from )(?:the direction|what) " + _FACING,
+     Sense("way", "backward")),
     (r"along (?:its |the )?(?:(?:viewing|view|facing|pointing|looking) direction|line of sight|"
      r"optical axis|direction (?:it|the camera) (?:faced|faces|was facing|is facing|pointed|points))",
      Sense("way", "forward")),
@@ -289,7 +293,8 @@ _FILLER = frozenset(
     "now own few couple several while vantage standpoint than before along nose shooting capture "
     "m cm mm meter meters metre metres centimeter centimeters centimetre centimetres feet foot ft inches "
     "half quarter yard yards unit units physically exactly precisely actually really overall net "
-    "over entire whole itself body there significant noticeable appreciable obvious visible clear "
+    "centre center new over entire whole "
+    "itself body there significant noticeable appreciable obvious visible clear "
     "real".split()
 )
 
@@ -648,6 +653,8 @@ def read_phrase(text: str) -> Claim:
     if unread is not None:
         return unread.model_copy(update={"source": text})
     rotations = [c for c in claims if isinstance(c, Rotation)]
+    if rotations and all(r.sense == "none" for r in rotations) and any(isinstance(c, Still) for c in claims):
+        return Still(source=text)  # "no displacement and no rotation": nothing moved
     if rotations and any(isinstance(c, Still) for c in claims):
         # "stayed in place and turned left": in place is no step, and the turn is the claim
         claims = [c for c in claims if not isinstance(c, Still)]

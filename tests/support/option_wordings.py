@@ -41,6 +41,10 @@ OPTION_WORDINGS: dict[str, list[dict[str, str]]] = {
         {"left": "Moved horizontally to the left", "right": "Moved horizontally to the right"},
         {"left": "The camera body went left", "right": "The camera body went right"},
         {"left": "Sidled to the left", "right": "Sidled to the right"},
+        {"left": "Leftward displacement", "right": "Rightward displacement"},
+        {"left": "The camera was moved over to the left", "right": "The camera was moved over to the right"},
+        {"left": "A step to the camera's left", "right": "A step to the camera's right"},
+        {"left": "Its centre moved left", "right": "Its centre moved right"},
     ],
     "option.translation.vertical": [
         {"up": "It rose higher", "down": "It sank lower"},
@@ -66,6 +70,10 @@ OPTION_WORDINGS: dict[str, list[dict[str, str]]] = {
         {"up": "Climbed higher", "down": "Came down lower"},
         {"up": "It got higher", "down": "It got lower"},
         {"up": "The viewpoint rose", "down": "The viewpoint dropped"},
+        {"up": "Upward displacement", "down": "Downward displacement"},
+        {"up": "The camera's centre rose", "down": "The camera's centre fell"},
+        {"up": "It was raised higher", "down": "It was brought lower"},
+        {"up": "Its elevation increased", "down": "Its elevation decreased"},
     ],
     "option.translation.depth": [
         {"forward": "It advanced toward the scene", "backward": "It retreated from the scene"},
@@ -105,6 +113,13 @@ OPTION_WORDINGS: dict[str, list[dict[str, str]]] = {
         {"forward": "Forward motion", "backward": "Backward motion"},
         {"forward": "It went ahead", "backward": "It went back"},
         {"forward": "Ahead, toward the subject", "backward": "Back, away from the subject"},
+        {"forward": "Forward displacement", "backward": "Backward displacement"},
+        {"forward": "The camera was carried forward", "backward": "The camera was carried backward"},
+        {"forward": "It came nearer to the scene", "backward": "It went farther from the scene"},
+        {
+            "forward": "It moved toward what it was looking at",
+            "backward": "It moved away from what it was looking at",
+        },
     ],
     "option.position": [
         {
@@ -227,6 +242,22 @@ OPTION_WORDINGS: dict[str, list[dict[str, str]]] = {
             "forward": "Farther forward",
             "backward": "Farther back",
         },
+        {
+            "left": "The new viewpoint is to the left",
+            "right": "The new viewpoint is to the right",
+            "up": "The new viewpoint is higher",
+            "down": "The new viewpoint is lower",
+            "forward": "The new viewpoint is further forward",
+            "backward": "The new viewpoint is further back",
+        },
+        {
+            "left": "Its centre lies to the left of the first",
+            "right": "Its centre lies to the right of the first",
+            "up": "Its centre lies above the first",
+            "down": "Its centre lies below the first",
+            "forward": "Its centre lies ahead of the first",
+            "backward": "Its centre lies behind the first",
+        },
     ],
     "option.rotation.yaw": [
         {"left": "It swiveled to the left", "right": "It swiveled to the right"},
@@ -259,6 +290,10 @@ OPTION_WORDINGS: dict[str, list[dict[str, str]]] = {
         {"left": "Its orientation rotated to the left", "right": "Its orientation rotated to the right"},
         {"left": "Left yaw", "right": "Right yaw"},
         {"left": "It rotated toward its left", "right": "It rotated toward its right"},
+        {"left": "Leftward rotation", "right": "Rightward rotation"},
+        {"left": "The camera was swung to the left", "right": "The camera was swung to the right"},
+        {"left": "Its heading turned leftward", "right": "Its heading turned rightward"},
+        {"left": "It pointed more to its left", "right": "It pointed more to its right"},
     ],
     "option.rotation.pitch": [
         {"up": "It pitched upward", "down": "It pitched downward"},
@@ -287,6 +322,10 @@ OPTION_WORDINGS: dict[str, list[dict[str, str]]] = {
         {"up": "The camera angled itself up", "down": "The camera angled itself down"},
         {"up": "Tipped up", "down": "Tipped down"},
         {"up": "The optical axis rose", "down": "The optical axis dropped"},
+        {"up": "Upward rotation", "down": "Downward rotation"},
+        {"up": "The camera was pointed higher", "down": "The camera was pointed lower"},
+        {"up": "It raised its line of sight", "down": "It lowered its line of sight"},
+        {"up": "Nose up", "down": "Nose down"},
     ],
     "option.rotation.roll": [
         {"clockwise": "It rolled clockwise", "counterclockwise": "It rolled counterclockwise"},
@@ -339,6 +378,12 @@ OPTION_WORDINGS: dict[str, list[dict[str, str]]] = {
             "counterclockwise": "Anticlockwise, around the optical axis",
         },
         {"clockwise": "A clockwise cant", "counterclockwise": "An anticlockwise cant"},
+        {
+            "clockwise": "Clockwise rotation about the viewing axis",
+            "counterclockwise": "Counterclockwise rotation about the viewing axis",
+        },
+        {"clockwise": "It was rolled clockwise", "counterclockwise": "It was rolled counterclockwise"},
+        {"clockwise": "It banked to the clockwise", "counterclockwise": "It banked to the counterclockwise"},
     ],
     "option.still": [
         {"still": "It did not budge"},
@@ -362,5 +407,8 @@ OPTION_WORDINGS: dict[str, list[dict[str, str]]] = {
         {"still": "It stayed exactly where it was"},
         {"still": "Its pose did not change"},
         {"still": "Neither its position nor its orientation changed"},
+        {"still": "No displacement and no rotation"},
+        {"still": "The camera was held still"},
+        {"still": "It did not move at all"},
     ],
 }
