@@ -208,6 +208,7 @@ ROTATIONS = [
     ("Tilted its lens upwards", "R pitch up"),
     ("Pointed the camera down", "R pitch down"),
     ("Turned its gaze upward", "R pitch up"),
+    ("Nose down", "R pitch down"),
     ("Lowered its aim", "R pitch down"),
     ("Tilted to face the floor", "R pitch down"),
     ("It looked down more steeply", "R pitch down"),

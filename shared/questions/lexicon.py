@@ -192,7 +192,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"ccw", Sense("sense", "counterclockwise")),
     (r"clockwise|cw", Sense("sense", "clockwise")),
     # ---- rotation
-    (r"(?:its|the|camera s|the camera s) (?:viewing |camera |tilt )?angle|(?:the )?direction of the camera|"
+    (r"(?:its |the |camera s |the camera s )?nose|"
+     r"(?:its|the|camera s|the camera s) (?:viewing |camera |tilt )?angle|(?:the )?direction of the camera|"
      r"(?:the )?camera (?:direction|heading|orientation)", Sense("aimnoun")),
     (r"(?:tilt\w*|pitch\w*|nod\w*|cran\w*|tip(?:s|ped|ping)?|angl(?:e|ed|es|ing)(?: the (?:view|camera|"
      r"shot|lens))?)" + _KIND_NOUN,
@@ -290,7 +291,7 @@ _FILLER = frozenset(
     "diagonally diagonal straight directly scene subject objects object photographed place point spot "
     "location "
     "position height level reference off out original initial previous other ones earlier later "
-    "now own few couple several while vantage standpoint than before along nose shooting capture "
+    "now own few couple several while vantage standpoint than before along shooting capture "
     "m cm mm meter meters metre metres centimeter centimeters centimetre centimetres feet foot ft inches "
     "half quarter yard yards unit units physically exactly precisely actually really overall net "
     "centre center new over entire whole "
