@@ -192,6 +192,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"ccw", Sense("sense", "counterclockwise")),
     (r"clockwise|cw", Sense("sense", "clockwise")),
     # ---- rotation
+    (r"(?:its |the |camera s |the camera s |camera )?(?:position|location|height|elevation|altitude)",
+     Sense("placenoun")),
     (r"(?:its |the |camera s |the camera s )?nose|"
      r"(?:its|the|camera s|the camera s) (?:viewing |camera |tilt )?angle|(?:the )?direction of the camera|"
      r"(?:the )?camera (?:direction|heading|orientation)", Sense("aimnoun")),
@@ -354,6 +356,7 @@ class _Part:
     senses: list[str] = field(default_factory=list)
     words: list[str] = field(default_factory=list)
     axis: str | None = None  # set by an axis phrase ("about the lens axis")
+    from_noun: bool = False  # opened by a noun of place ("its position ..."), not by a verb
 
 
 _AXES = ("yaw", "pitch", "roll")
@@ -411,6 +414,14 @@ def _parts(found: list[Token]) -> list[_Part]:
         elif kind == "aimnoun":  # "its aim", "the heading": the verb that follows turns the camera
             aiming = True
             parts.append(_Part(verb=Sense("aim"), words=[token.words]))
+        elif kind == "placenoun":
+            # "its position shifted left", "height: up", "a higher position": the camera's place
+            # makes the directions a step; after a verb it adds nothing ("moved to a new position")
+            if not parts or parts[-1].verb is None:
+                opened = not parts
+                _add_verb(parts, Token(token.start, token.end, Sense("weak"), token.words), negate, aiming)
+                parts[-1].from_noun = opened
+                negate = False
         elif kind in _VERBS:
             _add_verb(parts, token, negate, aiming)
             negate = aiming = False
@@ -645,7 +656,13 @@ def read_phrase(text: str) -> Claim:
         return Unread(source=text, why="it offers two claims joined by 'or'", two_claims=True)
     stated = _DEGREES.search(words)
     degrees = float(stated.group(1)) if stated else None
-    claims = [_part_claim(part, degrees, " ".join(part.words)) for part in _parts(found)]
+    parts = _parts(found)
+    # "its position and direction were unchanged": a noun of place that no direction follows states
+    # nothing of its own
+    parts = [
+        p for p in parts if not (p.from_noun and not p.ways and p.verb is not None and p.verb.kind == "weak")
+    ]
+    claims = [_part_claim(part, degrees, " ".join(part.words)) for part in parts]
     # "moved right without rotating": "no rotation" is itself a compound (no turn about any axis)
     claims = [p for c in claims for p in (c.parts if isinstance(c, Compound) else (c,))]
     if not claims:  # a negation, "or", with nothing it applies to
