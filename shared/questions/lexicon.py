@@ -115,13 +115,18 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"(?:(?:completely|perfectly|exactly|precisely|right|roughly|approximately|basically|essentially|"
      r"more or less|almost|nearly|virtually|practically)\s+)?"
      r"(?:still|put|stationary|motionless|fixed|steady|in place|where it was|"
-     r"(?:at|in) the same (?:spot|place|position|point|location))", Sense("still")),
+     r"(?:at|in) (?:the same|its|its original|the original|its initial|the initial|its previous|"
+     r"the previous|its starting|the starting) (?:spot|place|position|point|location))", Sense("still")),
     (r"(?:its |the )?(?:pose|position|place|location|viewpoint)(?: and (?:its )?(?:orientation|heading|"
      r"direction|aim|angle))? (?:did not|didn t|never|has not|hasn t) (?:change|move|shift)|"
      r"neither (?:its )?(?:position|location|place) nor (?:its )?(?:orientation|heading|direction|aim|angle) "
      r"(?:changed|moved|shifted)|no (?:motion|movement|change) (?:occurred|took place|happened)|"
      r"(?:the )?same (?:position|place|spot|location|pose) and (?:orientation|heading|direction|aim|angle)|"
-     r"(?:did not|didn t|never) (?:move|shift) (?:or|nor) (?:turn|rotate)|"
+     r"(?:did not|didn t|never) (?:move|shift|translate) (?:or|nor) (?:turn|rotate)|"
+     r"(?:both )?(?:its )?(?:position|location|pose) and (?:its )?(?:orientation|heading|direction|aim|angle)"
+     r"(?: (?:were|are|remained|stayed))? (?:unchanged|the same|identical)|"
+     r"no (?:change|difference) in (?:its |the )?(?:camera s |camera )?(?:pose|position|location)|"
+     r"(?:its |the )?(?:camera s |camera )?pose (?:is|was|remained|stayed) (?:identical|the same|unchanged)|"
      r"nothing (?:changed|moved|happened)", Sense("still")),
     (r"(?:did not|didn t|does not|doesn t|never)\s+(?:move|budge|change position|"
      r"shift)\b(?!\s+(?:left|right|up|down|forward|back))",
@@ -181,6 +186,7 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"camera s )?axis|line of sight|(?:viewing|view|facing|pointing|looking|forward) direction)",
      Sense("axis", "roll")),
     (r"(?:about|around|round|on) (?:its |the |a )?vertical axis", Sense("axis", "yaw")),
+    (r"(?:about|around|round) (?:its |the )?(?:lens|optical center|optical centre)", Sense("axis", "roll")),
     (r"(?:in|within) (?:the )?image plane|in plane|(?:about|around|round|on) (?:its |the )?depth axis",
      Sense("axis", "roll")),
     # ---- rotation about the optical axis (before the verbs that share words with it)
@@ -296,7 +302,7 @@ _FILLER = frozenset(
     "now own few couple several while vantage standpoint than before along shooting capture "
     "m cm mm meter meters metre metres centimeter centimeters centimetre centimetres feet foot ft inches "
     "half quarter yard yards unit units physically exactly precisely actually really overall net "
-    "centre center new over entire whole "
+    "sense centre center new over entire whole "
     "itself body there significant noticeable appreciable obvious visible clear "
     "real".split()
 )
