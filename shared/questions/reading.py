@@ -160,7 +160,7 @@ def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
     kinds = [s.kind for s in stem_senses(words)]
     if not any(k in _ROTATING for k in kinds) and excluded & set(_ROTATING):
         return "translation", True, words
-    if not any(k in ("step", "weak") for k in kinds) and excluded & {"step", "weak", "place"}:
+    if not any(k in ("step", "weak") for k in kinds) and excluded & {"step", "weak", "place", "placenoun"}:
         return "rotation", True, words
     stepping = any(s.kind in ("step", "weak") for s in stem_senses(words))  # "shift", "go", "change"
     position = _POSITION_ASK.search(words)
