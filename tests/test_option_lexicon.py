@@ -352,6 +352,9 @@ NEAR_MISSES = [
     # the first camera's place relative to the second is the reverse of what is asked
     ("The first camera is to the left of the second", "U"),
     ("The reference photo was taken higher", "U"),
+    ("The position of the first camera is to the left", "U"),
+    ("The first is to the left of the second", "U"),
+    ("It is to the left of the second camera", "U"),
     # where a motion came from is the opposite of where it went
     ("It came in from the left", "U"),
     ("Approached from the right", "U"),

@@ -578,9 +578,18 @@ _VIEW_OBJECT = re.compile(
 )
 # The first (reference) camera as the subject ("the first camera is to the left of the second"):
 # its place relative to the second is the second's place reversed; not read.
+_EARLIER = r"(?:first|earlier|reference|original|initial|previous|former|starting|older)"
+_LATER = r"(?:second|later|latter|new|newer|next|final|last|other)"
+_CAMERA_NOUN = r"(?:camera|image|photo|picture|view|shot|snapshot|frame|one|position|viewpoint)"
 _REFERENCE_SUBJECT = re.compile(
-    r"^(?:the )?(?:first|earlier|reference|original|initial|previous|former|starting|older) "
-    r"(?:camera|image|photo|picture|view|shot|snapshot|frame|one|position|viewpoint)\b"
+    rf"^(?:the )?(?:(?:position|location|place|centre|center) of (?:the )?)?{_EARLIER}"
+    rf"(?: {_CAMERA_NOUN}\b| (?=is|was|lies|lay|sits|sat|stands|stood|appears|had)\b)"
+)
+# ... or the second camera as the reference ("to the left of the second camera"): the claim is the
+# first camera's place, the reverse of what is asked
+_LATER_REFERENCE = re.compile(
+    rf"\b(?:of|than|from|to|relative to|compared (?:to|with)|with respect to|above|below|behind) "
+    rf"(?:the )?{_LATER} {_CAMERA_NOUN}\b"
 )
 _NO_CLAIM = {
     "source": "a direction it came from is the opposite of the way it went",
@@ -634,7 +643,7 @@ def _no_claim(words: str, found: list[Token]) -> str | None:
             f"a clause says the {later} moved: content shifts in the frame opposite to the camera, "
             "which is not read"
         )
-    if _REFERENCE_SUBJECT.match(words):
+    if _REFERENCE_SUBJECT.match(words) or _LATER_REFERENCE.search(words):
         return "it says where the first camera is, relative to the second (the reverse of what is asked)"
     if verb is not None and _IN_THE_PICTURE.search(words[verb.end :]):
         return "it describes motion within the picture, not the camera's"
