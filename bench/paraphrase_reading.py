@@ -15,21 +15,24 @@ from __future__ import annotations
 import argparse
 from collections import Counter
 
-from shared.questions.claims import resolve_bare
+from shared.questions.claims import is_read
 from shared.questions.reading import QuestionReading, read_question
 from tests.support.paraphrases import SPLITS, ParaphraseItem, text_corpus
 
 
 def claim_dict(claim, quantity: str) -> dict:
-    """A read claim in the corpus's plain form (a bare direction taken as the quantity asked). In a
-    position question a step claim counts as the position (the same geometry, issue 34: the second
-    camera's centre in the first camera's frame)."""
-    claim = resolve_bare(claim, quantity)
+    """A read claim in the corpus's plain form. A bare direction is as the reading left it: the
+    reading gives it the kind the stem asks when the stem says it, and leaves it bare (so the
+    question abstains) when not. A step and a position are the same geometry (issue 34: the second
+    camera's centre in the first camera's frame): in a position question a step claim counts as the
+    position, and in a translation question a position claim ("It stood higher") as the step."""
     data = claim.model_dump(exclude={"source", "why", "degrees"})
     if "ways" in data:
         data["ways"] = list(data["ways"])
     if quantity == "position" and data["kind"] == "translation":
         data["kind"] = "position"
+    if quantity == "translation" and data["kind"] == "position":
+        data["kind"] = "translation"
     return data
 
 
@@ -52,6 +55,27 @@ def judge(item: ParaphraseItem, reading: QuestionReading) -> dict[str, bool]:
     return verdict
 
 
+def option_outcomes(item: ParaphraseItem, reading: QuestionReading) -> list[str]:
+    """Per expected option: "option right", "option unread" (no claim, or a bare direction the
+    question gives no kind), or "option misread" (read as another claim: the failure that can answer
+    wrong)."""
+    outcomes = []
+    for letter, expected in item.options.items():
+        claim = reading.options.get(letter)
+        if claim is None or not is_read(claim):
+            outcomes.append("option unread")
+        elif _geometry(claim_dict(claim, reading.quantity)) == _geometry(expected):
+            outcomes.append("option right")
+        else:
+            outcomes.append("option misread")
+    return outcomes
+
+
+def _geometry(claim: dict) -> dict:
+    """A claim with a step and a position taken as the same geometry (what the matcher compares)."""
+    return {**claim, "kind": "step"} if claim.get("kind") in ("translation", "position") else claim
+
+
 def measure(
     items: list[ParaphraseItem],
 ) -> tuple[Counter, list[tuple[ParaphraseItem, QuestionReading, dict]]]:
@@ -62,6 +86,8 @@ def measure(
         verdict = judge(item, reading)
         counts["abstain items" if item.abstain else "items"] += 1
         counts.update(name for name, ok in verdict.items() if ok)
+        if item.abstain is None:
+            counts.update(option_outcomes(item, reading))
         if not verdict.get("all", verdict.get("abstained")):
             failures.append((item, reading, verdict))
     return counts, failures
@@ -91,6 +117,10 @@ def main(argv: list[str] | None = None) -> None:
         print(
             f"| {split} | {n} | " + " | ".join(cells) + f" | {counts['misread pair, certain']} | "
             f"{counts['abstain items']} | {counts['abstained']} |"
+        )
+        print(
+            f"|   options of {split}: {counts['option right']} right, {counts['option unread']} unread, "
+            f"{counts['option misread']} read as another claim |"
         )
         if split == "tuning":
             shown = failures[: args.failures]

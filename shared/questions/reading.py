@@ -37,7 +37,7 @@ from shared.questions.claims import (
     is_read,
     resolve_bare,
 )
-from shared.questions.lexicon import normalized, read_phrase, stem_senses
+from shared.questions.lexicon import normalized, read_phrase, stem_senses, views_named
 from shared.questions.view_pair import PairReading, read_pair
 
 Quantity = Literal["translation", "rotation", "position", "motion", "still", "object_relation", "other"]
@@ -160,7 +160,7 @@ def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
     kinds = [s.kind for s in stem_senses(words)]
     if not any(k in _ROTATING for k in kinds) and excluded & set(_ROTATING):
         return "translation", True, words
-    if not any(k in ("step", "weak") for k in kinds) and excluded & {"step", "weak", "place"}:
+    if not any(k in ("step", "weak") for k in kinds) and excluded & {"step", "weak", "place", "placenoun"}:
         return "rotation", True, words
     stepping = any(s.kind in ("step", "weak") for s in stem_senses(words))  # "shift", "go", "change"
     position = _POSITION_ASK.search(words)
@@ -331,17 +331,35 @@ def _abstain(
     return None
 
 
-def _bare_sense(quantity: Quantity, ask: str) -> Quantity:
-    """What a bare direction means: the quantity asked, or in a question about any motion the
-    stem's verb ("how did it move? Forward" is a step)."""
-    if quantity != "motion":
+def _bare_sense(quantity: Quantity, ask: str, options: dict[str, Claim]) -> Quantity:
+    """What a bare direction means: the quantity the stem asks when a word of one kind says it
+    ("which way did it pan? Left" is a yaw); with an everyday verb ("how did it move? Forward") a
+    step, unless another option is a turn. The other options alone never give a bare one its kind
+    ("It ended up further left" beside turns may be a step): it stays bare, and the reading abstains."""
+    stem, strong, _ = _stem_quantity(asking_sentences(ask))
+    if stem in ("translation", "rotation", "position") and strong:
+        return stem
+    turns = any("rotation" in claim_kinds(claim) for claim in options.values())
+    if stem == "translation" and not turns and quantity in ("translation", "position", "still"):
+        return quantity if quantity != "still" else "translation"
+    if quantity == "position" and stem is None and not turns:
         return quantity
-    stem, _, _ = _stem_quantity(asking_sentences(ask))
-    return stem if stem in ("translation", "rotation", "position") else quantity
+    return "motion"
 
 
 def _with_bare_resolved(options: dict[str, Claim], quantity: Quantity) -> dict[str, Claim]:
-    return {letter: resolve_bare(claim, quantity) for letter, claim in options.items()}
+    return {
+        letter: resolve_bare(_only_a_step(claim, quantity), quantity) for letter, claim in options.items()
+    }
+
+
+def _only_a_step(claim: Claim, quantity: Quantity) -> Claim:
+    """ "Ahead" / "Toward the scene" can only be a step (no turn goes forward): a step, or the
+    position in a position question, whatever else the stem leaves open."""
+    if isinstance(claim, Bare) and set(claim.ways) == {"forward"} and quantity != "rotation":
+        # (in a question about turning, "Forward" may mean it kept facing ahead: left bare)
+        return resolve_bare(claim, "position" if quantity == "position" else "translation")
+    return claim
 
 
 def read_question(text: str, image_count: int | None = None) -> QuestionReading:
@@ -353,8 +371,9 @@ def read_question(text: str, image_count: int | None = None) -> QuestionReading:
     hypothetical = bool(_WHAT_IF.search(normalized(asking_sentences(ask))))
     if quantity not in CAMERA_QUANTITIES or hypothetical or (not _lead(options) and not _is_camera_ask(ask)):
         quantity = "object_relation" if _OBJECT_ASK.search(normalized(ask)) else "other"
-    options = _with_bare_resolved(options, _bare_sense(quantity, ask))
+    options = _with_bare_resolved(options, _bare_sense(quantity, ask, options))
     pair = _pair(ask, image_count, camera=quantity in CAMERA_QUANTITIES)
+    options = _views_checked(options, option_texts, pair.views)
     frame, frame_source, frame_certain = _frame(ask, pair.views, image_count)
     return QuestionReading(
         text=(text or "").strip(),
@@ -373,6 +392,24 @@ def read_question(text: str, image_count: int | None = None) -> QuestionReading:
         abstain_reason=_abstain(quantity, pair, options, doubt),
         summary=_summary(quantity, pair, frame),
     )
+
+
+def _views_checked(
+    options: dict[str, Claim], texts: dict[str, str], views: tuple[int, int] | None
+) -> dict[str, Claim]:
+    """An option that names photos by number ("Image 1 was taken to the left of image 2") states
+    its claim about those photos: kept when they are the pair's (the second about the first),
+    unread when they are the other way round (its claim is the pair's reversed) or not the pair."""
+    checked = dict(options)
+    for letter, claim in options.items():
+        about, relative_to = views_named(texts.get(letter, ""))
+        if (about is None and relative_to is None) or not is_read(claim):
+            continue
+        if views is None or about not in (None, views[1]) or relative_to not in (None, views[0]):
+            checked[letter] = Unread(
+                source=claim.source, why="it names the photos in another order or other photos than the pair"
+            )
+    return checked
 
 
 def _lead(options: dict[str, Claim]) -> bool:
