@@ -44,7 +44,7 @@ SAFETY_MARGIN_M = 0.05  # added to the radius: the grid's half cell must not bec
 GOAL_TOLERANCE_M = 0.3
 _FLOOR_TOLERANCE_M = 0.03
 _CLOSE_HOLES_M = 0.15
-WALL_HEIGHT_M = 1.0  # surfaces seen this high are walls or tall furniture, never driven past under
+WALL_HEIGHT_M = 0.8  # surfaces seen this high are walls or tall furniture, never driven past under
 UNLOOKED_COST_FACTOR = 2.0  # space no view looked into costs this many times unseen floor
 
 
