@@ -461,7 +461,8 @@ def _describe(plan: RoutePlan, setting: _Setting, corners: np.ndarray, pose: np.
 def _open_unlooked_space(setting: _Setting, robot: Robot, unseen_cost: float) -> None:
     """Let the search cross space no view looked into, except on the lines of seen walls."""
     grid = setting.grid
-    walls = continued_walls(grid, grid.tall if grid.tall is not None else grid.occupied, setting.per_metre)
+    tall = grid.tall if grid.tall is not None else grid.occupied
+    walls = continued_walls(grid, tall, setting.per_metre, 2 * robot.radius * setting.per_metre)
     closed = grid.occupied | walls
     closed[[0, -1], :] = True
     closed[:, [0, -1]] = True

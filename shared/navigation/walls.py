@@ -23,24 +23,29 @@ _RESUMES_M = 0.4  # seen standing this far along the line after a gap: the same 
 _MAX_THICKNESS_RATIO = 0.2  # across the line / along it (standard deviations): straight enough
 
 
-def continued_walls(grid: Grid, tall: np.ndarray, per_metre: float) -> np.ndarray:
-    """(H, W) bool: hidden cells on the line of a seen wall that runs into them."""
+def continued_walls(grid: Grid, tall: np.ndarray, per_metre: float, min_gap: float) -> np.ndarray:
+    """(H, W) bool: hidden cells on the line of a seen wall that runs into them.
+
+    ``min_gap`` (scene units, the robot's width): a crossing narrower than this does not end the wall.
+    """
     hidden = grid.hidden
     out = np.zeros(grid.shape, bool)
     if not hidden.any() or not tall.any():
         return out
     tall_cells = np.argwhere(tall)
-    borders = np.argwhere(tall & dilate(hidden, 1.5))
     reach = _NEIGHBOURHOOD_M * per_metre / grid.cell
+    # the tall cells near hidden space (a wall's last metres may be seen only low, below ``tall``)
+    borders = np.argwhere(tall & dilate(hidden, 0.5 * reach))
     longest = float(np.hypot(*grid.shape))
     along = np.arange(0.0, longest, 0.5)
+    per_cell = per_metre / grid.cell
     for cell in borders:
         near = tall_cells[np.linalg.norm(tall_cells - cell, axis=1) <= reach]
         direction = _line_direction(near, _MIN_RUN_M * per_metre / grid.cell)
         if direction is None:
             continue
         for sign in (1.0, -1.0):
-            _follow(grid, hidden, tall, cell, sign * direction, along, out, per_metre / grid.cell)
+            _follow(grid, hidden, tall, cell, sign * direction, along, out, per_cell, min_gap / grid.cell)
     return out
 
 
@@ -57,11 +62,12 @@ def _line_direction(cells: np.ndarray, min_run_cells: float) -> np.ndarray | Non
     return vectors[:, 1]
 
 
-def _follow(grid: Grid, hidden, tall, cell, direction, along, out, per_cell: float) -> None:
+def _follow(grid: Grid, hidden, tall, cell, direction, along, out, per_cell: float, gap_cells: float) -> None:
     """Mark the hidden cells on the line from ``cell``: through the wall, then on while hidden.
 
-    The wall ends where a line of sight crossed its line: that cell and the cells a wall's
-    thickness to either side of it are all open (looked into, nothing seen standing there). Floor
+    The wall ends where lines of sight crossed its line over a robot's width: there the line's
+    cells and the cells a wall's thickness to either side are all open (looked into, nothing seen
+    standing there); a narrower crossing (a grazing ray at the wall's edge) does not end it. Floor
     seen along one face only (at the foot of the wall) does not end it.
     """
     normal = np.array([-direction[1], direction[0]])
@@ -77,7 +83,9 @@ def _follow(grid: Grid, hidden, tall, cell, direction, along, out, per_cell: flo
         return ~standing[at[:, 0], at[:, 1]]
 
     crossed = open_at(cells) & open_at(sides[0]) & open_at(sides[1])
-    stop = int(np.argmax(crossed)) if crossed.any() else len(cells)
+    step = along[1] - along[0]
+    wide = [first for first, last in _runs(crossed) if (last - first + 1) * step >= gap_cells]
+    stop = wide[0] if wide else len(cells)
     wall = (grid.occupied | tall)[cells[:stop, 0], cells[:stop, 1]]
     gap = hidden[cells[:stop, 0], cells[:stop, 1]] & ~wall
     resumes = int(np.ceil(_RESUMES_M * per_cell / (along[1] - along[0])))
