@@ -366,8 +366,9 @@ def _why_unreachable(
     if off_the_map or (passage is None and _joined_through_hidden(setting.grid, start, goal)):
         return (
             "unseen_space",
-            "every way to the goal passes where no view looked (not even over the floor): a wall or a "
-            "doorway no photo shows; add a photo of the way between",
+            "every way to the goal passes where no view looked (not even over the floor), and across "
+            "the line of a wall seen running into that space: a doorway there, if any, no photo shows; "
+            "add a photo of the way between",
             None,
         )
     if passage is None:
