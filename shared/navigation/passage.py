@@ -66,10 +66,17 @@ def _closest_pair(points: np.ndarray, at: np.ndarray, reach: float) -> tuple[np.
 
 
 def narrowest_passage(
-    grid: Grid, start: tuple[int, int], goal: tuple[int, int], most_cells: float
+    grid: Grid,
+    start: tuple[int, int],
+    goal: tuple[int, int],
+    most_cells: float,
+    blocked: np.ndarray | None = None,
 ) -> Passage | None:
-    """The passage that limits the widest way from start to goal; None when no way exists at all."""
-    blocked = grid.blocked
+    """The passage that limits the widest way from start to goal; None when no way exists at all.
+
+    ``blocked``: what closes the way (default ``grid.blocked``: seen obstacles, unlooked space, edge).
+    """
+    blocked = grid.blocked if blocked is None else blocked
     if not _connected(blocked, 0.0, start, goal):
         return None
     radius = _widest_radius(blocked, start, goal, most_cells)

@@ -208,6 +208,8 @@ class _Setting:
     start: np.ndarray  # (2,) floor coordinates below the start camera
     heading: float  # radians in the floor frame, counter-clockwise from the first axis
     scale: Scale
+    # What closes the way once unlooked space is opened: seen obstacles, seen walls continued, the edge.
+    closed_with_unlooked_open: np.ndarray | None = None
 
     @property
     def per_metre(self) -> float:
@@ -363,6 +365,13 @@ def _why_unreachable(
     passage = narrowest_passage(setting.grid, start, goal, radius_cells)
     # A passage with no seen points on a side is bounded by where no view looked: no width to tell.
     off_the_map = passage is not None and passage.sides is None
+    closed = setting.closed_with_unlooked_open
+    if (off_the_map or passage is None) and closed is not None:
+        # Unlooked space was opened and the way still fails: what closes it there may be seen
+        # obstacles (a narrow doorway reached only across unlooked floor), measured the same way.
+        opened = narrowest_passage(setting.grid, start, goal, radius_cells, blocked=closed)
+        if opened is not None and opened.sides is not None:
+            passage, off_the_map = opened, False
     if off_the_map or (passage is None and _joined_through_hidden(setting.grid, start, goal)):
         return (
             "unseen_space",
@@ -467,6 +476,7 @@ def _open_unlooked_space(setting: _Setting, robot: Robot, unseen_cost: float) ->
     closed = grid.occupied | walls
     closed[[0, -1], :] = True
     closed[:, [0, -1]] = True
+    setting.closed_with_unlooked_open = closed
     setting.passable = ~dilate(closed, (robot.radius + SAFETY_MARGIN_M) * setting.per_metre / grid.cell)
     setting.cost = np.where(grid.hidden, UNLOOKED_COST_FACTOR * float(unseen_cost), setting.cost)
 
