@@ -117,8 +117,15 @@ def test_a_doorway_no_view_looked_through_is_crossed_and_the_plan_says_so():
     )
 
 
-def test_a_narrow_doorway_whose_wall_runs_on_unseen_is_still_refused_with_its_width():
-    two, _, recon = _tuning_scene(22, "narrow_door")  # the dividing wall's ends were not looked at
+@pytest.mark.parametrize(
+    "index",
+    [
+        22,  # the dividing wall's ends were not looked at: it is continued, not crossed
+        58,  # the start's surroundings join the doorway only across unlooked floor
+    ],
+)
+def test_a_narrow_doorway_beside_unlooked_space_is_still_refused_with_its_width(index):
+    two, _, recon = _tuning_scene(index, "narrow_door")
     plan = plan_route(recon, 0, two.goal, robot_radius=RADIUS)
     assert not plan.reachable and plan.refusal == "narrow_gap", plan.reason
     assert plan.narrowest_passage_m == pytest.approx(two.door[1] - two.door[0], abs=0.1)
