@@ -11,10 +11,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from shared.geometry.poses import estimate_up_axis
+from shared.geometry.poses import estimate_up_axis, up_is_reliable
 
 _BINS_PER_CAMERA_HEIGHT = 100  # histogram resolution: 1.5 cm for cameras 1.5 m above the floor
 _MAX_TILT_DEG = 15.0  # a fitted normal further than this from the cameras' up is not the floor
+# ... when the headings are too alike to fix up from the cameras (``up_is_reliable``): their up is
+# then the mean image up, which a common pitch (views looking down at the floor) tilts as far.
+_MAX_TILT_UNRELIABLE_DEG = 40.0
 _REFITS = 4
 _VOTERS = 20_000  # points sampled for the plane vote
 _TRIALS = 300
@@ -66,7 +69,7 @@ def _floor_height(heights: np.ndarray, top: float) -> tuple[float, float]:
     return float(0.5 * (edges[chosen] + edges[chosen + 1])), width
 
 
-def _refit(points: np.ndarray, centres: np.ndarray, up: np.ndarray, cameras_up: np.ndarray):
+def _refit(points: np.ndarray, centres: np.ndarray, up: np.ndarray, cameras_up: np.ndarray, limit: float):
     """One refinement: the floor height along ``up``, then a plane fit of the points near it."""
     heights = points @ up
     floor, width = _floor_height(heights, float(np.min(centres @ up)))
@@ -75,13 +78,13 @@ def _refit(points: np.ndarray, centres: np.ndarray, up: np.ndarray, cameras_up: 
         middle = near.mean(axis=0)
         _, _, vt = np.linalg.svd(near - middle, full_matrices=False)
         normal = vt[-1] if vt[-1] @ up >= 0 else -vt[-1]
-        if np.degrees(np.arccos(np.clip(normal @ cameras_up, -1.0, 1.0))) < _MAX_TILT_DEG:
+        if np.degrees(np.arccos(np.clip(normal @ cameras_up, -1.0, 1.0))) < limit:
             up = normal / np.linalg.norm(normal)
             floor = float(np.median(near @ up))
     return up, floor
 
 
-def _plane_votes(points: np.ndarray, centres: np.ndarray, cameras_up: np.ndarray) -> np.ndarray:
+def _plane_votes(points: np.ndarray, centres: np.ndarray, cameras_up: np.ndarray, limit: float) -> np.ndarray:
     """Up from the best supported plane below every camera, near the cameras' up (RANSAC).
 
     Few views pitched alike leave the cameras' up some degrees off; then no height bin holds the
@@ -101,7 +104,7 @@ def _plane_votes(points: np.ndarray, centres: np.ndarray, cameras_up: np.ndarray
             continue
         normal = normal / np.linalg.norm(normal)
         normal = normal if normal @ cameras_up >= 0 else -normal
-        if np.degrees(np.arccos(np.clip(normal @ cameras_up, -1.0, 1.0))) >= _MAX_TILT_DEG:
+        if np.degrees(np.arccos(np.clip(normal @ cameras_up, -1.0, 1.0))) >= limit:
             continue
         offset = float(normal @ a)
         if np.min(centres @ normal) <= offset:
@@ -131,10 +134,11 @@ def estimate_floor(points: np.ndarray, extrinsics: np.ndarray) -> Floor:
     cameras_up = estimate_up_axis(extrinsics)
     rotations, translations = extrinsics[:, :3, :3], extrinsics[:, :3, 3]
     centres = -np.einsum("vji,vj->vi", rotations, translations)
-    up = _plane_votes(points, centres, cameras_up) if len(points) >= 3 else cameras_up
+    limit = _MAX_TILT_DEG if up_is_reliable(extrinsics) else _MAX_TILT_UNRELIABLE_DEG
+    up = _plane_votes(points, centres, cameras_up, limit) if len(points) >= 3 else cameras_up
     for _ in range(_REFITS):
         previous = up
-        up, floor = _refit(points, centres, up, cameras_up)
+        up, floor = _refit(points, centres, up, cameras_up, limit)
         if np.degrees(np.arccos(np.clip(up @ previous, -1.0, 1.0))) < 0.05:
             break
     first, second = _floor_axes(up)

@@ -27,6 +27,8 @@ class Grid:
     obstacle_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     # (H, W) bool: cells some view's line of sight passed over (``sight.looked_into``); None: unknown.
     looked: np.ndarray | None = None
+    # (H, W) bool: cells with surfaces seen above ``build_grid``'s ``tall_height`` (walls, tall furniture)
+    tall: np.ndarray | None = None
 
     @property
     def hidden(self) -> np.ndarray:
@@ -135,12 +137,14 @@ def build_grid(
     floor_tolerance: float,
     close_cells: float,
     keep: np.ndarray,
+    tall_height: float = np.inf,
 ) -> Grid:
     """The grid of floor-projected points ``plane`` with their ``heights`` above the floor.
 
     ``band`` is the robot's body (low, high); points within ``floor_tolerance`` of the floor mark
     it seen. Small holes in the seen floor (between the samples of a distant, grazing view) are
     closed by ``close_cells``. ``keep`` (M, 2) are floor points the grid must cover (start, goal).
+    Cells with points seen above ``tall_height`` are ``tall`` (what a wall is made of).
     """
     in_band = (heights >= band[0]) & (heights <= band[1])
     on_floor = np.abs(heights) <= floor_tolerance
@@ -160,6 +164,7 @@ def build_grid(
     occupied |= _walls_above(grid, plane, heights, band[1])
     # Only surfaces are seen: the inside of a thin obstacle (a wall between its two faces) is closed.
     grid.occupied = occupied | erode(dilate(occupied, 1.5), 1.5)
+    grid.tall = _counts(grid.to_cell(plane[heights >= tall_height]), shape) >= _OCCUPIED_MIN_POINTS
     seen = _counts(grid.to_cell(plane[on_floor]), shape) > 0
     seen = erode(dilate(seen, close_cells), close_cells)
     grid.free = seen & ~grid.occupied

@@ -43,26 +43,40 @@ def _widest_radius(occupied: np.ndarray, start, goal, most: float) -> float:
     return low
 
 
-def _closest_pair(points: np.ndarray, at: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """The closest obstacle points on the two sides of ``at`` (near one, then alternately nearest)."""
+def _closest_pair(points: np.ndarray, at: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """The closest obstacle points on the two sides of ``at``, or None.
+
+    One side holds the point nearest ``at``; the other, the points beyond ``at`` from it (a doorway's
+    two jambs). Both must lie within ``reach`` of ``at``: a side that no seen point bounds so close
+    is bounded by space no view looked into, and the passage has no width to tell. (Pulling the pair
+    together further would slide both onto one jamb when ``at`` is off the doorway's line; among the
+    tight spots of the way, the one between the jambs gives the smallest width.)
+    """
     if len(points) < 2:
         return None
     first = points[int(np.argmin(np.linalg.norm(points - at, axis=1)))]
     opposite = (points - at) @ (first - at) < 0
-    if not opposite.any() or opposite.all():
+    if not opposite.any():
         return None
-    other_side, same_side = points[opposite], points[~opposite]
-    second = other_side[int(np.argmin(np.linalg.norm(other_side - first, axis=1)))]
-    first = same_side[int(np.argmin(np.linalg.norm(same_side - second, axis=1)))]
-    second = other_side[int(np.argmin(np.linalg.norm(other_side - first, axis=1)))]
+    other_side = points[opposite]
+    second = other_side[int(np.argmin(np.linalg.norm(other_side - at, axis=1)))]
+    if max(np.linalg.norm(first - at), np.linalg.norm(second - at)) > reach:
+        return None
     return first, second
 
 
 def narrowest_passage(
-    grid: Grid, start: tuple[int, int], goal: tuple[int, int], most_cells: float
+    grid: Grid,
+    start: tuple[int, int],
+    goal: tuple[int, int],
+    most_cells: float,
+    blocked: np.ndarray | None = None,
 ) -> Passage | None:
-    """The passage that limits the widest way from start to goal; None when no way exists at all."""
-    blocked = grid.blocked
+    """The passage that limits the widest way from start to goal; None when no way exists at all.
+
+    ``blocked``: what closes the way (default ``grid.blocked``: seen obstacles, unlooked space, edge).
+    """
+    blocked = grid.blocked if blocked is None else blocked
     if not _connected(blocked, 0.0, start, goal):
         return None
     radius = _widest_radius(blocked, start, goal, most_cells)
@@ -77,9 +91,9 @@ def narrowest_passage(
     passages = []
     for index in np.flatnonzero(distance <= distance.min() + grid.cell):
         where = plane[index]
-        reach = distance[index] + 4 * grid.cell
-        near = grid.obstacle_points[np.linalg.norm(grid.obstacle_points - where, axis=1) <= reach]
-        pair = _closest_pair(near, where)
+        reach = distance[index] + 2 * grid.cell
+        near = grid.obstacle_points[np.linalg.norm(grid.obstacle_points - where, axis=1) <= 2 * reach]
+        pair = _closest_pair(near, where, reach)
         if pair is not None:
             passages.append(Passage(where, float(np.linalg.norm(pair[0] - pair[1])), pair))
     if passages:

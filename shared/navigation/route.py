@@ -13,6 +13,12 @@ The floor has three kinds of cells: seen free, seen blocked and unseen. A route 
 floor, which costs ``unseen_cost`` times as much per metre as seen floor, so it does so only where
 it must or where that saves a lot; each step says how much of its move is unseen, and a refusal
 means that *seen* obstacles (or the edge of the map) close every way.
+
+Unseen floor comes in two grades. Floor some view looked over (a line of sight passed above it)
+is crossed freely at ``unseen_cost``. Space no line of sight reached at all (behind a wall's edge,
+a doorway no view looked through) is crossed only when no route exists without it, at
+``UNLOOKED_COST_FACTOR`` times that cost, never across the line of a seen wall that runs into it
+(``walls.continued_walls``), and the plan warns that a wall or furniture may stand there.
 """
 
 from __future__ import annotations
@@ -29,6 +35,7 @@ from shared.navigation.scale import ASSUMED_CAMERA_HEIGHT_M, Scale, plan_scale  
 from shared.navigation.search import astar, reachable_from, shorten
 from shared.navigation.sight import looked_into
 from shared.navigation.steps import steps_and_sentences
+from shared.navigation.walls import continued_walls
 
 TURN_CONVENTION = "left-positive"
 DEFAULT_UNSEEN_COST = 1.5  # a metre over unseen floor costs as much as this many over seen floor
@@ -37,6 +44,8 @@ SAFETY_MARGIN_M = 0.05  # added to the radius: the grid's half cell must not bec
 GOAL_TOLERANCE_M = 0.3
 _FLOOR_TOLERANCE_M = 0.03
 _CLOSE_HOLES_M = 0.15
+WALL_HEIGHT_M = 0.8  # surfaces seen this high are walls or tall furniture, never driven past under
+UNLOOKED_COST_FACTOR = 2.0  # space no view looked into costs this many times unseen floor
 
 
 @dataclass(frozen=True)
@@ -199,6 +208,8 @@ class _Setting:
     start: np.ndarray  # (2,) floor coordinates below the start camera
     heading: float  # radians in the floor frame, counter-clockwise from the first axis
     scale: Scale
+    # What closes the way once unlooked space is opened: seen obstacles, seen walls continued, the edge.
+    closed_with_unlooked_open: np.ndarray | None = None
 
     @property
     def per_metre(self) -> float:
@@ -210,10 +221,16 @@ class _Setting:
         return self.scale.per_metre if self.scale.units == "metres" else 1.0
 
     def is_unseen(self, plane: np.ndarray) -> np.ndarray:
+        return self._flags(self.grid.unseen, plane)
+
+    def is_unlooked(self, plane: np.ndarray) -> np.ndarray:
+        return self._flags(self.grid.hidden, plane)
+
+    def _flags(self, mask: np.ndarray, plane: np.ndarray) -> np.ndarray:
         cells = self.grid.to_cell(plane)
         inside = self.grid.inside(cells)
         out = np.ones(len(cells), bool)
-        out[inside] = self.grid.unseen[cells[inside, 0], cells[inside, 1]]
+        out[inside] = mask[cells[inside, 0], cells[inside, 1]]
         return out
 
 
@@ -248,10 +265,10 @@ def _setting(
         _FLOOR_TOLERANCE_M * per_metre,
         _CLOSE_HOLES_M / CELL_M,
         keep,
+        tall_height=WALL_HEIGHT_M * per_metre,
     )
-    # The robot stands at the start: its own footprint is seen floor even if no view saw it.
-    footprint = _cells_within(grid, start, (robot.radius + SAFETY_MARGIN_M) * per_metre + grid.cell)
-    grid.free |= footprint & ~grid.occupied
+    # The robot's own footprint stays unseen floor when no view saw it: a plan that starts over it
+    # says so (the robot stands there, but nothing in the photos shows that floor).
     grid.looked = looked_into(recon, floor, grid)
     if grid.looked is not None:  # the robot is there, and turns to look: twice its body around it
         grid.looked |= _cells_within(
@@ -348,11 +365,19 @@ def _why_unreachable(
     passage = narrowest_passage(setting.grid, start, goal, radius_cells)
     # A passage with no seen points on a side is bounded by where no view looked: no width to tell.
     off_the_map = passage is not None and passage.sides is None
+    closed = setting.closed_with_unlooked_open
+    if (off_the_map or passage is None) and closed is not None:
+        # Unlooked space was opened and the way still fails: what closes it there may be seen
+        # obstacles (a narrow doorway reached only across unlooked floor), measured the same way.
+        opened = narrowest_passage(setting.grid, start, goal, radius_cells, blocked=closed)
+        if opened is not None and opened.sides is not None:
+            passage, off_the_map = opened, False
     if off_the_map or (passage is None and _joined_through_hidden(setting.grid, start, goal)):
         return (
             "unseen_space",
-            "every way to the goal passes where no view looked (not even over the floor): a wall or a "
-            "doorway no photo shows; add a photo of the way between",
+            "every way to the goal passes where no view looked (not even over the floor), and across "
+            "the line of a wall seen running into that space: a doorway there, if any, no photo shows; "
+            "add a photo of the way between",
             None,
         )
     if passage is None:
@@ -434,6 +459,37 @@ def _describe(plan: RoutePlan, setting: _Setting, corners: np.ndarray, pose: np.
             f"{plan.unseen_m:.2f} {unit} of the route cross floor that no view saw (assumed free): "
             "drive those stretches slowly and look again"
         )
+    unlooked = _unlooked_length(setting, corners) / setting.per_output
+    if unlooked >= setting.grid.cell / setting.per_output:
+        unit = "m" if setting.scale.units == "metres" else "scene units"
+        plan.warnings.append(
+            f"{unlooked:.2f} {unit} of it cross space that no view looked into at all (no other way was "
+            "seen): a wall or furniture may stand there; stop and look before driving on"
+        )
+
+
+def _open_unlooked_space(setting: _Setting, robot: Robot, unseen_cost: float) -> None:
+    """Let the search cross space no view looked into, except on the lines of seen walls."""
+    grid = setting.grid
+    tall = grid.tall if grid.tall is not None else grid.occupied
+    walls = continued_walls(grid, tall, setting.per_metre, 2 * robot.radius * setting.per_metre)
+    closed = grid.occupied | walls
+    closed[[0, -1], :] = True
+    closed[:, [0, -1]] = True
+    setting.closed_with_unlooked_open = closed
+    setting.passable = ~dilate(closed, (robot.radius + SAFETY_MARGIN_M) * setting.per_metre / grid.cell)
+    setting.cost = np.where(grid.hidden, UNLOOKED_COST_FACTOR * float(unseen_cost), setting.cost)
+
+
+def _unlooked_length(setting: _Setting, corners: np.ndarray) -> float:
+    """Scene units of the path over space no view looked into (sampled every half cell)."""
+    spacing = 0.5 * setting.grid.cell
+    total = 0.0
+    for a, b in zip(corners[:-1], corners[1:], strict=True):
+        count = max(int(np.ceil(np.linalg.norm(b - a) / spacing)), 1)
+        samples = a + (np.arange(count) + 0.5)[:, None] / count * (b - a)
+        total += float(np.count_nonzero(setting.is_unlooked(samples))) * np.linalg.norm(b - a) / count
+    return total
 
 
 def plan_route(
@@ -469,6 +525,9 @@ def plan_route(
     if goal_cell is None:
         return _refusal(setting, kind, reason, goal_plane)
     cells = astar(setting.passable, start_cell, goal_cell, setting.cost)
+    if cells is None and setting.grid.hidden.any():
+        _open_unlooked_space(setting, robot, unseen_cost)
+        cells = astar(setting.passable, start_cell, goal_cell, setting.cost)
     if cells is None:
         kind, reason, width = _why_unreachable(setting, start_cell, goal_cell, robot)
         plan = _refusal(setting, kind, reason, goal_plane)

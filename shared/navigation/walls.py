@@ -1,0 +1,104 @@
+"""Seen walls continued where no view looked: a wall seen to run on is assumed to run on.
+
+Space that no line of sight reached (``Grid.hidden``) may be crossed when nothing else joins the
+start to the goal, but not across the line of a wall that was seen running into it: the part of a
+wall no view looked at is still a wall. A wall here is a tall straight run of occupied cells (seen
+above ``tall`` scene units, higher than furniture the robot drives past). From each of its cells
+that borders hidden space, the run's line (a local principal axis) is followed through the seen
+wall and on through hidden cells, which are marked, until a line of sight is seen to cross it (the
+wall ended there: a ray passed where it would stand) or the map's edge. A wall no view saw at
+all is not guessed at.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from shared.navigation.grid import Grid, dilate
+
+_NEIGHBOURHOOD_M = 1.2  # the run's line is fitted on the tall cells this close
+_MIN_RUN_M = 1.1  # a shorter run (a post, a bookshelf's front) gives no line to follow
+_SIDE_CELLS = 3  # a line of sight that crossed the wall's line passed over cells this far either side
+_RESUMES_M = 0.4  # seen standing this far along the line after a gap: the same wall goes on there
+_MAX_THICKNESS_RATIO = 0.2  # across the line / along it (standard deviations): straight enough
+
+
+def continued_walls(grid: Grid, tall: np.ndarray, per_metre: float, min_gap: float) -> np.ndarray:
+    """(H, W) bool: hidden cells on the line of a seen wall that runs into them.
+
+    ``min_gap`` (scene units, the robot's width): a crossing narrower than this does not end the wall.
+    """
+    hidden = grid.hidden
+    out = np.zeros(grid.shape, bool)
+    if not hidden.any() or not tall.any():
+        return out
+    tall_cells = np.argwhere(tall)
+    reach = _NEIGHBOURHOOD_M * per_metre / grid.cell
+    # the tall cells near hidden space (a wall's last metres may be seen only low, below ``tall``)
+    borders = np.argwhere(tall & dilate(hidden, 0.5 * reach))
+    longest = float(np.hypot(*grid.shape))
+    along = np.arange(0.0, longest, 0.5)
+    per_cell = per_metre / grid.cell
+    for cell in borders:
+        near = tall_cells[np.linalg.norm(tall_cells - cell, axis=1) <= reach]
+        direction = _line_direction(near, _MIN_RUN_M * per_metre / grid.cell)
+        if direction is None:
+            continue
+        for sign in (1.0, -1.0):
+            _follow(grid, hidden, tall, cell, sign * direction, along, out, per_cell, min_gap / grid.cell)
+    return out
+
+
+def _line_direction(cells: np.ndarray, min_run_cells: float) -> np.ndarray | None:
+    """The unit direction of a straight run of cells, or None when they are not one."""
+    if len(cells) < 4:
+        return None
+    centred = cells - cells.mean(axis=0)
+    values, vectors = np.linalg.eigh(centred.T @ centred / len(cells))
+    spread_along, spread_across = np.sqrt(max(values[1], 0.0)), np.sqrt(max(values[0], 0.0))
+    # a uniform run of length L has a standard deviation of L / sqrt(12) along it
+    if spread_along * np.sqrt(12.0) < min_run_cells or spread_across > _MAX_THICKNESS_RATIO * spread_along:
+        return None
+    return vectors[:, 1]
+
+
+def _follow(grid: Grid, hidden, tall, cell, direction, along, out, per_cell: float, gap_cells: float) -> None:
+    """Mark the hidden cells on the line from ``cell``: through the wall, then on while hidden.
+
+    The wall ends where lines of sight crossed its line over a robot's width: there the line's
+    cells and the cells a wall's thickness to either side are all open (looked into, nothing seen
+    standing there); a narrower crossing (a grazing ray at the wall's edge) does not end it. Floor
+    seen along one face only (at the foot of the wall) does not end it.
+    """
+    normal = np.array([-direction[1], direction[0]])
+    line = cell + along[:, None] * direction
+    cells = np.rint(line).astype(np.int64)
+    sides = [np.rint(line + k * _SIDE_CELLS * normal).astype(np.int64) for k in (-1.0, 1.0)]
+    inside = grid.inside(cells) & grid.inside(sides[0]) & grid.inside(sides[1])
+    count = int(np.argmin(inside)) if not inside.all() else len(cells)
+    cells, sides = cells[:count], [side[:count] for side in sides]
+    standing = grid.occupied | tall | hidden
+
+    def open_at(at: np.ndarray) -> np.ndarray:
+        return ~standing[at[:, 0], at[:, 1]]
+
+    crossed = open_at(cells) & open_at(sides[0]) & open_at(sides[1])
+    step = along[1] - along[0]
+    wide = [first for first, last in _runs(crossed) if (last - first + 1) * step >= gap_cells]
+    stop = wide[0] if wide else len(cells)
+    wall = (grid.occupied | tall)[cells[:stop, 0], cells[:stop, 1]]
+    gap = hidden[cells[:stop, 0], cells[:stop, 1]] & ~wall
+    resumes = int(np.ceil(_RESUMES_M * per_cell / (along[1] - along[0])))
+    for first, last in _runs(gap):
+        after = wall[last + 1 : last + 1 + resumes]
+        if len(after) == resumes and after.all():
+            continue  # the same wall is seen again beyond: a gap between seen wall points stays open
+        marked = cells[first : last + 1]
+        out[marked[:, 0], marked[:, 1]] = True
+
+
+def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
+    """(first, last) indices of the runs of True."""
+    padded = np.concatenate([[False], flags, [False]]).astype(np.int8)
+    edges = np.flatnonzero(np.diff(padded))
+    return [(int(a), int(b) - 1) for a, b in zip(edges[::2], edges[1::2], strict=True)]
