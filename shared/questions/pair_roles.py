@@ -1,0 +1,143 @@
+"""The words that give a mentioned photo its role in the pair a question compares.
+
+A table, not a list of sentences: each row is a phrase (a regular expression over normalized words)
+and the role it gives, read by shared/questions/view_pair.py.
+
+- `CUES` govern the photo named *after* them: "from X" (X is the start), "relative to X" (the
+  reference), "to X", "until X", "when X was taken" (the end), "after X" (X came first: the start),
+  "before X" (X came later: the end), "in the axes of X" (a frame: the start only when nothing
+  else names one).
+- `role_after` reads the words right *after* a photo: "X was taken first", "X preceded Y", "X was
+  followed by Y", "X serves as the reference" (the start); "X was shot later", "X followed Y", "X
+  was preceded by Y", "X, the later one" (the end); "X's axes" (a frame).
+- `ORDER_WORDS` are words of time or sequence: one in a sentence that names a photo, and that no
+  cue or predicate here consumed, orders the photos in a way not read (the pair then abstains).
+"""
+
+from __future__ import annotations
+
+import re
+
+# ---- words before a photo -------------------------------------------------------------------
+
+_NOT_FROM = r"(?<!apart )(?<!aside )(?<!away )(?<!far )(?<!different )(?<!differently )(?<!distinct )"
+_NOT_TO_BEFORE = (
+    r"(?<!next )(?<!close )(?<!closer )(?<!nearer )(?<!similar )(?<!according )(?<!due )(?<!attached )"
+    r"(?<!equal )(?<!parallel )(?<!perpendicular )(?<!opposite )(?<!adjacent )(?<!addition )"
+)
+_SIDE = r"(?:left|right|side|front|back|rear|top|bottom|north|south|east|west|center|centre|middle)"
+_NOT_TO_AFTER = rf"(?!\s+(?:the\s+|its\s+|his\s+|her\s+|their\s+|my\s+|your\s+|our\s+)?{_SIDE}\b)(?!\s+be\b)"
+_FRAME_NOUN = (
+    r"(?:frame of reference|reference frame|coordinate (?:system|frame)|frame|axes|directions|"
+    r"coordinates|perspective|point of view|image axes)"
+)
+_ARRIVE = r"(?:at|in|on|with)"
+
+_CUE_TABLE: tuple[tuple[str, str], ...] = (
+    # the start, the reference: the photo after these words is where the camera was first
+    (r"(?:compared (?:with|to|against)|relative to|than|from|since) (?:when|where|the (?:moment|time)"
+     r"(?: when| that)?)", "from"),
+    (r"as compared (?:with|to)|compared (?:with|to|against)|comparing(?: it)?(?: with| to)?", "from"),
+    (r"in comparison (?:with|to)|by comparison with|in contrast (?:with|to)|contrasted with", "from"),
+    (r"relative(?:ly)? to|with respect to|in respect of|in relation to|with reference to|"
+     r"in reference to|referenced to|as opposed to|as against|versus|vs|against|than", "from"),
+    (r"(?:seen|viewed|measured|looking|observed|judged) from", "from"),
+    (r"(?:having )?(?:start(?:s|ed|ing)?|beg(?:an|un|ins|inning)|set(?:ting)? off|depart(?:s|ed|ing)?|"
+     r"leav(?:e|es|ing)|left off) (?:out )?(?:at|from|with|in|on)|depart(?:s|ed|ing)?|leaving", "from"),
+    (r"later than|subsequent to|after|following|since|between|in between", "from"),
+    (r"first (?:came|was|there was|comes)|at first|to begin with|at the (?:start|beginning|outset)|"
+     r"initially|originally|previously|earlier(?! than)|first(?! time)", "from"),
+    (_NOT_FROM + r"from", "from"),
+    # the end: the photo after these words is where the camera ended
+    (r"earlier than|sooner than|prior to|before|preceding", "to"),
+    (r"(?:and )?then|afterwards?|thereafter|subsequently|later(?! than)|next(?! to)|finally|lastly|"
+     r"eventually|in the end|at the end", "to"),
+    (r"back to|over to|on to|onto|on (?:the|its|their) way to|heading (?:to|toward|towards|for)|"
+     r"into|towards?|up until|until|till", "to"),
+    (r"when|by the time(?: of| that)?|at the time of|at the moment(?: of)?|once at", "to"),
+    (r"(?:reach(?:es|ed|ing)?|get(?:s|ting)? to|got to|arriv(?:e|es|ed|ing) " + _ARRIVE + ")", "to"),
+    (r"(?:end(?:s|ed|ing)?|finish(?:es|ed|ing)?|stop(?:s|ped|ping)?|conclud(?:es|ed|ing)) (?:up )?"
+     + _ARRIVE, "to"),
+    (r"followed by|succeeded by", "to"),
+    (_NOT_TO_BEFORE + r"to" + _NOT_TO_AFTER, "to"),
+    # a frame: whose axes the directions are in
+    (rf"{_FRAME_NOUN} of(?: the camera(?: of| that took| for)?)?|(?:as )?seen in", "frame"),
+)  # fmt: skip
+
+CUE_ROLES = tuple(role for _, role in _CUE_TABLE)
+CUES = re.compile(r"\b(?:" + "|".join(f"({phrase})" for phrase, _ in _CUE_TABLE) + r")\b")
+
+
+def cue_role(match: re.Match[str]) -> str:
+    """The role a match of `CUES` gives the photo after it."""
+    return CUE_ROLES[(match.lastindex or 1) - 1]
+
+
+# ---- words after a photo --------------------------------------------------------------------
+
+_LEAD = (
+    r"^\s*(?:s\s+)?(?:(?:which|that|it)\s+)?(?:(?:was|is|were|are|had been|has been|have been|came|comes|"
+    r"come|got|gets|being|been|will be|would be)\s+)?(?:(?:taken|shot|captured|made|snapped|recorded|"
+    r"photographed|obtained|acquired|produced|created|done)\s+)?(?:(?:only|just|directly|immediately|"
+    r"right|shortly|much|well|some time|sometime|clearly)\s+)?"
+)
+_ONE = (
+    r"(?:\s+(?:one|shot|photo|image|picture|view|frame|snapshot|point|position|location|spot|place|"
+    r"of the two|of the pair|view|reference|reference point|frame of reference|capture|exposure))?"
+)
+_BY_WHOM = r"(?:the camera|it|they|you|we|the photographer|the shooter|i)"
+_AFTER_TABLE: tuple[tuple[str, str], ...] = (
+    (r"preceded by", "to"),
+    (r"(?:followed|succeeded) by", "from"),
+    (r"(?:preceded|precedes|precede|predates|predated|came before|comes before|come before|"
+     r"led to|leads to|gave way to)\b", "from"),
+    (r"(?:followed|follows|follow|succeeded|succeeds|came after|comes after|postdates|postdated)\b", "to"),
+    (r"(?:first|earlier(?: than)?|sooner(?: than)?|before(?: that| it)?|previously|initially|originally|"
+     r"beforehand|at the (?:start|beginning|outset)|to begin with|in the beginning)\b", "from"),
+    (r"(?:after(?:wards?)?(?: that| it)?|later(?: than| on)?|next(?! to)|second|subsequently|last|finally|"
+     r"thereafter|at the end|in the end|eventually)\b", "to"),
+    (r"(?:(?:serves|served|acts|acted|is used|was used|used|taken|being) )?as (?:the |a |its )?"
+     r"(?:reference|baseline|origin|anchor|start(?:ing point)?|beginning|base|source|departure(?: point)?)"
+     + _ONE + r"\b", "from"),
+    (r"(?:(?:serves|served|acts|acted|is used|was used|used|taken|being) )?as (?:the |a |its )?"
+     r"(?:end(?:ing)? point|end|destination|target|arrival(?: point)?|finish)" + _ONE + r"\b", "to"),
+    (r"(?:the |a |its )(?:earlier|earliest|former|older|initial|starting|start|reference|baseline|"
+     r"origin|anchor|source|beginning|departure)" + _ONE + r"\b", "from"),
+    (r"(?:the |a |its )(?:later|latest|newer|final|end|ending|finishing|target|destination|arrival|"
+     r"finish)" + _ONE + r"\b", "to"),
+    (rf"where {_BY_WHOM} (?:started|began|set off|was first|stood first|departed)\b", "from"),
+    (rf"where {_BY_WHOM} (?:ended(?: up)?|finished|stopped|arrived|came to rest|was last)\b", "to"),
+)  # fmt: skip
+_AFTER = [(re.compile(_LEAD + phrase), role) for phrase, role in _AFTER_TABLE]
+_FRAME_AFTER = re.compile(rf"^\s*s\s+(?:own\s+)?{_FRAME_NOUN}\b")
+
+
+def role_after(words: str, end: int) -> tuple[str | None, int]:
+    """(role, where its words end) from the words right after a photo's mention (None, end if none)."""
+    rest = words[end:]
+    if frame := _FRAME_AFTER.match(rest):
+        return "frame", end + frame.end()
+    for pattern, role in _AFTER:
+        if match := pattern.match(rest):
+            return role, end + match.end()
+    return None, end
+
+
+# ---- words of order that no row above reads --------------------------------------------------
+
+ORDER_WORDS = frozenset(
+    """prior previous previously preceding precede precedes preceded precedent predecessor
+    following follow follows followed subsequent subsequently succeeding succeed succeeds succeeded
+    successor after afterwards afterward before beforehand earlier later then next once until till
+    since former latter originally initially eventually finally lastly ahead meanwhile while
+    whereas start starting started begin began begun beginning end ended ending origin destination
+    reference baseline relative compared versus vs between from to than earliest latest sooner
+    older newer predate predates predated postdate postdates thereafter order reverse reversed
+    reversing""".split()
+)
+# Phrases with an order word that order nothing ("apart from moving", "where it ended up pointing").
+NOT_ORDER = re.compile(
+    r"\b(?:apart|aside|away|far|different|differently|distinct)\s+from\b|\bend(?:s|ed|ing)?\s+up\b"
+)
+
+__all__ = ["CUES", "NOT_ORDER", "ORDER_WORDS", "cue_role", "role_after"]

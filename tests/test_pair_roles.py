@@ -1,0 +1,195 @@
+"""Which two photos a camera question compares, and in which order, read from the roles its words
+give each photo (shared/questions/view_pair.py through shared/questions/reading.py).
+
+The table is written here from the language of sequence and comparison (not from the paraphrase
+corpus): each row is a question, the number of photos, and the ordered pair (from, to) a careful
+reader takes from it, or ABSTAIN where the words do not decide the pair (then the reading must not
+hold a pair with certainty: a misread pair answers wrong, which is worse than no answer).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from shared.questions.reading import read_question
+from shared.questions.view_pair import read_pair
+
+ABSTAIN = None
+
+# (question, image count, expected pair or ABSTAIN)
+ROWS: list[tuple[str, int, tuple[int, int] | None]] = [
+    # -- source / target prepositions, every noun and way of numbering -------------------------
+    ("How did the camera move from image 1 to image 2?", 2, (1, 2)),
+    ("How did the camera move from picture 3 to picture 1?", 3, (3, 1)),
+    ("Which way did the camera turn going from the second photo to the first photo?", 2, (2, 1)),
+    ("Between snapshot one and snapshot three, which way did the camera travel?", 3, (1, 3)),
+    ("What changed in the camera's aim from frame #2 to frame #4?", 4, (2, 4)),
+    ("From pic no. 3 to pic no. 2, how did the camera shift?", 3, (3, 2)),
+    ("How did the viewpoint change from capture 1 to capture 3?", 3, (1, 3)),
+    ("From the first still to the last still, how did the camera move?", 3, (1, 3)),
+    ("From exposure number two to exposure number one, which way did the camera move?", 2, (2, 1)),
+    ("How did the camera move from the 2nd image to the 3rd image?", 3, (2, 3)),
+    ("How did the camera move from image one to image three?", 4, (1, 3)),
+    ("Which way did the camera go from photograph 4 to photograph 2?", 4, (4, 2)),
+    ("How did the camera move from take 2 to take 1?", 2, (2, 1)),
+    ("How did the camera turn from the third shot into the first shot?", 3, (3, 1)),
+    ("Which way did the lens swing from the 1st frame toward the 3rd frame?", 3, (1, 3)),
+    ("How did the camera move from Image 2 until Image 3?", 3, (2, 3)),
+    ("image 3 -> image 1: which way did the camera turn?", 3, (3, 1)),
+    ("Image 2 → image 3: how did the camera move?", 3, (2, 3)),
+    # -- ordinals before or after, bare ordinals, first/last/initial/final ----------------------
+    ("How did the camera move from the first picture to the third?", 3, (1, 3)),
+    ("From the last image to the first one, how did the camera move?", 3, (3, 1)),
+    ("How did the camera move from the initial frame to the final frame?", 4, (1, 4)),
+    ("From the opening shot to the closing shot, which way did the camera turn?", 3, (1, 3)),
+    ("Between the first and the last image, which way did the camera move?", 3, (1, 3)),
+    ("Between the first and last photos, how did the camera move?", 4, (1, 4)),
+    ("How did the camera move between images 2 and 3?", 3, (2, 3)),
+    ("From photo number two to photo number three, how did the camera turn?", 3, (2, 3)),
+    ("How much did the camera rotate going from the 3rd to the 1st picture?", 3, (3, 1)),
+    ("How did the camera move from the first to the last image?", 4, (1, 4)),
+    ("Between the first and the last of the three photos, how did the camera move?", 3, (1, 3)),
+    # -- reference words: relative to, compared with, against, seen from, as the baseline -------
+    ("Relative to view 2, where is the camera of view 1?", 2, (2, 1)),
+    ("Where was photo 3 taken, relative to photo 1?", 3, (1, 3)),
+    ("Compared with shot 2, which way is the camera pointing in shot 3?", 3, (2, 3)),
+    ("With respect to the third image, where was the first image captured?", 3, (3, 1)),
+    ("Taking image 2 as the reference, where is the camera of image 1?", 2, (2, 1)),
+    ("Using picture 4 as the baseline, how is the camera in picture 2 rotated?", 4, (4, 2)),
+    ("Where is the camera of image 1 as seen from the camera of image 2?", 2, (2, 1)),
+    ("Seen from image 2's position, where was image 3 taken?", 3, (2, 3)),
+    ("How is the camera for image 2 placed against that for image 1?", 2, (1, 2)),
+    ("How does the view in image 3 differ from the view in image 1?", 3, (1, 3)),
+    ("Which way did the camera move in image 2 compared to image 1?", 2, (1, 2)),
+    ("In image 2, compared with image 1, which way is the camera facing?", 2, (1, 2)),
+    ("In relation to snapshot 3, where does the camera of snapshot 2 sit?", 3, (3, 2)),
+    ("Image 3 serves as the reference; where is the camera of image 2?", 3, (3, 2)),
+    ("Is the camera of photo 2 further left than in photo 1?", 2, (1, 2)),
+    # -- possessives ------------------------------------------------------------------------
+    ("Where is image 2's camera relative to image 1's camera?", 2, (1, 2)),
+    ("Where is the second photo's viewpoint compared with the first photo's?", 2, (1, 2)),
+    ("How does shot 3's heading differ from shot 1's?", 3, (1, 3)),
+    ("In image 3's frame, where does image 1's camera lie?", 3, (3, 1)),
+    # -- temporal clauses, active and passive -------------------------------------------------
+    ("Photo 2 was taken after photo 3. Which way did the camera move?", 3, (3, 2)),
+    ("Image 1 was captured before image 3; how did the camera turn?", 3, (1, 3)),
+    ("Shot 3 came first and shot 2 came next. Where did the camera go?", 3, (3, 2)),
+    ("The camera took view 2 first, then view 1. How did it rotate?", 2, (2, 1)),
+    ("After taking picture 1, the photographer took picture 3. Which way did they move?", 3, (1, 3)),
+    ("Before taking picture 2, the photographer took picture 3. Which way did they move?", 3, (3, 2)),
+    ("Picture 3 was preceded by picture 1. How did the camera turn?", 3, (1, 3)),
+    ("Picture 1 preceded picture 3. How did the camera turn?", 3, (1, 3)),
+    ("Picture 3 followed picture 2. How did the camera move?", 3, (2, 3)),
+    ("Picture 2 was followed by picture 3. How did the camera move?", 3, (2, 3)),
+    ("Image 3 was taken later than image 2. Where did the camera go?", 3, (2, 3)),
+    ("Image 2 was taken earlier than image 3. Where did the camera go?", 3, (2, 3)),
+    ("Image 3 was taken earlier than image 1. How did the camera move?", 3, (3, 1)),
+    ("Image 1 comes after image 2 in time. How did the camera move?", 2, (2, 1)),
+    ("Subsequent to image 2, image 1 was taken. How did the camera move?", 2, (2, 1)),
+    ("Prior to photo 2, photo 4 was taken. Which way did the camera turn?", 4, (4, 2)),
+    ("Following shot 1, shot 3 was taken. Which way did the camera move?", 3, (1, 3)),
+    ("Shot 3 was captured, and afterwards shot 1. Which way did the camera move?", 3, (3, 1)),
+    ("Frame 2 first, frame 3 later: how did the camera move?", 3, (2, 3)),
+    ("Initially the camera took view 3; eventually it took view 1. How did it turn?", 3, (3, 1)),
+    ("Starting at photo 3 and ending at photo 2, how did the camera move?", 3, (3, 2)),
+    ("When photo 2 was taken, how had the camera moved since photo 4?", 4, (4, 2)),
+    ("By the time image 3 was shot, how had the camera turned compared with image 1?", 3, (1, 3)),
+    ("Leaving snapshot 1 and arriving at snapshot 2, how did the camera move?", 2, (1, 2)),
+    ("On the way to image 1 from image 2, which way did the camera turn?", 2, (2, 1)),
+    ("Going back to photo 1 from photo 3, how did the camera move?", 3, (3, 1)),
+    ("Going from view 3 back to view 2, which way did the camera turn?", 3, (3, 2)),
+    ("Which way did the camera travel when returning from photo 3 to photo 1?", 3, (3, 1)),
+    ("Image 3 was taken, and image 1 had been taken before it. How did the camera move?", 3, (1, 3)),
+    ("Photo 2 was taken first. How did the camera move?", 2, (2, 1)),
+    ("Of the two photos, photo 1 was taken second. How did the camera move?", 2, (2, 1)),
+    ("Photo 2 is the later one and photo 3 the earlier one. How did the camera move?", 3, (3, 2)),
+    ("Image 1 is the starting point and image 3 the end point. How did the camera move?", 3, (1, 3)),
+    ("The camera began at image 2 and finished at image 3. How did it turn?", 3, (2, 3)),
+    ("Where did the camera end up in photo 3, having started in photo 1?", 3, (1, 3)),
+    ("Until photo 3 was taken, starting from photo 2, how did the camera move?", 3, (2, 3)),
+    (
+        "What was the camera's displacement between the moment image 2 was shot and the moment "
+        "image 4 was shot?",
+        4,
+        (2, 4),
+    ),
+    ("Compared with when image 3 was taken, where was the camera when image 1 was taken?", 3, (3, 1)),
+    ("How did the view change from when photo 1 was shot to when photo 2 was shot?", 2, (1, 2)),
+    ("Image 2 was shot and then image 4. Which way did the camera turn?", 4, (2, 4)),
+    ("Image 4 was shot; image 2 was shot subsequently. Which way did the camera turn?", 4, (4, 2)),
+    ("Photo 3 was the earlier of the two and photo 1 the later. How did the camera move?", 3, (3, 1)),
+    # -- the other one, one photo named among two, none named -----------------------------------
+    ("Relative to image 1, where was the other one taken?", 2, (1, 2)),
+    ("Compared with the other photo, where is the camera of photo 1?", 2, (2, 1)),
+    ("Where did the camera go from photo 2 to the other one?", 2, (2, 1)),
+    ("Relative to image 2, where was the camera?", 2, (2, 1)),
+    ("How did the camera move to reach image 1?", 2, (2, 1)),
+    ("Which way did the camera move?", 2, (1, 2)),
+    # -- notes that name a view for the frame, not the pair -------------------------------------
+    ("Directions are as seen in photo 2. How did the camera move from photo 1 to photo 2?", 2, (1, 2)),
+    ("Directions are as seen in photo 2. Which way did the camera move?", 2, (1, 2)),
+    ("Use the axes of image 3. How did the camera move from image 1 to image 3?", 3, (1, 3)),
+    ("Answer in image 1's directions: which way did the camera move from image 2 to image 1?", 2, (2, 1)),
+    (
+        "Left and right are those of the first photo. How did the camera turn going from the third "
+        "photo to the second?",
+        3,
+        (3, 2),
+    ),
+    ("Clockwise is judged from behind the camera in image 2. How did it roll between image 1 and image 2?", 2, (1, 2)),
+    ("How did the camera move from Image 1 to Image 2? Directions are as seen in image 2.", 2, (1, 2)),
+    ("In photo 2's directions, how did the camera move from photo 1 to photo 2?", 2, (1, 2)),
+    # -- must abstain: no pair, two readings, views beyond the photos, order words not read -------
+    ("Which way did the camera move?", 3, ABSTAIN),
+    ("Which way did the camera move over the sequence?", 3, ABSTAIN),
+    ("Across the four images, how did the camera move?", 4, ABSTAIN),
+    ("Directions are as seen in photo 2. Which way did the camera move?", 3, ABSTAIN),
+    ("How did the camera move from image 1 from image 2?", 2, ABSTAIN),
+    ("How did the camera move among image 1, image 2 and image 3?", 3, ABSTAIN),
+    ("Which way did the camera turn in images 1, 2 and 3?", 3, ABSTAIN),
+    ("How did the camera move from image 1 to image 5?", 3, ABSTAIN),
+    # The asking sentence names the pair outright; when the photos were taken does not change it.
+    ("Image 2 was taken before image 1. How did the camera move from image 1 to image 2?", 2, (1, 2)),
+    ("The earlier shot and the later shot: how did the camera move?", 2, ABSTAIN),
+    ("Compared with the previous photo, how did the camera move in photo 3?", 3, ABSTAIN),
+    ("How did the camera move from image 2 to the next one?", 3, ABSTAIN),
+    ("How did the camera move from image 1 to image 2 and then to image 3?", 3, ABSTAIN),
+    ("How did the camera move from this image to that image?", 2, ABSTAIN),
+    ("Relative to image 2, where was the camera?", 3, ABSTAIN),
+    ("Photo 1 and photo 3 were not taken in the order of their numbers. How did the camera move?", 3, ABSTAIN),
+    ("How did the camera move between photo 2 and the photo before it?", 3, ABSTAIN),
+    ("How did the camera move from image 2 to image 2?", 2, ABSTAIN),
+    ("Once photo 2 was taken, how had the camera moved relative to photo 3?", 3, ABSTAIN),
+]
+
+
+@pytest.mark.parametrize(("question", "count", "expected"), ROWS, ids=[f"{r[1]}:{r[0][:60]}" for r in ROWS])
+def test_pair_from_roles(question: str, count: int, expected: tuple[int, int] | None) -> None:
+    reading = read_question(question, count)
+    if expected is ABSTAIN:
+        assert reading.views is None or not reading.views_certain or reading.abstain_reason, reading
+        return
+    assert reading.views == expected, (reading.views, reading.views_source, reading.abstain_reason)
+    assert reading.views_certain
+
+
+def test_enough_rows_and_both_outcomes() -> None:
+    assert len(ROWS) >= 80
+    assert sum(r[2] is ABSTAIN for r in ROWS) >= 15
+    assert len({(r[0], r[1]) for r in ROWS}) == len(ROWS)
+
+
+def test_abstaining_pair_says_why() -> None:
+    for question, count, expected in ROWS:
+        if expected is ABSTAIN:
+            pair = read_question(question, count)
+            assert pair.views is None or not pair.views_certain or pair.abstain_reason
+            assert pair.abstain_reason, question
+
+
+def test_reversed_only_when_the_words_say_so() -> None:
+    # The same two photos in the order of mention read 1 -> 3; a reversing word turns them round.
+    assert read_pair("between photo 1 and photo 3", 3).views == (1, 3)
+    assert read_pair("from photo 1 back to photo 3", 3).views == (1, 3)
+    assert read_pair("photo 1, taken after photo 3", 3).views == (3, 1)
+    assert read_pair("photo 1, taken before photo 3", 3).views == (1, 3)
