@@ -136,7 +136,11 @@ ROWS: list[tuple[str, int, tuple[int, int] | None]] = [
         3,
         (3, 2),
     ),
-    ("Clockwise is judged from behind the camera in image 2. How did it roll between image 1 and image 2?", 2, (1, 2)),
+    (
+        "Clockwise is judged from behind the camera in image 2. How did it roll between image 1 and image 2?",
+        2,
+        (1, 2),
+    ),
     ("How did the camera move from Image 1 to Image 2? Directions are as seen in image 2.", 2, (1, 2)),
     ("In photo 2's directions, how did the camera move from photo 1 to photo 2?", 2, (1, 2)),
     # -- must abstain: no pair, two readings, views beyond the photos, order words not read -------
@@ -156,7 +160,11 @@ ROWS: list[tuple[str, int, tuple[int, int] | None]] = [
     ("How did the camera move from image 1 to image 2 and then to image 3?", 3, ABSTAIN),
     ("How did the camera move from this image to that image?", 2, ABSTAIN),
     ("Relative to image 2, where was the camera?", 3, ABSTAIN),
-    ("Photo 1 and photo 3 were not taken in the order of their numbers. How did the camera move?", 3, ABSTAIN),
+    (
+        "Photo 1 and photo 3 were not taken in the order of their numbers. How did the camera move?",
+        3,
+        ABSTAIN,
+    ),
     ("How did the camera move between photo 2 and the photo before it?", 3, ABSTAIN),
     ("How did the camera move from image 2 to image 2?", 2, ABSTAIN),
     ("Once photo 2 was taken, how had the camera moved relative to photo 3?", 3, ABSTAIN),

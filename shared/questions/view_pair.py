@@ -193,11 +193,7 @@ def _unread_order_words(
     spans += [(m.start(), m.end()) for m in CUES.finditer(words)]
     for match in (*_ORDINAL_NOUN.finditer(words), *_BARE_ORDINAL.finditer(words), *_OTHER.finditer(words)):
         spans.append((match.start(), match.end()))
-    sentences = [
-        (a, b)
-        for a, b in _sentence_spans(words)
-        if any(a <= start < b for start, _, _ in mentions)
-    ]
+    sentences = [(a, b) for a, b in _sentence_spans(words) if any(a <= start < b for start, _, _ in mentions)]
     unread = []
     for start, end in sentences:
         for word in _WORD.finditer(words, start, end):
