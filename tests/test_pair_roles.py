@@ -118,6 +118,29 @@ ROWS: list[tuple[str, int, tuple[int, int] | None]] = [
     ("Image 2 was shot and then image 4. Which way did the camera turn?", 4, (2, 4)),
     ("Image 4 was shot; image 2 was shot subsequently. Which way did the camera turn?", 4, (4, 2)),
     ("Photo 3 was the earlier of the two and photo 1 the later. How did the camera move?", 3, (3, 1)),
+    ("How did the camera move between when image 1 was taken and when image 3 was taken?", 3, (1, 3)),
+    ("How does image 3 compare with image 1?", 3, (1, 3)),
+    ("Images 2 and 1 were taken in that order. How did the camera move?", 2, (2, 1)),
+    ("Is the camera of image 2 to the left of the camera of image 1? A. Yes B. No", 2, (1, 2)),
+    ("Which side of the camera of image 1 was the camera of image 2 on?", 2, (1, 2)),
+    ("Was shot 3 taken from behind shot 1?", 3, (1, 3)),
+    ("Which way did the camera move in image 2, given that image 1 came before it?", 2, (1, 2)),
+    ("From image 2's point of view, where is image 1's camera?", 2, (2, 1)),
+    ("Where is the 2nd camera from the 1st camera?", 2, (1, 2)),
+    ("Image 2 is where the camera started. How did it move?", 2, (2, 1)),
+    ("Image 1 and image 2 show the same room. How did the camera move?", 2, (1, 2)),
+    ("The camera was at image 2 before moving to image 1. Which way did it move?", 2, (2, 1)),
+    ("From image 3, how did the camera have to move to take image 2?", 3, (3, 2)),
+    ("What is the pose change of view 2 with respect to view 1?", 2, (1, 2)),
+    ("How did the camera move, image 3 to image 1?", 3, (3, 1)),
+    ("How did the camera move from image 1 to image 3, in image 2's axes?", 3, (1, 3)),
+    # a cue whose object is something else does not give the photo after it a role
+    (
+        "The first image was taken from the doorway and the second from the window. How did the "
+        "camera move?",
+        2,
+        (1, 2),
+    ),
     # -- the other one, one photo named among two, none named -----------------------------------
     ("Relative to image 1, where was the other one taken?", 2, (1, 2)),
     ("Compared with the other photo, where is the camera of photo 1?", 2, (2, 1)),
@@ -168,12 +191,19 @@ ROWS: list[tuple[str, int, tuple[int, int] | None]] = [
     ("How did the camera move between photo 2 and the photo before it?", 3, ABSTAIN),
     ("How did the camera move from image 2 to image 2?", 2, ABSTAIN),
     ("Once photo 2 was taken, how had the camera moved relative to photo 3?", 3, ABSTAIN),
+    ("Comparing image 1 with image 2, how did the camera move?", 2, ABSTAIN),
+    ("How did the camera move from image 1 to image 3 after image 2?", 3, ABSTAIN),
+    ("Photos 1 and 3 were taken in reverse order. How did the camera move?", 3, ABSTAIN),
 ]
 
 
 @pytest.mark.parametrize(("question", "count", "expected"), ROWS, ids=[f"{r[1]}:{r[0][:60]}" for r in ROWS])
 def test_pair_from_roles(question: str, count: int, expected: tuple[int, int] | None) -> None:
     reading = read_question(question, count)
+    if expected is not ABSTAIN and not reading.is_camera:  # a yes/no question: the pair alone
+        reading = read_pair(question, count, default_two=True)  # type: ignore[assignment]
+        assert (reading.views, reading.certain) == (expected, True), reading
+        return
     if expected is ABSTAIN:
         assert reading.views is None or not reading.views_certain or reading.abstain_reason, reading
         return

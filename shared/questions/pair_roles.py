@@ -35,13 +35,16 @@ _ARRIVE = r"(?:at|in|on|with)"
 
 _CUE_TABLE: tuple[tuple[str, str], ...] = (
     # the start, the reference: the photo after these words is where the camera was first
-    (r"(?:compared (?:with|to|against)|relative to|than|from|since) (?:when|where|the (?:moment|time)"
-     r"(?: when| that)?)", "from"),
-    (r"as compared (?:with|to)|compared (?:with|to|against)|comparing(?: it)?(?: with| to)?", "from"),
+    (r"(?:compared (?:with|to|against)|relative to|than|from|since|between) (?:when|where|the (?:moment|time)"
+     r"s?(?: when| that)?)", "from"),
+    (r"as compared (?:with|to)|compare(?:s|d)? (?:with|to|against)", "from"),
     (r"in comparison (?:with|to)|by comparison with|in contrast (?:with|to)|contrasted with", "from"),
     (r"relative(?:ly)? to|with respect to|in respect of|in relation to|with reference to|"
      r"in reference to|referenced to|as opposed to|as against|versus|vs|against|than", "from"),
     (r"(?:seen|viewed|measured|looking|observed|judged) from", "from"),
+    # a place said of a photo's camera: "to the left of X", "behind X" (X is the reference)
+    (rf"{_SIDE} of|in front of|ahead of|behind|above|below|beneath|underneath|higher than|"
+     r"lower than|closer than|farther than|further than", "from"),
     (r"(?:having )?(?:start(?:s|ed|ing)?|beg(?:an|un|ins|inning)|set(?:ting)? off|depart(?:s|ed|ing)?|"
      r"leav(?:e|es|ing)|left off) (?:out )?(?:at|from|with|in|on)|depart(?:s|ed|ing)?|leaving", "from"),
     (r"later than|subsequent to|after|following|since|between|in between", "from"),
@@ -71,6 +74,24 @@ CUES = re.compile(r"\b(?:" + "|".join(f"({phrase})" for phrase, _ in _CUE_TABLE)
 def cue_role(match: re.Match[str]) -> str:
     """The role a match of `CUES` gives the photo after it."""
     return CUE_ROLES[(match.lastindex or 1) - 1]
+
+
+# Between a cue and the photo it governs stand only the words of its object ("from where it stood
+# for shot 1", "relative to the camera of the last view"); a new clause means the cue had another
+# object ("taken from the doorway, and the second ...", "relative to the table, where is photo 2").
+_CLAUSE = frozenset("and or but while whereas how what which why who whose did does do if".split())
+_PLACE_OF_TIME = frozenset("spot place position location point moment time instant".split())
+_MAX_GAP = 8
+
+
+def governs(gap: str) -> bool:
+    """Whether a cue governs the photo named after `gap`, the words between them."""
+    words = gap.split()
+    if len(words) > _MAX_GAP or any(w in _CLAUSE for w in words):
+        return False
+    return all(
+        i == 0 or words[i - 1] in _PLACE_OF_TIME for i, w in enumerate(words) if w in ("where", "when")
+    )
 
 
 # ---- words after a photo --------------------------------------------------------------------
@@ -133,11 +154,15 @@ ORDER_WORDS = frozenset(
     whereas start starting started begin began begun beginning end ended ending origin destination
     reference baseline relative compared versus vs between from to than earliest latest sooner
     older newer predate predates predated postdate postdates thereafter order reverse reversed
-    reversing""".split()
+    reversing comparing compare""".split()
 )
 # Phrases with an order word that order nothing ("apart from moving", "where it ended up pointing").
+# "In that order" and "respectively" keep the order of mention.
 NOT_ORDER = re.compile(
-    r"\b(?:apart|aside|away|far|different|differently|distinct)\s+from\b|\bend(?:s|ed|ing)?\s+up\b"
+    r"\b(?:apart|aside|away|far|different|differently|distinct)\s+from\b|\bend(?:s|ed|ing)?\s+up\b|"
+    r"\bin (?:that|this|the same|the given|the listed) order\b|\brespectively\b|\bin order\b|"
+    rf"\bto (?:the |its |his |her |their |my |your |our )?{_SIDE}\b|\b(?:next|close|closer|nearer|similar|"
+    r"according|due|attached|equal|parallel|perpendicular|opposite|adjacent|addition) to\b"
 )
 
-__all__ = ["CUES", "NOT_ORDER", "ORDER_WORDS", "cue_role", "role_after"]
+__all__ = ["CUES", "NOT_ORDER", "ORDER_WORDS", "cue_role", "governs", "role_after"]

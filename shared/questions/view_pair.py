@@ -35,7 +35,7 @@ import re
 from pydantic import BaseModel
 
 from shared.questions.lexicon import normalized
-from shared.questions.pair_roles import CUES, NOT_ORDER, ORDER_WORDS, cue_role, role_after
+from shared.questions.pair_roles import CUES, NOT_ORDER, ORDER_WORDS, cue_role, governs, role_after
 
 _NOUN = (
     r"(?:images?|views?|pictures?|photos?|photographs?|frames?|shots?|snapshots?|snaps?|viewpoints?|"
@@ -158,7 +158,7 @@ def _roles(
         window_start = max(window_start, sentence_start)
         cues = list(CUES.finditer(words, window_start, start))
         consumed += [(c.start(), c.end()) for c in cues]
-        before = cue_role(cues[-1]) if cues else None
+        before = cue_role(cues[-1]) if cues and governs(words[cues[-1].end() : start]) else None
         after, after_end = role_after(words, end)
         if after_end > end:
             consumed.append((end, after_end))
