@@ -87,7 +87,11 @@ class QuestionReading(BaseModel, frozen=True):
 
 _APART_FROM = re.compile(
     r"\b(?:apart from|aside from|besides|other than|except for|ignoring|setting aside|leaving aside|"
-    r"not counting|regardless of|without counting|excluding|disregarding)\s+(?P<what>[^,?;.]+)",
+    r"putting aside|leaving out|not counting|regardless of|without counting|excluding|disregarding|"
+    r"without (?:considering|regard to|taking into account|counting|looking at)|not considering|"
+    r"irrespective of|discounting|neglecting|never mind|no matter)\s+(?P<what>[^,?;.]+)|"
+    # the same set aside after its noun: "Rotation aside, where did it go?"
+    r"(?:^|[,;:.]\s*)(?P<before>[a-z' ]{3,40}?)\s+(?:aside|apart|notwithstanding)\s*(?=,)",
     re.IGNORECASE,
 )
 _NOUNS = r"(?:images?|photos?|pictures?|views?|frames?|shots?|snapshots?)"
@@ -145,6 +149,27 @@ def asking_sentences(ask: str) -> str:
 
 
 _ROTATING = ("aim", "aimnoun", "yaw", "pitch", "roll")
+# Where the camera went ("where did it end up?"): the step, not the place of one camera seen from the
+# other (the same geometry, asked as a motion).
+_DESTINATION = re.compile(
+    r"\bwhere (?:did|does|has|had|would|do) (?:the camera|it|the photographer|the shooter|the viewer|they|"
+    r"you|we|i|the lens) (?:end up|ended up|wind up|wound up|finish|land|arrive|get|got|go|gone|move|"
+    r"moved|travel|head|shift|walk|drift|relocate|come to rest|wander|proceed|get to|go to)\b"
+)
+# Nouns of the direction a camera looks ("the viewing direction", "the line of sight"): a change of
+# one is a rotation, whatever verb asks about it ("what change of viewing direction occurred?").
+_LOOK_NOUNS = re.compile(
+    r"\b(?:(?:viewing|view|looking|facing|pointing|sight|gaze|shooting|lens|optical|camera s|camera)\s+"
+    r"(?:direction|angle|axis|orientation|heading|bearing)|line of sight|direction of (?:view|gaze|sight)|"
+    r"orientation|heading|bearing|attitude|(?:re)?orient(?:ed|ing|s)?)\b"
+)
+# The place of one camera, said with a verb of lying or standing: "where does image 2's camera lie
+# relative to image 1's?", "how is its viewpoint placed?"
+_CAMERA_PLACED = re.compile(
+    r"\b(?:camera|viewpoint|vantage point|shooting (?:position|point|spot))\b[^?]*?\b(?:lie|lies|lay|lying|"
+    r"located|situated|placed|positioned|sit|sits|sat|sitting|stand|stands|stood|standing|found)\b"
+    r"(?!\s+still\b)"
+)
 _PLACE_NOUN = re.compile(
     r"\b(?:location|position|spot|(?<!\btook )(?<!\btake )(?<!\btakes )(?<!\btaking )place|"
     r"whereabouts|standpoint)\b"
@@ -156,19 +181,27 @@ def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
     the everyday verbs ("move"), None when nothing does."""
     words = normalized(_APART_FROM.sub(" ", ask))
     # "Not counting rotation, where did it go?": what is set aside is not asked, so the rest is
-    excluded = {s.kind for m in _APART_FROM.finditer(ask) for s in stem_senses(m.group("what"))}
+    set_aside = [m.group("what") or m.group("before") for m in _APART_FROM.finditer(ask)]
+    excluded = {s.kind for what in set_aside for s in stem_senses(what)}
+    if any(_LOOK_NOUNS.search(normalized(what)) for what in set_aside):
+        excluded.add("aim")  # "leaving aside the change in viewing direction"
     kinds = [s.kind for s in stem_senses(words)]
     if not any(k in _ROTATING for k in kinds) and excluded & set(_ROTATING):
         return "translation", True, words
     if not any(k in ("step", "weak") for k in kinds) and excluded & {"step", "weak", "place"}:
         return "rotation", True, words
     stepping = any(s.kind in ("step", "weak") for s in stem_senses(words))  # "shift", "go", "change"
-    position = _POSITION_ASK.search(words)
-    if position and not _ROTATION_WORDS.search(words) and not stepping:
+    looking = bool(_LOOK_NOUNS.search(words)) and not any(k == "step" for k in kinds)
+    if looking and _PLACE_NOUN.search(words):
+        return "motion", True, words  # "how did its viewing direction and position change?"
+    if _DESTINATION.search(words) and not looking and not any(k in _ROTATING for k in kinds):
+        return "translation", True, words
+    position = _POSITION_ASK.search(words) or _CAMERA_PLACED.search(words)
+    if position and not _ROTATION_WORDS.search(words) and not stepping and not looking:
         return "position", True, position.group()
     if stepping and _PLACE_NOUN.search(words) and not any(k in _ROTATING for k in kinds):
         return "translation", True, words  # "the camera's location changed": a step, however said
-    rotation = any(k in _ROTATING for k in kinds)
+    rotation = any(k in _ROTATING for k in kinds) or looking
     translation = any(k == "step" for k in kinds)
     if rotation and translation:
         return "motion", True, words
