@@ -37,6 +37,16 @@ ROWS: list[tuple[str, int, tuple[int, int] | None]] = [
     ("How did the camera move from Image 2 until Image 3?", 3, (2, 3)),
     ("image 3 -> image 1: which way did the camera turn?", 3, (3, 1)),
     ("Image 2 → image 3: how did the camera move?", 3, (2, 3)),
+    ("Which way did the camera move from photo No.2 to photo No.3?", 3, (2, 3)),
+    ("How did the camera move from the picture numbered 3 to the picture numbered 1?", 3, (3, 1)),
+    ("Image 3 (taken after image 1): which way did the camera turn?", 3, (1, 3)),
+    ("How did the camera move between these two photos (image 1 and image 3)?", 3, (1, 3)),
+    ("How did the camera turn from photo (2) to photo (1)?", 2, (2, 1)),
+    (
+        "How did the camera move from image 1 to image 2 (clockwise as seen in image 2)?",
+        2,
+        (1, 2),
+    ),
     # -- ordinals before or after, bare ordinals, first/last/initial/final ----------------------
     ("How did the camera move from the first picture to the third?", 3, (1, 3)),
     ("From the last image to the first one, how did the camera move?", 3, (3, 1)),
@@ -136,8 +146,7 @@ ROWS: list[tuple[str, int, tuple[int, int] | None]] = [
     ("How did the camera move from image 1 to image 3, in image 2's axes?", 3, (1, 3)),
     # a cue whose object is something else does not give the photo after it a role
     (
-        "The first image was taken from the doorway and the second from the window. How did the "
-        "camera move?",
+        "The first image was taken from the doorway and the second from the window. How did the camera move?",
         2,
         (1, 2),
     ),

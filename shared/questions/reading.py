@@ -119,6 +119,21 @@ _ROTATION_WORDS = re.compile(
 )
 # A note on conventions ("Clockwise is as seen looking along the lens.") is not what is asked.
 _PARENTHESES = re.compile(r"\([^)]*\)")
+
+
+def _without_notes(text: str) -> str:
+    """The text without its parenthesised notes ("(clockwise as seen from behind)"); a parenthesis
+    that names a photo and is no note on directions stays ("image 3 (taken after image 1)",
+    "photo (2)")."""
+
+    def keep(match: re.Match[str]) -> str:
+        inner = match.group()[1:-1]
+        names = bool(read_pair(inner).view_set) or bool(re.fullmatch(r"\s*#?\s*\d+\s*", inner))
+        return f" {inner} " if names and not _FRAME_NOTE.search(inner) else " "
+
+    return _PARENTHESES.sub(keep, text)
+
+
 _SENTENCE = re.compile(r"(?<=[.!?;:])\s+(?=[A-Z])")
 # A note on whose directions are meant ("Directions are as the photographer saw them when taking the
 # last picture."): it names a view for the frame, not for the pair.
@@ -136,14 +151,14 @@ def _pair(ask: str, image_count: int | None, camera: bool) -> PairReading:
     asking = read_pair(asking_sentences(ask), image_count, default_two=False)
     if asking.views is not None or asking.doubt is not None:
         return asking
-    sentences = [s for s in _SENTENCE.split(_PARENTHESES.sub(" ", ask)) if s.strip()]
+    sentences = [s for s in _SENTENCE.split(_without_notes(ask)) if s.strip()]
     setup = " ".join(s for s in sentences if "?" in s or not _FRAME_NOTE.search(s))
     return read_pair(setup, image_count, default_two=camera)
 
 
 def asking_sentences(ask: str) -> str:
     """The sentences that ask (those with a question mark; else the last one), notes left out."""
-    sentences = [s for s in _SENTENCE.split(_PARENTHESES.sub(" ", ask)) if s.strip()]
+    sentences = [s for s in _SENTENCE.split(_without_notes(ask)) if s.strip()]
     asking = [s for s in sentences if "?" in s]
     return " ".join(asking or sentences[-1:])
 
@@ -340,6 +355,11 @@ def _summary(quantity: Quantity, pair: PairReading, frame: FrameReading | None) 
     return said
 
 
+# An option that offers alternatives ("it rose, or it moved ahead") says two things, however its
+# parts are worded: even when the words of one part are not read, it is no single claim.
+_ALTERNATIVES = re.compile(r"\bor\b")
+
+
 def _abstain(
     quantity: Quantity, pair: PairReading, options: dict[str, Claim], quantity_doubt: str | None
 ) -> str | None:
@@ -352,7 +372,11 @@ def _abstain(
         return "the question does not say which two photos it compares"
     if quantity_doubt is not None:
         return quantity_doubt
-    double = [letter for letter, claim in options.items() if isinstance(claim, Unread) and claim.two_claims]
+    double = [
+        letter
+        for letter, claim in options.items()
+        if (isinstance(claim, Unread) and claim.two_claims) or _ALTERNATIVES.search(normalized(claim.source))
+    ]
     if double:
         return f"option {', '.join(double)} reads as two claims"
     bare = [letter for letter, claim in options.items() if isinstance(claim, Bare)]

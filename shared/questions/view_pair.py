@@ -54,7 +54,7 @@ _ORDINAL_WORDS = {
 _NUM = r"(?:\d+|" + "|".join(_NUMBER_WORDS) + r")"
 _ORD = r"(?:" + "|".join(_ORDINAL_WORDS) + r"|\d+(?:st|nd|rd|th))"
 _NUMBERED = re.compile(
-    rf"\b{_NOUN}\s*(?:number\s+|no\s+|nr\s+|#\s*)?(?P<n>{_NUM})\b(?!\s*(?:°|degrees?\b|m\b|cm\b|meters?\b|metres?\b|"
+    rf"\b{_NOUN}\s*(?:(?:number|no|nr|num|index|idx|numbered|labell?ed|marked|tagged|called|named)\s+)?(?P<n>{_NUM})\b(?!\s*(?:°|degrees?\b|m\b|cm\b|meters?\b|metres?\b|"
     rf"steps?\b|times?\b))(?P<more>(?:(?:\s*(?:and|to|through|or|vs|versus)\s*|\s+){_NUM}\b)*)"
 )
 _ADJECTIVE = (
@@ -143,6 +143,7 @@ def _words(text: str) -> str:
     """Sentence by sentence, normalized, with " . " between them (a role never reaches across a
     sentence); arrows read as "to"."""
     text = re.sub(r"\s*(?:->|=>|→|⟶|➔)\s*", " to ", text or "")
+    text = re.sub(r"\b(no|nr|num)\.\s*(?=\d)", r"\1 ", text, flags=re.IGNORECASE)  # "photo No.2"
     return " . ".join(normalized(sentence) for sentence in _SENTENCES.split(text))
 
 
