@@ -104,7 +104,9 @@ _POSITION_ASK = re.compile(
     r"\b(?:shooting|camera|capture|capturing|vantage|taking) (?:position|point|location|spot|place)\b|"
     r"\bposition(?:al)? (?:of|relationship)\b|\brelative (?:position|location|placement)\b|"
     rf"{_WHERE} (?:is|was|are|were) (?:the )?{_NOUNS} \w+\b|"
-    r"\bwhich side of\b|\bin which direction (?:is|was|lies|lay)\b"
+    r"\bwhich side of\b|\bin which direction (?:is|was|lies|lay)\b|"
+    r"\b(?:which|what) (?:direction|side|way) (?:is|was|are|were|lies|lay) (?:the )?(?:camera|viewpoint|\w+ s camera|"
+    rf"{_NOUNS} \w+ s camera|{_NOUNS} \w+ s viewpoint)\b"
 )
 _OBJECT_ASK = re.compile(
     r"\b(?:what|which (?:object|item|thing))\s+(?:is|was|would be|will be|lies|appears)\b|"
@@ -178,6 +180,12 @@ _LOOK_NOUNS = re.compile(
     r"(?:direction|angle|axis|orientation|heading|bearing)|line of sight|direction of (?:view|gaze|sight)|"
     r"orientation|heading|bearing|attitude|(?:re)?orient(?:ed|ing|s)?)\b"
 )
+# A look that shifts is a turn: "how did the camera's aim shift?" ("shift" alone is a step).
+_LOOK_SHIFTS = re.compile(
+    r"\b(?:aim|heading|orientation|gaze|line of sight|(?:viewing|view|looking|facing|pointing|lens) "
+    r"(?:direction|angle|axis))\s+(?:\w+\s+){0,2}(?:shift\w*|mov\w*|drift\w*|sw[iu]ng\w*|chang\w*|go|went|gone|"
+    r"slid\w*|travel\w*)\b"
+)
 # The place of one camera, said with a verb of lying or standing: "where does image 2's camera lie
 # relative to image 1's?", "how is its viewpoint placed?"
 _CAMERA_PLACED = re.compile(
@@ -194,7 +202,7 @@ _PLACE_NOUN = re.compile(
 def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
     """(quantity, strong, the words): strong when a word of one kind says it ("tilt"), weak for
     the everyday verbs ("move"), None when nothing does."""
-    words = normalized(_APART_FROM.sub(" ", ask))
+    words = _LOOK_SHIFTS.sub(" turned ", normalized(_APART_FROM.sub(" ", ask)))  # "its aim shifted"
     # "Not counting rotation, where did it go?": what is set aside is not asked, so the rest is
     set_aside = [m.group("what") or m.group("before") for m in _APART_FROM.finditer(ask)]
     excluded = {s.kind for what in set_aside for s in stem_senses(what)}
