@@ -183,7 +183,7 @@ _LOOK_NOUNS = re.compile(
 # A look that shifts is a turn: "how did the camera's aim shift?" ("shift" alone is a step).
 _LOOK_SHIFTS = re.compile(
     r"\b(?:aim|heading|orientation|gaze|line of sight|(?:viewing|view|looking|facing|pointing|lens) "
-    r"(?:direction|angle|axis))\s+(?:\w+\s+){0,2}(?:shift\w*|mov\w*|drift\w*|sw[iu]ng\w*|chang\w*|go|went|gone|"
+    r"(?:direction|angle|axis))\s+(?:(?!and\b|or\b|position\b|location\b|place\b)\w+\s+){0,2}(?:shift\w*|mov\w*|drift\w*|sw[iu]ng\w*|chang\w*|go|went|gone|"
     r"slid\w*|travel\w*)\b"
 )
 # The place of one camera, said with a verb of lying or standing: "where does image 2's camera lie
