@@ -105,8 +105,8 @@ _POSITION_ASK = re.compile(
     r"\bposition(?:al)? (?:of|relationship)\b|\brelative (?:position|location|placement)\b|"
     rf"{_WHERE} (?:is|was|are|were) (?:the )?{_NOUNS} \w+\b|"
     r"\bwhich side of\b|\bin which direction (?:is|was|lies|lay)\b|"
-    r"\b(?:which|what) (?:direction|side|way) (?:is|was|are|were|lies|lay) (?:the )?(?:camera|viewpoint|\w+ s camera|"
-    rf"{_NOUNS} \w+ s camera|{_NOUNS} \w+ s viewpoint)\b"
+    r"\b(?:which|what) (?:direction|side|way) (?:is|was|are|were|lies|lay) (?:the )?"
+    rf"(?:camera|viewpoint|\w+ s camera|{_NOUNS} \w+ s camera|{_NOUNS} \w+ s viewpoint)\b"
 )
 _OBJECT_ASK = re.compile(
     r"\b(?:what|which (?:object|item|thing))\s+(?:is|was|would be|will be|lies|appears)\b|"
