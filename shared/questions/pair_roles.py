@@ -33,47 +33,61 @@ _FRAME_NOUN = (
 )
 _ARRIVE = r"(?:at|in|on|with)"
 
-_CUE_TABLE: tuple[tuple[str, str], ...] = (
+_CUE_TABLE: tuple[tuple[str, str, bool], ...] = (
     # the start, the reference: the photo after these words is where the camera was first
     (r"(?:compared (?:with|to|against)|relative to|than|from|since|between) (?:when|where|the (?:moment|time)"
-     r"s?(?: when| that)?)", "from"),
-    (r"as compared (?:with|to)|compare(?:s|d)? (?:with|to|against)", "from"),
-    (r"in comparison (?:with|to)|by comparison with|in contrast (?:with|to)|contrasted with", "from"),
+     r"s?(?: when| that)?)", "from", False),
+    (r"as compared (?:with|to)|compare(?:s|d)? (?:with|to|against)", "from", False),
+    (r"in comparison (?:with|to)|by comparison with|in contrast (?:with|to)|contrasted with", "from", False),
     (r"relative(?:ly)? to|with respect to|in respect of|in relation to|with reference to|"
-     r"in reference to|referenced to|as opposed to|as against|versus|vs|against|than", "from"),
-    (r"(?:seen|viewed|measured|looking|observed|judged) from", "from"),
+     r"in reference to|referenced to|as opposed to|as against|versus|vs|against|than", "from", False),
+    (r"(?:seen|viewed|measured|looking|observed|judged) from", "from", False),
     # a place said of a photo's camera: "to the left of X", "behind X" (X is the reference)
     (rf"{_SIDE} of|in front of|ahead of|behind|above|below|beneath|underneath|higher than|"
-     r"lower than|closer than|farther than|further than", "from"),
+     r"lower than|closer than|farther than|further than", "from", False),
     (r"(?:having )?(?:start(?:s|ed|ing)?|beg(?:an|un|ins|inning)|set(?:ting)? off|depart(?:s|ed|ing)?|"
-     r"leav(?:e|es|ing)|left off) (?:out )?(?:at|from|with|in|on)|depart(?:s|ed|ing)?|leaving", "from"),
-    (r"later than|subsequent to|after|following|since|between|in between", "from"),
+     r"leav(?:e|es|ing)|left off) (?:out )?(?:at|from|with|in|on)|depart(?:s|ed|ing)?|leaving",
+     "from", False),
+    (r"later than|subsequent to|after|following|since|between|in between", "from", False),
     (r"first (?:came|was|there was|comes)|at first|to begin with|at the (?:start|beginning|outset)|"
-     r"initially|originally|previously|earlier(?! than)|first(?! time)", "from"),
-    (_NOT_FROM + r"from", "from"),
+     r"initially|originally|previously|earlier(?! than)|first(?! time)", "from", True),
+    (_NOT_FROM + r"from", "from", False),
     # the end: the photo after these words is where the camera ended
-    (r"earlier than|sooner than|prior to|before|preceding", "to"),
+    (r"earlier than|sooner than|prior to|before|preceding", "to", False),
     (r"(?:and )?then|afterwards?|thereafter|subsequently|later(?! than)|next(?! to)|finally|lastly|"
-     r"eventually|in the end|at the end", "to"),
+     r"eventually|in the end|at the end", "to", True),
     (r"back to|over to|on to|onto|on (?:the|its|their) way to|heading (?:to|toward|towards|for)|"
-     r"into|towards?|up until|until|till", "to"),
-    (r"when|by the time(?: of| that)?|at the time of|at the moment(?: of)?|once at", "to"),
-    (r"(?:reach(?:es|ed|ing)?|get(?:s|ting)? to|got to|arriv(?:e|es|ed|ing) " + _ARRIVE + ")", "to"),
+     r"into|towards?|up until|until|till", "to", False),
+    (r"when|by the time(?: of| that)?|at the time of|at the moment(?: of)?|once at", "to", False),
+    (r"(?:reach(?:es|ed|ing)?|get(?:s|ting)? to|got to|arriv(?:e|es|ed|ing) " + _ARRIVE + ")", "to", False),
     (r"(?:end(?:s|ed|ing)?|finish(?:es|ed|ing)?|stop(?:s|ped|ping)?|conclud(?:es|ed|ing)) (?:up )?"
-     + _ARRIVE, "to"),
-    (r"followed by|succeeded by", "to"),
-    (_NOT_TO_BEFORE + r"to" + _NOT_TO_AFTER, "to"),
+     + _ARRIVE, "to", False),
+    (r"followed by|succeeded by", "to", False),
+    (_NOT_TO_BEFORE + r"to" + _NOT_TO_AFTER, "to", False),
     # a frame: whose axes the directions are in
-    (rf"{_FRAME_NOUN} of(?: the camera(?: of| that took| for)?)?|(?:as )?seen in", "frame"),
+    (rf"{_FRAME_NOUN} of(?: the camera(?: of| that took| for)?)?|(?:as )?seen in", "frame", False),
 )  # fmt: skip
 
-CUE_ROLES = tuple(role for _, role in _CUE_TABLE)
-CUES = re.compile(r"\b(?:" + "|".join(f"({phrase})" for phrase, _ in _CUE_TABLE) + r")\b")
+CUE_ROLES = tuple(role for _, role, _ in _CUE_TABLE)
+CUE_IS_ADVERB = tuple(adverb for _, _, adverb in _CUE_TABLE)
+CUES = re.compile(r"\b(?:" + "|".join(f"({phrase})" for phrase, _, _ in _CUE_TABLE) + r")\b")
+# Words of time that, said of no photo, still order the photos ("which came first?").
+TIME_WORDS = frozenset(
+    """first earlier later before after then next previously initially originally finally lastly
+    eventually subsequently afterwards afterward thereafter since until till once prior following
+    preceding""".split()
+)
 
 
 def cue_role(match: re.Match[str]) -> str:
     """The role a match of `CUES` gives the photo after it."""
     return CUE_ROLES[(match.lastindex or 1) - 1]
+
+
+def is_adverb(match: re.Match[str]) -> bool:
+    """A cue of the whole clause ("then", "initially"): it governs the photo its clause names,
+    however many words stand between; a preposition ("from") governs only its own object."""
+    return CUE_IS_ADVERB[(match.lastindex or 1) - 1]
 
 
 # Between a cue and the photo it governs stand only the words of its object ("from where it stood
@@ -97,9 +111,11 @@ def governs(gap: str) -> bool:
 # ---- words after a photo --------------------------------------------------------------------
 
 _LEAD = (
-    r"^\s*(?:s\s+)?(?:(?:which|that|it)\s+)?(?:(?:was|is|were|are|had been|has been|have been|came|comes|"
-    r"come|got|gets|being|been|will be|would be)\s+)?(?:(?:taken|shot|captured|made|snapped|recorded|"
-    r"photographed|obtained|acquired|produced|created|done)\s+)?(?:(?:only|just|directly|immediately|"
+    r"^\s*(?:s\s+(?:(?:camera|viewpoint|position|location|vantage point|shooting position)\s+)?)?"
+    r"(?:(?:which|that|it)\s+)?(?:(?:was|is|were|are|had been|has been|have been|came|comes|"
+    r"come|got|gets|being|been|will be|would be|shows|show|showed|marks|marked|represents|depicts|"
+    r"as|serves as|served as|acts as|is used as|was used as|used as|taken as)\s+)?"
+    r"(?:(?:taken|shot|captured|made|snapped|recorded|photographed|obtained|acquired|produced|created|done)\s+)?(?:(?:only|just|directly|immediately|"
     r"right|shortly|much|well|some time|sometime|clearly)\s+)?"
 )
 _ONE = (
@@ -122,9 +138,9 @@ _AFTER_TABLE: tuple[tuple[str, str], ...] = (
      + _ONE + r"\b", "from"),
     (r"(?:(?:serves|served|acts|acted|is used|was used|used|taken|being) )?as (?:the |a |its )?"
      r"(?:end(?:ing)? point|end|destination|target|arrival(?: point)?|finish)" + _ONE + r"\b", "to"),
-    (r"(?:the |a |its )(?:earlier|earliest|former|older|initial|starting|start|reference|baseline|"
+    (r"(?:the |a |its )(?:earlier|earliest|former|older|initial|starting|start|reference|baseline|before|"
      r"origin|anchor|source|beginning|departure)" + _ONE + r"\b", "from"),
-    (r"(?:the |a |its )(?:later|latest|newer|final|end|ending|finishing|target|destination|arrival|"
+    (r"(?:the |a |its )(?:later|latest|newer|final|end|ending|finishing|target|destination|arrival|after|"
      r"finish)" + _ONE + r"\b", "to"),
     (rf"where {_BY_WHOM} (?:started|began|set off|was first|stood first|departed)\b", "from"),
     (rf"where {_BY_WHOM} (?:ended(?: up)?|finished|stopped|arrived|came to rest|was last)\b", "to"),
@@ -165,4 +181,4 @@ NOT_ORDER = re.compile(
     r"according|due|attached|equal|parallel|perpendicular|opposite|adjacent|addition) to\b"
 )
 
-__all__ = ["CUES", "NOT_ORDER", "ORDER_WORDS", "cue_role", "governs", "role_after"]
+__all__ = ["CUES", "NOT_ORDER", "ORDER_WORDS", "TIME_WORDS", "cue_role", "governs", "is_adverb", "role_after"]

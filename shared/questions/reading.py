@@ -148,14 +148,19 @@ _FRAME_NOTE = re.compile(
 
 
 def _pair(ask: str, image_count: int | None, camera: bool) -> PairReading:
-    """The pair from the asking sentences; when they name none, from the setup sentences (notes on
-    the frame left out): "First came shot 2; shot 4 followed. Where did the camera go?"."""
+    """The pair from the asking sentences when their words order it; else from the whole question
+    (notes on the frame left out) when its words order it: "First came shot 2; shot 4 followed.
+    Where did the camera go?", "Take image 2 as the origin. Where was image 1 taken?"; else what the
+    asking sentences give (the order of mention, the other of two photos, a doubt)."""
     asking = read_pair(asking_sentences(ask), image_count, default_two=False)
-    if asking.views is not None or asking.doubt is not None:
+    if asking.by_words:
         return asking
     sentences = [s for s in _SENTENCE.split(_without_notes(ask)) if s.strip()]
     setup = " ".join(s for s in sentences if "?" in s or not _FRAME_NOTE.search(s))
-    return read_pair(setup, image_count, default_two=camera)
+    whole = read_pair(setup, image_count, default_two=camera)
+    if whole.by_words or (asking.views is None and asking.doubt is None):
+        return whole
+    return asking
 
 
 def asking_sentences(ask: str) -> str:

@@ -35,7 +35,16 @@ import re
 from pydantic import BaseModel
 
 from shared.questions.lexicon import normalized
-from shared.questions.pair_roles import CUES, NOT_ORDER, ORDER_WORDS, cue_role, governs, role_after
+from shared.questions.pair_roles import (
+    CUES,
+    NOT_ORDER,
+    ORDER_WORDS,
+    TIME_WORDS,
+    cue_role,
+    governs,
+    is_adverb,
+    role_after,
+)
 
 _NOUN = (
     r"(?:images?|views?|pictures?|photos?|photographs?|frames?|shots?|snapshots?|snaps?|viewpoints?|"
@@ -68,6 +77,12 @@ _BARE_ORDINAL = re.compile(
     r"step|steps|stage|move|moves|motion|turn|turns|half|part|thing|place|position|option|answer|"
     r"question|person|object|row|column|case|pair|two|few|couple)\b)"
 )
+# "image 2 is the starting view", "taking image 3 as the final frame": an ordinal said of a photo
+# already named gives it a role (shared/questions/pair_roles.py), it names no photo of its own.
+_PREDICATE = re.compile(
+    r"\s*(?:s\s+(?:camera|viewpoint|position)\s+)?(?:is|was|are|were|be|being|been|as|shows|marks|"
+    r"represents)\s+(?:the\s+|a\s+|its\s+)?"
+)
 _OTHER = re.compile(rf"\bthe other\s+(?:{_NOUN}|one)\b")
 _OTHER_VIEW = -1  # a mention of "the other one", resolved once the named photo is known
 _UNKNOWN_LAST = 0  # "the last" when the number of photos is not known
@@ -79,6 +94,7 @@ class PairReading(BaseModel, frozen=True):
     source: str = ""
     certain: bool = False
     doubt: str | None = None
+    by_words: bool = False  # a word gave a photo its role (not the order of mention nor a default)
 
 
 def _value(word: str, image_count: int | None) -> int:
@@ -104,7 +120,11 @@ def _mentions(text: str, image_count: int | None) -> list[tuple[int, int, int]]:
     for pattern in (_ORDINAL_NOUN, _BARE_ORDINAL):
         for match in pattern.finditer(text):
             # "first image 2": the number names the photo, "first" is a word of sequence
-            if not any(s < match.end() and match.start() < e for s, e, _ in found):
+            overlaps = any(s < match.end() and match.start() < e for s, e, _ in found)
+            said_of = any(
+                _PREDICATE.fullmatch(text, e, match.start()) for s, e, _ in found if e <= match.start()
+            )
+            if not overlaps and not said_of:
                 found.append((match.start(), match.end(), _value(match.group("o"), image_count)))
     for match in _OTHER.finditer(text):
         found.append((match.start(), match.end(), _OTHER_VIEW))
@@ -127,7 +147,8 @@ def read_pair(text: str, image_count: int | None = None, default_two: bool = Fal
     roles, consumed = _roles(words, mentions)
     views = tuple(dict.fromkeys(v for _, _, v in mentions))
     source = " / ".join(words[s:e] for s, e, _ in mentions)
-    unknown = _unread_order_words(words, mentions, consumed)
+    asking = [asks for _, asks in _pieces(text)]
+    unknown = _unread_order_words(words, mentions, consumed, asking)
     if unknown and views:
         return PairReading(
             view_set=views,
@@ -142,15 +163,22 @@ def read_pair(text: str, image_count: int | None = None, default_two: bool = Fal
 def _words(text: str) -> str:
     """Sentence by sentence, normalized, with " . " between them (a role never reaches across a
     sentence); arrows read as "to"."""
+    return " . ".join(words for words, _ in _pieces(text))
+
+
+def _pieces(text: str) -> list[tuple[str, bool]]:
+    """(normalized words, whether it asks) of each sentence or clause after a colon."""
     text = re.sub(r"\s*(?:->|=>|→|⟶|➔)\s*", " to ", text or "")
     text = re.sub(r"\b(no|nr|num)\.\s*(?=\d)", r"\1 ", text, flags=re.IGNORECASE)  # "photo No.2"
-    return " . ".join(normalized(sentence) for sentence in _SENTENCES.split(text))
+    pieces = [(normalized(piece), piece.rstrip().endswith("?")) for piece in _SENTENCES.split(text)]
+    return [(words, asks) for words, asks in pieces if words]
 
 
 def _roles(
     words: str, mentions: list[tuple[int, int, int]]
 ) -> tuple[dict[int, set[str]], list[tuple[int, int]]]:
-    """Each view's roles ("from", "to", "frame"), and the spans of words that gave them."""
+    """Each view's roles ("from", "to", "frame"), and the spans of words that gave them (a word of
+    time that gave no photo its role is left out of them: "which came first?")."""
     roles: dict[int, set[str]] = {view: set() for _, _, view in mentions}
     consumed: list[tuple[int, int]] = []
     window_start = 0
@@ -158,8 +186,8 @@ def _roles(
         sentence_start = words.rfind(" . ", 0, start) + 1
         window_start = max(window_start, sentence_start)
         cues = list(CUES.finditer(words, window_start, start))
-        consumed += [(c.start(), c.end()) for c in cues]
-        before = cue_role(cues[-1]) if cues and governs(words[cues[-1].end() : start]) else None
+        before = _governing_role(words, cues, start)
+        consumed += [(c.start(), c.end()) for c in cues if before == cue_role(c) or not _timely(c)]
         after, after_end = role_after(words, end)
         if after_end > end:
             consumed.append((end, after_end))
@@ -169,10 +197,36 @@ def _roles(
         for role in (before, after):
             if role:
                 roles[view].add(role)
+    # words after the last photo of each sentence: only those that order nothing are spent
+    consumed += [(c.start(), c.end()) for c in CUES.finditer(words) if not _timely(c)]
     return roles, consumed
 
 
-_SENTENCES = re.compile(r"(?<=[.!?;])\s+(?=[A-Z])|;\s*")
+def _governing_role(words: str, cues: list[re.Match[str]], start: int) -> str | None:
+    """The role the cues before a photo give it: the last one's, when it governs the photo."""
+    if not cues:
+        return None
+    last = cues[-1]
+    if len(cues) > 1 and _NESTED_WHEN.fullmatch(last.group()) and _OPENS_CLAUSE.search(cues[-2].group()):
+        # "relative to where it was when it took image 1": the "when" is inside the reference
+        if cue_role(cues[-2]) == "from" and governs(words[cues[-2].end() : last.start()].replace("when", "")):
+            return "from"
+    if is_adverb(last) or governs(words[last.end() : start]):
+        return cue_role(last)
+    return None
+
+
+_NESTED_WHEN = re.compile(r"when|by the time(?: of| that)?|at the time of|at the moment(?: of)?")
+_OPENS_CLAUSE = re.compile(r"(?:where|when|moment|time|times|that)$")
+
+
+def _timely(cue: re.Match[str]) -> bool:
+    """A cue that is a word of time ("first", "then", "before"): one that gives no photo a role
+    still orders the photos, in a way not read."""
+    return cue.group().split()[0] in TIME_WORDS
+
+
+_SENTENCES = re.compile(r"(?<=[.!?;])\s+(?=[A-Z])|(?<=[?:])\s+|;\s*")
 _WORD = re.compile(r"[a-z]+")
 # With no view read, these still point at one photo ("the earlier shot", "the former picture",
 # "photo B"): two photos then are not "1 to 2 by default", the question names them in a way not read.
@@ -186,19 +240,23 @@ _ONE_PHOTO = re.compile(
 
 
 def _unread_order_words(
-    words: str, mentions: list[tuple[int, int, int]], consumed: list[tuple[int, int]]
+    words: str, mentions: list[tuple[int, int, int]], consumed: list[tuple[int, int]], asking: list[bool]
 ) -> list[str]:
-    """Order words in the sentences that name a view, outside every cue and mention that was read."""
+    """Order words in the sentences that name a view or ask ("which came first?"), outside every
+    cue and mention that was read."""
     spans = [(s, e) for s, e, _ in mentions] + consumed
     spans += [(m.start(), m.end()) for m in NOT_ORDER.finditer(words)]
-    spans += [(m.start(), m.end()) for m in CUES.finditer(words)]
     for match in (*_ORDINAL_NOUN.finditer(words), *_BARE_ORDINAL.finditer(words), *_OTHER.finditer(words)):
         spans.append((match.start(), match.end()))
-    sentences = [(a, b) for a, b in _sentence_spans(words) if any(a <= start < b for start, _, _ in mentions)]
+    sentences = [
+        (a, b)
+        for (a, b), asks in zip(_sentence_spans(words), asking, strict=False)
+        if asks or any(a <= start < b for start, _, _ in mentions)
+    ]
     unread = []
     for start, end in sentences:
         for word in _WORD.finditer(words, start, end):
-            if word.group() in ORDER_WORDS and not any(a <= word.start() < b for a, b in spans):
+            if word.group() in ORDER_WORDS | TIME_WORDS and not any(a <= word.start() < b for a, b in spans):
                 unread.append(word.group())
     return list(dict.fromkeys(unread))
 
@@ -260,7 +318,13 @@ def _ordered(
     if last is None:
         last = next(v for v in views if v != first)
     how = "its words" if sources or targets else "the order of mention"
-    return PairReading(views=(first, last), view_set=views, source=f"{source} ({how})", certain=True)
+    return PairReading(
+        views=(first, last),
+        view_set=views,
+        source=f"{source} ({how})",
+        certain=True,
+        by_words=bool(sources or targets),
+    )
 
 
 def _one_named(
@@ -278,7 +342,11 @@ def _one_named(
     else:
         pair = (1, 2)  # two photos, one named without a role: in the order they were taken
     return PairReading(
-        views=pair, view_set=(view,), source=f"{source} (the other of two photos)", certain=True
+        views=pair,
+        view_set=(view,),
+        source=f"{source} (the other of two photos)",
+        certain=True,
+        by_words=bool(sources or targets),
     )
 
 
