@@ -275,6 +275,9 @@ ROWS: list[tuple[str, int, tuple[int, int] | None]] = [
     ),
     ("How did the camera move between photo 2 and the photo before it?", 3, ABSTAIN),
     ("How did the camera move from image 2 to image 2?", 2, ABSTAIN),
+    # two photos named with no word of order between them: the one asked about often comes first
+    ("Where would you find the camera of image 2, standing at the camera of image 1?", 2, ABSTAIN),
+    ("Where is image 3's camera, if you stand where image 1 was shot?", 3, ABSTAIN),
     ("Once photo 2 was taken, how had the camera moved relative to photo 3?", 3, ABSTAIN),
     ("Comparing image 1 with image 2, how did the camera move?", 2, ABSTAIN),
     ("How did the camera move from image 1 to image 3 after image 2?", 3, ABSTAIN),
@@ -307,7 +310,7 @@ def test_abstaining_pair_says_why() -> None:
         if expected is ABSTAIN:
             pair = read_question(question, count)
             assert pair.views is None or not pair.views_certain or pair.abstain_reason
-            assert pair.abstain_reason, question
+            assert pair.abstain_reason or (not pair.is_camera and pair.views is None), question
 
 
 def test_reversed_only_when_the_words_say_so() -> None:

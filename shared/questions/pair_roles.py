@@ -41,7 +41,7 @@ _CUE_TABLE: tuple[tuple[str, str, bool], ...] = (
     (r"in comparison (?:with|to)|by comparison with|in contrast (?:with|to)|contrasted with", "from", False),
     (r"relative(?:ly)? to|with respect to|in respect of|in relation to|with reference to|"
      r"in reference to|referenced to|as opposed to|as against|versus|vs|against|than", "from", False),
-    (r"(?:seen|viewed|measured|looking|observed|judged) from", "from", False),
+    (r"(?:seen|viewed|measured|looking|observed|judged) (?:from|by)", "from", False),
     # a place said of a photo's camera: "to the left of X", "behind X" (X is the reference)
     (rf"{_SIDE} of|in front of|ahead of|behind|above|below|beneath|underneath|higher than|"
      r"lower than|closer than|farther than|further than", "from", False),

@@ -100,7 +100,10 @@ _NOUNS = r"(?:images?|photos?|pictures?|views?|frames?|shots?|snapshots?)"
 _WHERE = r"(?<!\bfrom )(?<!\bto )(?<!\bthan )(?<!\bwith )(?<!\bof )(?<!\bat )(?<!\band )\bwhere\b"
 _POSITION_ASK = re.compile(
     rf"{_WHERE}[^?]*\b(?:taken|shot|captured|located|positioned|placed|situated|stand|stands|stood|standing|"
-    r"sit|sits|sat|was the camera|is the camera|were the cameras|camera)\b|"
+    r"sit|sits|sat|was the camera|is the camera|were the cameras|camera|photographer|shooter|viewer)\b|"
+    r"\blocate\b[^?]*\b(?:camera|photographer|shooter)\b|\b(?:from )?which side\b|"
+    r"\bdirection from (?:the )?(?:camera|photographer|shooter|\w+ \w+ s camera|\w+ \w+ camera)\b|"
+    r"\b(?:is|was|lies|lay|stands|stood|sits|sat) where\b|"
     r"\b(?:shooting|camera|capture|capturing|vantage|taking) (?:position|point|location|spot|place)\b|"
     r"\bposition(?:al)? (?:of|relationship)\b|\brelative (?:position|location|placement)\b|"
     rf"{_WHERE} (?:is|was|are|were) (?:the )?{_NOUNS} \w+\b|"
@@ -185,6 +188,7 @@ _LOOK_NOUNS = re.compile(
     r"(?:direction|angle|axis|orientation|heading|bearing)|line of sight|direction of (?:view|gaze|sight)|"
     r"orientation|heading|bearing|attitude|(?:re)?orient(?:ed|ing|s)?)\b"
 )
+_PLACE_POINT = re.compile(r"\b(?:capture|capturing|shooting|vantage|taking|camera|view|standing) point\b")
 # A look that shifts is a turn: "how did the camera's aim shift?" ("shift" alone is a step).
 _LOOK_SHIFTS = re.compile(
     r"\b(?:aim|heading|orientation|gaze|line of sight|(?:viewing|view|looking|facing|pointing|lens) "
@@ -208,6 +212,7 @@ def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
     """(quantity, strong, the words): strong when a word of one kind says it ("tilt"), weak for
     the everyday verbs ("move"), None when nothing does."""
     words = _LOOK_SHIFTS.sub(" turned ", normalized(_APART_FROM.sub(" ", ask)))  # "its aim shifted"
+    words = _PLACE_POINT.sub(" spot", words)  # "its capture point" is a place, not a way it points
     # "Not counting rotation, where did it go?": what is set aside is not asked, so the rest is
     set_aside = [m.group("what") or m.group("before") for m in _APART_FROM.finditer(ask)]
     excluded = {s.kind for what in set_aside for s in stem_senses(what)}

@@ -157,7 +157,8 @@ def read_pair(text: str, image_count: int | None = None, default_two: bool = Fal
     one_photo = _ONE_PHOTO.search(words) if not views and default_two and image_count == 2 else None
     if one_photo:
         return PairReading(doubt=f"it names a photo ('{one_photo.group()}') in a way not read")
-    return _ordered(views, roles, image_count, default_two, source)
+    listed = len(views) == 2 and _LISTED.fullmatch(words, mentions[0][1], mentions[-1][0]) is not None
+    return _ordered(views, roles, image_count, default_two, source, listed)
 
 
 def _words(text: str) -> str:
@@ -266,12 +267,20 @@ def _sentence_spans(words: str) -> list[tuple[int, int]]:
     return [(a, b - 3) for a, b in zip(bounds, bounds[1:], strict=False) if b - 3 > a]
 
 
+# Two photos listed side by side ("image 1 and image 2", "images 1 and 3", "photos 2, 4"): with no
+# word of order, the list's order is the pair's. Two photos in other words with no role between them
+# ("where would you find image 2's camera, standing at image 1's?") are in no order that was read: the
+# one asked about often comes first ("where is B ...?"), so the order of mention is no guide there.
+_LISTED = re.compile(r"\s*(?:and|or|vs|versus|as well as|plus)?\s*")
+
+
 def _ordered(
     views: tuple[int, ...],
     roles: dict[int, set[str]],
     image_count: int | None,
     default_two: bool,
     source: str,
+    listed: bool = True,
 ) -> PairReading:
     frames = [v for v in views if "frame" in roles[v]]
     roles = {v: r - {"frame"} for v, r in roles.items()}
@@ -311,6 +320,12 @@ def _ordered(
         )
     if len(views) > 2:
         views = tuple(v for v in views if v in (*sources, *targets))
+    if not sources and not targets and not listed:
+        if default_two and image_count == 2:  # the two photos, in no order said: as they were taken
+            return PairReading(
+                views=(1, 2), view_set=views, source="two photos named in no order: 1 to 2", certain=True
+            )
+        return PairReading(view_set=views, doubt="it names two photos, and no word says which is the start")
     first = sources[0] if sources else None
     last = targets[0] if targets else None
     if first is None:
