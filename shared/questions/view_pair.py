@@ -144,6 +144,7 @@ def read_pair(text: str, image_count: int | None = None, default_two: bool = Fal
         if image_count != 2 or len(named) != 1:
             return PairReading(view_set=named, doubt="it names 'the other' photo in a way not read")
         mentions = [(s, e, 3 - named[0] if v == _OTHER_VIEW else v) for s, e, v in mentions]
+    mentions = _without_roll_call(words, mentions, image_count)
     roles, consumed = _roles(words, mentions)
     views = tuple(dict.fromkeys(v for _, _, v in mentions))
     source = " / ".join(words[s:e] for s, e, _ in mentions)
@@ -159,6 +160,20 @@ def read_pair(text: str, image_count: int | None = None, default_two: bool = Fal
         return PairReading(doubt=f"it names a photo ('{one_photo.group()}') in a way not read")
     listed = len(views) == 2 and _LISTED.fullmatch(words, mentions[0][1], mentions[-1][0]) is not None
     return _ordered(views, roles, image_count, default_two, source, listed)
+
+
+def _without_roll_call(
+    words: str, mentions: list[tuple[int, int, int]], image_count: int | None
+) -> list[tuple[int, int, int]]:
+    """The mentions without an opening list of every photo ("Given image 1, image 2 and image 3,
+    how did the camera move from image 2 to image 3?"): it names the set, not the pair."""
+    run = 1
+    while run < len(mentions) and _LISTED.fullmatch(words, mentions[run - 1][1], mentions[run][0]):
+        run += 1
+    listed = {view for _, _, view in mentions[:run]}
+    if image_count and run >= 2 and listed == set(range(1, image_count + 1)) and len(mentions) > run:
+        return mentions[run:]
+    return mentions
 
 
 def _words(text: str) -> str:
@@ -313,12 +328,7 @@ def _ordered(
         return PairReading(
             view_set=views, doubt=f"it names {len(views)} photos without saying which two it compares"
         )
-    extra = [v for v in views if v not in (*sources, *targets, *frames)]
-    if len(views) > 2 and extra:
-        return PairReading(
-            view_set=views, doubt=f"it names {len(views)} photos: more than the two it compares"
-        )
-    if len(views) > 2:
+    if len(views) > 2:  # "from image 1 via image 2 to image 3": the start and the end are said
         views = tuple(v for v in views if v in (*sources, *targets))
     if not sources and not targets and not listed:
         if default_two and image_count == 2:  # the two photos, in no order said: as they were taken
