@@ -65,3 +65,22 @@ def test_a_stem_that_says_a_step_and_options_that_state_turns_abstain() -> None:
         "How did the camera move from image 1 to image 2?\nA. It turned left B. It turned right", 2
     )
     assert plain.quantity == "rotation" and plain.abstain_reason is None  # a weak verb: the options lead
+
+
+@pytest.mark.parametrize(
+    ("stem", "camera"),
+    [
+        ("What was the camera's motion from image 1 to image 2?", True),
+        ("What is the camera's displacement from image 1 to image 2?", True),
+        ("What was the direction of the camera's displacement from image 1 to image 2?", True),
+        ("What is true of the camera's movement from image 1 to image 2?", True),
+        ("What was different about the camera between image 1 and image 2?", True),
+        ("What is to the left of the sofa in image 2?", False),
+        ("What is behind the camera in image 2?", False),
+        ("What is the direction of the chair relative to the camera in image 1?", False),
+    ],
+)
+def test_a_what_is_about_the_camera_is_a_camera_question(stem: str, camera: bool) -> None:
+    # options outside the lexicon: the stem alone says whether the camera is asked about
+    reading = read_question(stem + "\nA. It scooted sideways B. It bobbed", 2)
+    assert reading.is_camera is camera, reading.quantity

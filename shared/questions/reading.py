@@ -111,8 +111,17 @@ _POSITION_ASK = re.compile(
     r"\b(?:which|what) (?:direction|side|way) (?:is|was|are|were|lies|lay) (?:the )?"
     rf"(?:camera|viewpoint|\w+ s camera|{_NOUNS} \w+ s camera|{_NOUNS} \w+ s viewpoint)\b"
 )
+# "What was the camera's motion?", "what is true of its movement?": a "what is" about the camera or
+# its motion asks no object.
+_ABOUT_CAMERA = (
+    r"(?!\s+(?:the\s+)?(?:camera|photographer|shooter|viewer|lens|viewpoint|vantage)\b)"
+    r"(?!\s+(?:the\s+|a\s+|its\s+)?(?:camera s\s+|photographer s\s+)?(?:overall\s+|net\s+)?"
+    r"(?:motion|movement|displacement|rotation|translation|turn|change|shift|heading|orientation|pose|relation|relationship)\b)"
+    r"(?!\s+(?:the\s+)?direction of (?:the\s+)?(?:camera|motion|movement|travel|displacement|view)\b)"
+    r"(?!\s+(?:true|correct|right|different|accurate)\b)"
+)
 _OBJECT_ASK = re.compile(
-    r"\b(?:what|which (?:object|item|thing))\s+(?:is|was|would be|will be|lies|appears)\b|"
+    rf"\b(?:what|which (?:object|item|thing))\s+(?:is|was|would be|will be|lies|appears)\b{_ABOUT_CAMERA}|"
     r"\bwhere (?:is|was|are) (?:the|a|an) (?!camera|photographer|shooter|viewer|second|first|third|"
     r"fourth|fifth|"
     r"last|final|initial|latter|former|next|previous|other|earlier|later|\d|"
