@@ -129,10 +129,11 @@ _AFTER_TABLE: tuple[tuple[str, str], ...] = (
     (r"(?:preceded|precedes|precede|predates|predated|came before|comes before|come before|"
      r"led to|leads to|gave way to)\b", "from"),
     (r"(?:followed|follows|follow|succeeded|succeeds|came after|comes after|postdates|postdated)\b", "to"),
-    (r"(?:first|earlier(?: than)?|sooner(?: than)?|before(?: that| it)?|previously|initially|originally|"
-     r"beforehand|at the (?:start|beginning|outset)|to begin with|in the beginning)\b", "from"),
-    (r"(?:after(?:wards?)?(?: that| it)?|later(?: than| on)?|next(?! to)|second|subsequently|last|finally|"
-     r"thereafter|at the end|in the end|eventually)\b", "to"),
+    (r"(?:first|earlier(?: than)?|sooner(?: than)?|older(?: than)?|before(?: that| it)?|previously|"
+     r"initially|originally|beforehand|at the (?:start|beginning|outset)|to begin with|in the beginning)\b",
+     "from"),
+    (r"(?:after(?:wards?)?(?: that| it)?|later(?: than| on)?|newer(?: than)?|more recent(?: than)?|"
+     r"next(?! to)|second|subsequently|last|finally|thereafter|at the end|in the end|eventually)\b", "to"),
     (r"(?:(?:serves|served|acts|acted|is used|was used|used|taken|being) )?as (?:the |a |its )?"
      r"(?:reference|baseline|origin|anchor|start(?:ing point)?|beginning|base|source|departure(?: point)?)"
      + _ONE + r"\b", "from"),

@@ -150,6 +150,8 @@ def read_pair(text: str, image_count: int | None = None, default_two: bool = Fal
     source = " / ".join(words[s:e] for s, e, _ in mentions)
     asking = [asks for _, asks in _pieces(text)]
     unknown = _unread_order_words(words, mentions, consumed, asking)
+    if views and (trip := _ROUND_TRIP.search(words)):
+        return PairReading(view_set=views, doubt=f"it says '{trip.group()}': a round trip, not one pair")
     if unknown and views:
         return PairReading(
             view_set=views,
@@ -244,12 +246,14 @@ def _timely(cue: re.Match[str]) -> bool:
 
 _SENTENCES = re.compile(r"(?<=[.!?;])\s+(?=[A-Z])|(?<=[?:])\s+|;\s*")
 _WORD = re.compile(r"[a-z]+")
+_ROUND_TRIP = re.compile(r"\b(?:and back(?: again)?|back and forth|there and back|to and fro|round trip)\b")
 # With no view read, these still point at one photo ("the earlier shot", "the former picture",
 # "photo B"): two photos then are not "1 to 2 by default", the question names them in a way not read.
 _ONE_PHOTO = re.compile(
     r"\b(?:the|this|that|a|an|another|other|which|each)\s+(?:[a-z]+\s+)?"
     r"(?:image|view|picture|photo|photograph|frame|shot|snapshot|pic|img|capture|exposure|snap)\b"
     r"(?!\s+of\b)"
+    r"|\b(?:images?|views?|pictures?|photos?|photographs?|frames?|shots?|snapshots?|pics?|imgs?)\s+[a-h]\b"
     r"|\b(?:prior|previous|preceding|following|subsequent|succeeding|earlier|later|former|latter|next|"
     r"initial|original|final|first|second|last)\b"
 )
