@@ -292,6 +292,10 @@ ROWS: list[tuple[str, int, tuple[int, int] | None]] = [
     ("How did the camera move between the two images?", 3, ABSTAIN),
     ("Which way did the camera move from the left image to the right image?", 2, ABSTAIN),
     ("Where is the camera of image B relative to image A?", 2, ABSTAIN),
+    # "the former" / "the latter" after two photos are those two
+    ("Between image 3 and image 1, where is the latter's camera relative to the former's?", 3, (3, 1)),
+    ("Of photo 1 and photo 2, the latter was taken first. How did the camera move?", 2, (2, 1)),
+    ("How did the camera move from the first image to the latter image?", 3, (1, 3)),
     # -- must abstain: no pair, two readings, views beyond the photos, order words not read -------
     ("Which way did the camera move?", 3, ABSTAIN),
     ("Which way did the camera move over the sequence?", 3, ABSTAIN),

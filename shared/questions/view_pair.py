@@ -1,15 +1,17 @@
 """Which two photos a question compares, and in which order: read from its grammar, never guessed.
 
 Every mention of a photo is found: a noun with a number ("image 3", "photo two", "shot #2", "frame
-no. 4", "exposure number one", "images 2 and 3"), an ordinal with a noun ("the first picture", "the
-3rd shot", "the last frame", "the second one"), a bare ordinal ("relative to the first"), "the
-other one" (with two photos and one named). Each mention then gets a *role* from the words that
-govern it (shared/questions/pair_roles.py):
+no. 4", "exposure number one", "the picture numbered 3", "images 2 and 3"), an ordinal with a noun
+("the first picture", "the 3rd shot", "the last frame", "the second one"), a bare ordinal
+("relative to the first"), "the other one" (with two photos and one named), "the former" / "the
+latter" (the two photos named just before). An opening roll call of every photo ("Given image 1,
+image 2 and image 3, ...") names the set, not the pair. Each mention then gets a *role* from the
+words that govern it (the table is shared/questions/pair_roles.py):
 
 - *from* (the reference, the photo the camera started at): the word before it ("from", "relative
-  to", "compared with", "against", "than", "since", "after", "following", "subsequent to",
-  "leaving", "starting at", "seen from", "initially") or the words after it ("X was taken first",
-  "X preceded Y", "X was followed by Y", "X serves as the reference", "X, the earlier one");
+  to", "compared with", "against", "than", "behind", "since", "after", "following", "subsequent
+  to", "leaving", "starting at", "seen from", "initially") or the words after it ("X was taken
+  first", "X preceded Y", "X was followed by Y", "X serves as the reference", "X, the earlier one");
 - *to* (the photo asked about, where the camera ended): "to", "into", "toward", "until", "when",
   "by the time", "reaching", "arriving at", "ending at", "then", "afterwards", "before", "prior
   to", "earlier than"; after it, "X was taken after / later / next / second", "X followed Y", "X was
@@ -17,15 +19,20 @@ govern it (shared/questions/pair_roles.py):
 - *frame* (a weak from): "in X's axes", "the frame of X", "from the perspective of X": the photo
   whose axes are meant is the reference only when no other word names one.
 
-The words right after a mention are read first and are spent on it, so "X was taken before Y" gives
-X its role and leaves Y the other place. The pair is (from, to); a photo with no role takes the
-place left. With no role at all, the order of mention ("between X and Y"). With two photos and one
-or no photo named, the other photo completes the pair in time order (1 -> 2) unless a role says
-otherwise. Two readings (both photos "from", one photo both, three photos and no roles, a photo
-beyond those given) leave the pair unread, with the reason (`doubt`). So does a word of time or
-sequence that no construction here consumed ("once", "the former", "in reverse order"): the cues'
-own "to" or the order of mention would otherwise decide the pair, possibly reversed. And with two
-photos, a photo named in a way not read ("the earlier shot") stops the default 1 -> 2.
+A preposition governs only its own object ("taken from the doorway and the second ..." gives the
+second photo no role); an adverb of time ("then", "initially") governs its clause. The words right
+after a mention are read first and are spent on it, so "X was taken before Y" gives X its role and
+leaves Y the other place. The pair is (from, to); a photo with no role takes the place left. With
+no role at all, only photos listed side by side ("between X and Y", "images 1 and 3") keep their
+order of mention: in other words the photo asked about often comes first ("where is B, standing
+at A?"), so the order of mention is no guide. With two photos and one or no photo named, the other
+photo completes the pair in time order (1 -> 2) unless a role says otherwise. Two readings (both
+photos "from", one photo both, three photos and no roles, a photo beyond those given, a round
+trip) leave the pair unread, with the reason (`doubt`). So does a word of time or sequence that
+gave no photo a role ("once", "the former" with nothing before it, "in reverse order", "which came
+first?"): the cues' own "to" or the order of mention would otherwise decide the pair, possibly
+reversed. And with two photos, a photo named in a way not read ("the earlier shot", "photo B")
+stops the default 1 -> 2.
 """
 
 from __future__ import annotations
@@ -57,7 +64,7 @@ _NUMBER_WORDS = {
 _ORDINAL_WORDS = {
     "first": 1, "second": 2, "third": 3, "fourth": 4, "fifth": 5,
     "sixth": 6, "seventh": 7, "eighth": 8, "ninth": 9, "tenth": 10,
-    "initial": 1, "opening": 1, "starting": 1, "last": 0, "final": 0, "latter": 0, "closing": 0,
+    "initial": 1, "opening": 1, "starting": 1, "last": 0, "final": 0, "closing": 0,
     "concluding": 0,
 }  # fmt: skip
 _NUM = r"(?:\d+|" + "|".join(_NUMBER_WORDS) + r")"
@@ -84,6 +91,7 @@ _PREDICATE = re.compile(
     r"represents)\s+(?:the\s+|a\s+|its\s+)?"
 )
 _OTHER = re.compile(rf"\bthe other\s+(?:{_NOUN}|one)\b")
+_ANAPHOR = re.compile(rf"\bthe (former|latter)\b(?:\s+(?:{_NOUN}|one)\b)?")
 _OTHER_VIEW = -1  # a mention of "the other one", resolved once the named photo is known
 _UNKNOWN_LAST = 0  # "the last" when the number of photos is not known
 
@@ -128,6 +136,16 @@ def _mentions(text: str, image_count: int | None) -> list[tuple[int, int, int]]:
                 found.append((match.start(), match.end(), _value(match.group("o"), image_count)))
     for match in _OTHER.finditer(text):
         found.append((match.start(), match.end(), _OTHER_VIEW))
+    for match in _ANAPHOR.finditer(text):
+        # "the former" / "the latter" after two photos are those two; "the latter photo" with none
+        # before it is the last; "the former" with none before it names no photo (left unread)
+        before = list(dict.fromkeys(v for s, _, v in sorted(found) if s < match.start() and v > 0))
+        if len(before) >= 2:
+            found.append(
+                (match.start(), match.end(), before[-2] if match.group(1) == "former" else before[-1])
+            )
+        elif match.group(1) == "latter":
+            found.append((match.start(), match.end(), image_count or _UNKNOWN_LAST))
     return sorted(found)
 
 
