@@ -296,6 +296,24 @@ ROWS: list[tuple[str, int, tuple[int, int] | None]] = [
     ("Between image 3 and image 1, where is the latter's camera relative to the former's?", 3, (3, 1)),
     ("Of photo 1 and photo 2, the latter was taken first. How did the camera move?", 2, (2, 1)),
     ("How did the camera move from the first image to the latter image?", 3, (1, 3)),
+    # -- cues with another object, clauses that end before the photo, a premise that reverses ----
+    ("How did the camera move to the left from image 1 to image 2?", 2, (1, 2)),
+    ("Did the camera move towards the door from image 2 to image 1?", 2, (2, 1)),
+    (
+        "Image 2 was taken when the camera was at the door, image 1 when it was at the window. "
+        "How did it move?",
+        2,
+        (1, 2),
+    ),
+    ("From the window, where image 2 was taken, how did the camera move to image 1?", 2, (2, 1)),
+    ("What is the camera motion between image 1 and image 2 if image 2 was taken first?", 2, ABSTAIN),
+    ("Before image 2, which way had the camera moved since image 1?", 2, (1, 2)),
+    ("After image 2, which way did the camera move to take image 1?", 2, (2, 1)),
+    ("The camera was rotated between the shots: image 2 first, image 1 second. Which way?", 2, (2, 1)),
+    ("How did the camera move from image 1 to image 2, relative to image 3's axes?", 3, (1, 2)),
+    ("What's the camera's movement from the 1st picture to the 2nd?", 2, (1, 2)),
+    ("Relative to the camera that was used for image 1, where is the camera of image 2?", 2, (1, 2)),
+    ("Until the camera was at image 2, how had it moved since image 1?", 2, (1, 2)),
     # -- must abstain: no pair, two readings, views beyond the photos, order words not read -------
     ("Which way did the camera move?", 3, ABSTAIN),
     ("Which way did the camera move over the sequence?", 3, ABSTAIN),

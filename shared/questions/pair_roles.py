@@ -96,12 +96,16 @@ def is_adverb(match: re.Match[str]) -> bool:
 _CLAUSE = frozenset("and or but while whereas how what which why who whose did does do if".split())
 _PLACE_OF_TIME = frozenset("spot place position location point moment time instant".split())
 _MAX_GAP = 8
+_COPULA = frozenset("was were is are".split())
 
 
 def governs(gap: str) -> bool:
     """Whether a cue governs the photo named after `gap`, the words between them."""
     words = gap.split()
     if len(words) > _MAX_GAP or any(w in _CLAUSE for w in words):
+        return False
+    # "when the camera was at the door, image 1 ...": the clause the cue opened ended before the photo
+    if any(w in _COPULA and len(words) - i - 1 >= 3 for i, w in enumerate(words)):
         return False
     return all(
         i == 0 or words[i - 1] in _PLACE_OF_TIME for i, w in enumerate(words) if w in ("where", "when")

@@ -191,7 +191,10 @@ def _without_roll_call(
     while run < len(mentions) and _LISTED.fullmatch(words, mentions[run - 1][1], mentions[run][0]):
         run += 1
     listed = {view for _, _, view in mentions[:run]}
-    if image_count and run >= 2 and listed == set(range(1, image_count + 1)) and len(mentions) > run:
+    if not image_count or image_count < 3 or run < 2 or listed != set(range(1, image_count + 1)):
+        return mentions
+    opening = words[words.rfind(" . ", 0, mentions[0][0]) + 1 : mentions[0][0]]
+    if len(mentions) > run and not CUES.search(opening):  # "between image 1, 2 and 3" is no roll call
         return mentions[run:]
     return mentions
 
