@@ -314,6 +314,10 @@ ROWS: list[tuple[str, int, tuple[int, int] | None]] = [
     ("What's the camera's movement from the 1st picture to the 2nd?", 2, (1, 2)),
     ("Relative to the camera that was used for image 1, where is the camera of image 2?", 2, (1, 2)),
     ("Until the camera was at image 2, how had it moved since image 1?", 2, (1, 2)),
+    # a frame named inside the asking sentence is no pair when it is the only photo named
+    ("Which way did the camera move, as seen in image 2?", 2, (1, 2)),
+    ("In image 2's axes, which way did the camera turn?", 2, (1, 2)),
+    ("In image 2's frame, where is the other camera?", 2, (2, 1)),
     # -- must abstain: no pair, two readings, views beyond the photos, order words not read -------
     ("Which way did the camera move?", 3, ABSTAIN),
     ("Which way did the camera move over the sequence?", 3, ABSTAIN),
@@ -331,6 +335,7 @@ ROWS: list[tuple[str, int, tuple[int, int] | None]] = [
     ("How did the camera move from image 1 to image 2 and then to image 3?", 3, ABSTAIN),
     ("How did the camera move from this image to that image?", 2, ABSTAIN),
     ("Relative to image 2, where was the camera?", 3, ABSTAIN),
+    ("Which way did the camera move, as seen in image 2?", 3, ABSTAIN),
     (
         "Photo 1 and photo 3 were not taken in the order of their numbers. How did the camera move?",
         3,

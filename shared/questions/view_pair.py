@@ -324,6 +324,8 @@ def _ordered(
 ) -> PairReading:
     frames = [v for v in views if "frame" in roles[v]]
     roles = {v: r - {"frame"} for v, r in roles.items()}
+    if frames and all(v in frames and not roles[v] for v in views):
+        views = ()  # "which way did it move, as seen in image 2?": a note on the axes names no pair
     if any(len(r) > 1 for r in roles.values()):
         return PairReading(
             view_set=views,
