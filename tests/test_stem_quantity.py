@@ -46,6 +46,7 @@ STEMS: list[tuple[str, str]] = [
     # any change
     ("How did the camera's viewing direction and position change from image 1 to image 2?", "motion"),
     ("How did the camera's pose change from image 1 to image 2?", "motion"),
+    ("How did the point of view change from image 1 to image 2?", "motion"),
 ]
 
 
@@ -75,6 +76,8 @@ def test_a_stem_that_says_a_step_and_options_that_state_turns_abstain() -> None:
         ("What was the direction of the camera's displacement from image 1 to image 2?", True),
         ("What is true of the camera's movement from image 1 to image 2?", True),
         ("What was different about the camera between image 1 and image 2?", True),
+        ("What did the photographer do between image 1 and image 2?", True),
+        ("From image 1 to image 2, the camera did what?", True),
         ("What is to the left of the sofa in image 2?", False),
         ("What is behind the camera in image 2?", False),
         ("What is the direction of the chair relative to the camera in image 1?", False),

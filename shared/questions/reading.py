@@ -222,6 +222,7 @@ def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
     the everyday verbs ("move"), None when nothing does."""
     words = _LOOK_SHIFTS.sub(" turned ", normalized(_APART_FROM.sub(" ", ask)))  # "its aim shifted"
     words = _PLACE_POINT.sub(" spot", words)  # "its capture point" is a place, not a way it points
+    words = re.sub(r"\bpoints? of view\b", "viewpoint", words)  # a place and a look: no turn alone
     # "Not counting rotation, where did it go?": what is set aside is not asked, so the rest is
     set_aside = [m.group("what") or m.group("before") for m in _APART_FROM.finditer(ask)]
     excluded = {s.kind for what in set_aside for s in stem_senses(what)}
@@ -254,9 +255,16 @@ def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
     senses = stem_senses(words)
     if any(s.kind == "weak" and s.value is None for s in senses) or "still" in kinds:
         return "translation", False, words  # "which way did it move? Left": a step
-    if "weak" in kinds:
-        return "motion", False, words  # "how did it change?": any motion
+    if "weak" in kinds or _DID_WHAT.search(words):
+        return "motion", False, words  # "how did it change?", "what did the camera do?": any motion
     return None, False, ""
+
+
+# "What did the camera do?", "the camera did what?": any motion.
+_DID_WHAT = re.compile(
+    r"\b(?:what did|what has|what had) (?:the )?(?:camera|photographer|shooter|viewer|observer|it|you|we|i) "
+    r"(?:do|done)\b|\b(?:camera|photographer|shooter|viewer|observer) (?:did|does) what\b"
+)
 
 
 def _option_kinds(options: dict[str, Claim]) -> set[str]:
