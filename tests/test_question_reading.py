@@ -167,7 +167,7 @@ def test_the_pair_is_read_from_the_grammar(text: str, count: int, views: tuple[i
         ("How did the camera move from image 1 to image 5?", 3, "beyond the 3 given"),
         ("How did the camera move?", 3, "names no photos"),
         # An order word that no construction read: the order it gives is not guessed.
-        ("Image 3 was taken prior to image 1. How did the camera move?", 3, "'prior'"),
+        ("Photos 1 and 3 were taken in reverse order. How did the camera move?", 3, "'reverse'"),
         ("How did the camera move from the former photo to the latter one?", 2, "'former'"),
         # Two photos, one named in a way not read: not "1 to 2 by default".
         ("How did the camera move going back to the earlier shot?", 2, "in a way not read"),

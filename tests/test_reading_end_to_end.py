@@ -151,7 +151,9 @@ def test_a_model_program_is_answered_from_the_reading(stack, llm: ScriptedLLM) -
     """The stem has no motion verb (the old parser's family was "unknown"): the options lead."""
     right = "It sidestepped left" if SIDE < 0 else "It sidestepped right"
     options, truth = _options(right, ["It sidestepped right" if SIDE < 0 else "It sidestepped left"], "B")
-    question = f"Comparing snapshot 1 with snapshot 2: {options}"
+    # ("Comparing snapshot 1 with snapshot 2" reads two ways, 1 -> 2 by the order of mention or
+    # 2 -> 1 as "1 compared with 2", so it abstains: tests/test_pair_roles.py.)
+    question = f"Between snapshot 1 and snapshot 2: {options}"
     program = (
         "```python\ndef program(input_scene):\n    recon = pySpatial.reconstruct(input_scene)\n"
         "    return pySpatial.describe_camera_motion(recon, 1, 2)\n```"

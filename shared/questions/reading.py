@@ -87,7 +87,11 @@ class QuestionReading(BaseModel, frozen=True):
 
 _APART_FROM = re.compile(
     r"\b(?:apart from|aside from|besides|other than|except for|ignoring|setting aside|leaving aside|"
-    r"not counting|regardless of|without counting|excluding|disregarding)\s+(?P<what>[^,?;.]+)",
+    r"putting aside|leaving out|not counting|regardless of|without counting|excluding|disregarding|"
+    r"without (?:considering|regard to|taking into account|counting|looking at)|not considering|"
+    r"irrespective of|discounting|neglecting|never mind|no matter)\s+(?P<what>[^,?;.]+)|"
+    # the same set aside after its noun: "Rotation aside, where did it go?"
+    r"(?:^|[,;:.]\s*)(?P<before>[a-z' ]{3,40}?)\s+(?:aside|apart|notwithstanding)\s*(?=,)",
     re.IGNORECASE,
 )
 _NOUNS = r"(?:images?|photos?|pictures?|views?|frames?|shots?|snapshots?)"
@@ -96,14 +100,28 @@ _NOUNS = r"(?:images?|photos?|pictures?|views?|frames?|shots?|snapshots?)"
 _WHERE = r"(?<!\bfrom )(?<!\bto )(?<!\bthan )(?<!\bwith )(?<!\bof )(?<!\bat )(?<!\band )\bwhere\b"
 _POSITION_ASK = re.compile(
     rf"{_WHERE}[^?]*\b(?:taken|shot|captured|located|positioned|placed|situated|stand|stands|stood|standing|"
-    r"sit|sits|sat|was the camera|is the camera|were the cameras|camera)\b|"
+    r"sit|sits|sat|was the camera|is the camera|were the cameras|camera|photographer|shooter|viewer)\b|"
+    r"\blocate\b[^?]*\b(?:camera|photographer|shooter)\b|\b(?:from )?which side\b|"
+    r"\bdirection from (?:the )?(?:camera|photographer|shooter|\w+ \w+ s camera|\w+ \w+ camera)\b|"
+    r"\b(?:is|was|lies|lay|stands|stood|sits|sat) where\b|"
     r"\b(?:shooting|camera|capture|capturing|vantage|taking) (?:position|point|location|spot|place)\b|"
     r"\bposition(?:al)? (?:of|relationship)\b|\brelative (?:position|location|placement)\b|"
     rf"{_WHERE} (?:is|was|are|were) (?:the )?{_NOUNS} \w+\b|"
-    r"\bwhich side of\b|\bin which direction (?:is|was|lies|lay)\b"
+    r"\bwhich side of\b|\bin which direction (?:is|was|lies|lay)\b|"
+    r"\b(?:which|what) (?:direction|side|way) (?:is|was|are|were|lies|lay) (?:the )?"
+    rf"(?:camera|viewpoint|\w+ s camera|{_NOUNS} \w+ s camera|{_NOUNS} \w+ s viewpoint)\b"
+)
+# "What was the camera's motion?", "what is true of its movement?": a "what is" about the camera or
+# its motion asks no object.
+_ABOUT_CAMERA = (
+    r"(?!\s+(?:the\s+)?(?:camera|photographer|shooter|viewer|lens|viewpoint|vantage)\b)"
+    r"(?!\s+(?:the\s+|a\s+|its\s+)?(?:camera s\s+|photographer s\s+)?(?:overall\s+|net\s+)?"
+    r"(?:motion|movement|displacement|rotation|translation|turn|change|shift|heading|orientation|pose|relation|relationship)\b)"
+    r"(?!\s+(?:the\s+)?direction of (?:the\s+)?(?:camera|motion|movement|travel|displacement|view)\b)"
+    r"(?!\s+(?:true|correct|right|different|accurate)\b)"
 )
 _OBJECT_ASK = re.compile(
-    r"\b(?:what|which (?:object|item|thing))\s+(?:is|was|would be|will be|lies|appears)\b|"
+    rf"\b(?:what|which (?:object|item|thing))\s+(?:is|was|would be|will be|lies|appears)\b{_ABOUT_CAMERA}|"
     r"\bwhere (?:is|was|are) (?:the|a|an) (?!camera|photographer|shooter|viewer|second|first|third|"
     r"fourth|fifth|"
     r"last|final|initial|latter|former|next|previous|other|earlier|later|\d|"
@@ -115,6 +133,21 @@ _ROTATION_WORDS = re.compile(
 )
 # A note on conventions ("Clockwise is as seen looking along the lens.") is not what is asked.
 _PARENTHESES = re.compile(r"\([^)]*\)")
+
+
+def _without_notes(text: str) -> str:
+    """The text without its parenthesised notes ("(clockwise as seen from behind)"); a parenthesis
+    that names a photo and is no note on directions stays ("image 3 (taken after image 1)",
+    "photo (2)")."""
+
+    def keep(match: re.Match[str]) -> str:
+        inner = match.group()[1:-1]
+        names = bool(read_pair(inner).view_set) or bool(re.fullmatch(r"\s*#?\s*\d+\s*", inner))
+        return f" {inner} " if names and not _FRAME_NOTE.search(inner) else " "
+
+    return _PARENTHESES.sub(keep, text)
+
+
 _SENTENCE = re.compile(r"(?<=[.!?;:])\s+(?=[A-Z])")
 # A note on whose directions are meant ("Directions are as the photographer saw them when taking the
 # last picture."): it names a view for the frame, not for the pair.
@@ -127,24 +160,57 @@ _FRAME_NOTE = re.compile(
 
 
 def _pair(ask: str, image_count: int | None, camera: bool) -> PairReading:
-    """The pair from the asking sentences; when they name none, from the setup sentences (notes on
-    the frame left out): "First came shot 2; shot 4 followed. Where did the camera go?"."""
+    """The pair from the asking sentences when their words order it; else from the whole question
+    (notes on the frame left out) when its words order it: "First came shot 2; shot 4 followed.
+    Where did the camera go?", "Take image 2 as the origin. Where was image 1 taken?"; else what the
+    asking sentences give (the order of mention, the other of two photos, a doubt)."""
     asking = read_pair(asking_sentences(ask), image_count, default_two=False)
-    if asking.views is not None or asking.doubt is not None:
+    if asking.by_words:
         return asking
-    sentences = [s for s in _SENTENCE.split(_PARENTHESES.sub(" ", ask)) if s.strip()]
+    sentences = [s for s in _SENTENCE.split(_without_notes(ask)) if s.strip()]
     setup = " ".join(s for s in sentences if "?" in s or not _FRAME_NOTE.search(s))
-    return read_pair(setup, image_count, default_two=camera)
+    whole = read_pair(setup, image_count, default_two=camera)
+    if whole.by_words or (asking.views is None and asking.doubt is None):
+        return whole
+    return asking
 
 
 def asking_sentences(ask: str) -> str:
     """The sentences that ask (those with a question mark; else the last one), notes left out."""
-    sentences = [s for s in _SENTENCE.split(_PARENTHESES.sub(" ", ask)) if s.strip()]
+    sentences = [s for s in _SENTENCE.split(_without_notes(ask)) if s.strip()]
     asking = [s for s in sentences if "?" in s]
     return " ".join(asking or sentences[-1:])
 
 
 _ROTATING = ("aim", "aimnoun", "yaw", "pitch", "roll")
+# Where the camera went ("where did it end up?"): the step, not the place of one camera seen from the
+# other (the same geometry, asked as a motion).
+_DESTINATION = re.compile(
+    r"\bwhere (?:did|does|has|had|would|do) (?:the camera|it|the photographer|the shooter|the viewer|they|"
+    r"you|we|i|the lens) (?:end up|ended up|wind up|wound up|finish|land|arrive|get|got|go|gone|move|"
+    r"moved|travel|head|shift|walk|drift|relocate|come to rest|wander|proceed|get to|go to)\b"
+)
+# Nouns of the direction a camera looks ("the viewing direction", "the line of sight"): a change of
+# one is a rotation, whatever verb asks about it ("what change of viewing direction occurred?").
+_LOOK_NOUNS = re.compile(
+    r"\b(?:(?:viewing|view|looking|facing|pointing|sight|gaze|shooting|lens|optical|camera s|camera)\s+"
+    r"(?:direction|angle|axis|orientation|heading|bearing)|line of sight|direction of (?:view|gaze|sight)|"
+    r"orientation|heading|bearing|attitude|(?:re)?orient(?:ed|ing|s)?)\b"
+)
+_PLACE_POINT = re.compile(r"\b(?:capture|capturing|shooting|vantage|taking|camera|view|standing) point\b")
+# A look that shifts is a turn: "how did the camera's aim shift?" ("shift" alone is a step).
+_LOOK_SHIFTS = re.compile(
+    r"\b(?:aim|heading|orientation|gaze|line of sight|(?:viewing|view|looking|facing|pointing|lens) "
+    r"(?:direction|angle|axis))\s+(?:(?!and\b|or\b|position\b|location\b|place\b)\w+\s+){0,2}(?:shift\w*|mov\w*|drift\w*|sw[iu]ng\w*|chang\w*|go|went|gone|"
+    r"slid\w*|travel\w*)\b"
+)
+# The place of one camera, said with a verb of lying or standing: "where does image 2's camera lie
+# relative to image 1's?", "how is its viewpoint placed?"
+_CAMERA_PLACED = re.compile(
+    r"\b(?:camera|viewpoint|vantage point|shooting (?:position|point|spot))\b[^?]*?\b(?:lie|lies|lay|lying|"
+    r"located|situated|placed|positioned|sit|sits|sat|sitting|stand|stands|stood|standing|found)\b"
+    r"(?!\s+still\b)"
+)
 _PLACE_NOUN = re.compile(
     r"\b(?:location|position|spot|(?<!\btook )(?<!\btake )(?<!\btakes )(?<!\btaking )place|"
     r"whereabouts|standpoint)\b"
@@ -154,21 +220,31 @@ _PLACE_NOUN = re.compile(
 def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
     """(quantity, strong, the words): strong when a word of one kind says it ("tilt"), weak for
     the everyday verbs ("move"), None when nothing does."""
-    words = normalized(_APART_FROM.sub(" ", ask))
+    words = _LOOK_SHIFTS.sub(" turned ", normalized(_APART_FROM.sub(" ", ask)))  # "its aim shifted"
+    words = _PLACE_POINT.sub(" spot", words)  # "its capture point" is a place, not a way it points
+    words = re.sub(r"\bpoints? of view\b", "viewpoint", words)  # a place and a look: no turn alone
     # "Not counting rotation, where did it go?": what is set aside is not asked, so the rest is
-    excluded = {s.kind for m in _APART_FROM.finditer(ask) for s in stem_senses(m.group("what"))}
+    set_aside = [m.group("what") or m.group("before") for m in _APART_FROM.finditer(ask)]
+    excluded = {s.kind for what in set_aside for s in stem_senses(what)}
+    if any(_LOOK_NOUNS.search(normalized(what)) for what in set_aside):
+        excluded.add("aim")  # "leaving aside the change in viewing direction"
     kinds = [s.kind for s in stem_senses(words)]
     if not any(k in _ROTATING for k in kinds) and excluded & set(_ROTATING):
         return "translation", True, words
     if not any(k in ("step", "weak") for k in kinds) and excluded & {"step", "weak", "place", "placenoun"}:
         return "rotation", True, words
     stepping = any(s.kind in ("step", "weak") for s in stem_senses(words))  # "shift", "go", "change"
-    position = _POSITION_ASK.search(words)
-    if position and not _ROTATION_WORDS.search(words) and not stepping:
+    looking = bool(_LOOK_NOUNS.search(words)) and not any(k == "step" for k in kinds)
+    if looking and _PLACE_NOUN.search(words):
+        return "motion", True, words  # "how did its viewing direction and position change?"
+    if _DESTINATION.search(words) and not looking and not any(k in _ROTATING for k in kinds):
+        return "translation", True, words
+    position = _POSITION_ASK.search(words) or _CAMERA_PLACED.search(words)
+    if position and not _ROTATION_WORDS.search(words) and not stepping and not looking:
         return "position", True, position.group()
     if stepping and _PLACE_NOUN.search(words) and not any(k in _ROTATING for k in kinds):
         return "translation", True, words  # "the camera's location changed": a step, however said
-    rotation = any(k in _ROTATING for k in kinds)
+    rotation = any(k in _ROTATING for k in kinds) or looking
     translation = any(k == "step" for k in kinds)
     if rotation and translation:
         return "motion", True, words
@@ -179,9 +255,16 @@ def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
     senses = stem_senses(words)
     if any(s.kind == "weak" and s.value is None for s in senses) or "still" in kinds:
         return "translation", False, words  # "which way did it move? Left": a step
-    if "weak" in kinds:
-        return "motion", False, words  # "how did it change?": any motion
+    if "weak" in kinds or _DID_WHAT.search(words):
+        return "motion", False, words  # "how did it change?", "what did the camera do?": any motion
     return None, False, ""
+
+
+# "What did the camera do?", "the camera did what?": any motion.
+_DID_WHAT = re.compile(
+    r"\b(?:what did|what has|what had) (?:the )?(?:camera|photographer|shooter|viewer|observer|it|you|we|i) "
+    r"(?:do|done)\b|\b(?:camera|photographer|shooter|viewer|observer) (?:did|does) what\b"
+)
 
 
 def _option_kinds(options: dict[str, Claim]) -> set[str]:
@@ -307,6 +390,11 @@ def _summary(quantity: Quantity, pair: PairReading, frame: FrameReading | None) 
     return said
 
 
+# An option that offers alternatives ("it rose, or it moved ahead") says two things, however its
+# parts are worded: even when the words of one part are not read, it is no single claim.
+_ALTERNATIVES = re.compile(r"\bor\b")
+
+
 def _abstain(
     quantity: Quantity, pair: PairReading, options: dict[str, Claim], quantity_doubt: str | None
 ) -> str | None:
@@ -319,7 +407,11 @@ def _abstain(
         return "the question does not say which two photos it compares"
     if quantity_doubt is not None:
         return quantity_doubt
-    double = [letter for letter, claim in options.items() if isinstance(claim, Unread) and claim.two_claims]
+    double = [
+        letter
+        for letter, claim in options.items()
+        if (isinstance(claim, Unread) and claim.two_claims) or _ALTERNATIVES.search(normalized(claim.source))
+    ]
     if double:
         return f"option {', '.join(double)} reads as two claims"
     bare = [letter for letter, claim in options.items() if isinstance(claim, Bare)]
