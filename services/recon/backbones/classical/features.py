@@ -10,7 +10,9 @@ degrees, a tilt of 4 or more between views, and plain SIFT then finds only a han
 matches. So features are also detected on the image compressed horizontally by each factor in
 TILTS (anti-aliased first), which views the floor and other receding surfaces as if from higher
 up; their positions are mapped back to the original pixels. A keypoint found again at (nearly)
-the same place in a simulated view is the same keypoint with one more descriptor.
+the same place in a simulated view is the same keypoint with one more descriptor. On a dark
+(brightened) photo the backbone adds the tilts later, and only to views that no pair ties well
+(`with_tilts`, backbone.WELL_TIED_MATCHES).
 
 Matches pass Lowe's ratio test in both directions and must be mutual nearest neighbours, which
 removes most repeated-texture confusions before RANSAC. Descriptors of one keypoint never compete
