@@ -75,6 +75,7 @@ _IRREGULAR = {
     "withdraw": ("withdrew", "withdrawn"),
     "draw": ("drew", "drawn"),
     "take": ("took", "taken"),
+    "creep": ("crept",),
 }
 # A final consonant after one short vowel may double: step/stepped, pan/panned, sidestep/sidestepping
 # (both spellings are kept: pivoted, travelled/traveled).
@@ -111,6 +112,12 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"(?:held|kept|keep|keeps|maintained|kept to|stayed at) (?:its|the same|the) (?:position|place|"
      r"pose|spot|location)"
      r"(?: and (?:its )?(?:aim|orientation|heading|direction|angle))?", Sense("still")),
+    (r"(?:(?:was|were|is|are|been|both|all) )*(?:taken|shot|captured|photographed|snapped) (?:from|at) "
+     r"(?:the |one and the )?(?:same|identical) "
+     r"(?:position|place|spot|location|point|viewpoint|vantage point)|"
+     r"(?:the )?same (?:position|place|spot|location)(?: and)? (?:the )?same "
+     r"(?:direction|orientation|heading|"
+     r"angle|aim)", Sense("still")),
     (r"(?:stay|stayed|stays|staying|kept|keep|stood|stand|held|hold|remained|remain|remains)\s+"
      r"(?:(?:completely|perfectly|exactly|precisely|right|roughly|approximately|basically|essentially|"
      r"more or less|almost|nearly|virtually|practically)\s+)?"
@@ -140,6 +147,9 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"left hand side|right hand side|left side|right side)", Sense("source")),
     # ---- a zoom changes the focal length, not the camera's place: no claim the lexicon reads
     (_verb("zoom") + r"(?: in| out)?", Sense("zoom")),
+    # ---- looking around is a scan of the room, not a turn to one side or about face
+    (r"(?:" + _verb("look", "glance", "peer", "peek", "gaze") + r") (?:all )?(?:a)?round(?! to\b)",
+     Sense("survey")),
     # ---- a return to where it was ("went back to", "came back"): no direction of its own
     (r"back to|(?:came|come|comes|coming) back|turn(?:ed|s|ing)? back|" + _verb("return"), Sense("return")),
     # ---- words that only grade or place a direction: "right behind it", "further to the left",
@@ -156,7 +166,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"in (?:terms of|the direction of)(?= (?:the |its )?(?:left|right))|"
      r"(?:end|ends|ended|ending) up|(?:by|through) (?:a |an )?(?:\w+ )?angle(?: of)?|"
      r"(?:its|the camera s|his|her|their) head(?= (?:to|toward|towards|left|right|"
-     r"up|down)\b)|over(?= to\b)|lateral(?:ly)?|vertical(?:ly)?|horizontal(?:ly)?|"
+     r"up|down)\b)|over(?= to\b)|(?:a)?round(?= to (?:the |its )?(?:left|right)\b)|"
+     r"lateral(?:ly)?|vertical(?:ly)?|horizontal(?:ly)?|"
      r"where (?:the )?(?:first |earlier |other |previous |reference )?(?:image|photo|picture|view|shot|frame|"
      r"camera|snapshot)(?: \w+)? (?:was|is|had been) (?:taken|shot|captured|located|positioned)|"
      r"at all|than (?:before|previously|earlier|"
@@ -193,7 +204,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"(?:rotat\w*|turn\w*|spun|spin\w*|twist\w*)\s+(?:about|around|round|on)\s+(?:its\s+|the\s+)?"
      r"(?:lens|optical|viewing|view|camera s|line of sight|forward)\s*(?:axis)?", Sense("roll")),
     # "a yaw rotation", "tilt movement": the noun after an axis word adds nothing
-    (r"(?:roll\w*|spin\w*|spun|cant\w*|bank\w*|twist\w*|barrel roll)" + _KIND_NOUN, Sense("roll")),
+    (r"(?:roll\w*|spin\w*|spun|cant\w*|bank\w*|twist\w*|barrel roll|dutch(?: angle| tilt)?)" + _KIND_NOUN,
+     Sense("roll")),
     (r"counter clockwise|counterclockwise|anticlockwise|anti clockwise|"
      r"ccw", Sense("sense", "counterclockwise")),
     (r"clockwise|cw", Sense("sense", "clockwise")),
@@ -209,11 +221,14 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"(?:yaw\w*|veer\w*|pan(?:s|ned|ning)?|swivel\w*|swung|swing\w*|pivot\w*|look(?:ed|s|ing)? aside)"
      + _KIND_NOUN,
      Sense("yaw")),
-    (r"u turn|about face|about turn|turn(?:ed|s|ing)? (?:a|the) other way|"
+    (r"(?:spun|spin(?:s|ning)?|whip(?:s|ped|ping)?|swung|swing(?:s|ing)?|swivel\w*|pivot\w*|"
+     r"wheel(?:s|ed|ing)?) "
+     r"(?:a)?round(?! (?:to|toward|towards|its|the|a|about|on)\b)|"
+     r"u turn|about face|about turn|turn(?:ed|s|ing)? (?:a|the) other way|"
      r"face(?:d)? the opposite (?:way|direction)",
      Sense("aim", "around")),
     (r"turn\w*|rotat\w*|point\w*|aim\w*|fac(?:e|ed|es|ing)|orient\w*|look\w*|gaz\w*|view direction|"
-     + _verb("glance", "peer") + "|"
+     + _verb("glance", "peer", "peek") + "|"
      r"direction (?:it|the camera) (?:faces|faced|points|pointed)|heading", Sense("aim")),
     # ---- position of one camera relative to another
     (r"locat(?:ed|es|ing)|position(?:ed|ing)|placed|situat(?:ed|es|ing)|lies|lay|lying|sits|sat|stands|stood|"
@@ -229,16 +244,18 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"(?:toward|towards|to) (?:the )?(?:frame|image|picture|photo|"
      r"view)(?: s)? right edge", Sense(_STEP, "right")),
     # ---- translation verbs that carry their way
-    (_verb("sidestep", "strafe", "truck", "crab", "sidle", "shuffle"), Sense(_STEP)),
+    (_verb("sidestep", "strafe", "truck", "crab", "sidle", "shuffle", "hop", "shimmy", "creep", "wander",
+           "mosey", "bob", "duck", "push", "pull"), Sense(_STEP)),
     (r"climb\w*|ascen\w*|rose|ris(?:e|en|es|ing)|rais\w*|lift\w*|elevat\w*|gain(?:ed|s|ing)? height|"
      r"(?:at|to) a (?:greater|higher|larger) (?:height|elevation|level|altitude)|"
      r"(?:from|at) a higher|higher up|"
-     r"pedestal(?:ed)? up|boom(?:ed)? up|" + _verb("hoist"),
+     r"pedestal(?:l?ed|l?ing|s)? up|boom(?:ed|ing|s)? up|" + _verb("hoist"),
      Sense(_STEP, "up")),
     (r"descen\w*|sank|sink\w*|sunk|dropp?\w*|lower(?:ed|ing|s)|los(?:t|es|ing) height|"
      r"(?:at|to) a (?:lower|lesser|smaller|reduced) (?:height|elevation|level|altitude)|"
-     r"(?:from|at) a lower|lower down|pedestal(?:ed)? down|"
-     r"boom(?:ed)? down|" + _verb("fall", "crouch", "stoop", "squat", "kneel") + "|knelt",
+     r"(?:from|at) a lower|lower down|pedestal(?:l?ed|l?ing|s)? down|"
+     r"boom(?:ed|ing|s)? down|hunker(?:ed|s|ing)? down|"
+     + _verb("fall", "crouch", "stoop", "squat", "kneel") + "|knelt",
      Sense(_STEP, "down")),
     (r"advanc\w*|proceed\w*|approach\w*|push(?:ed|es|ing)? in|dolly(?:ing)? in|dollied in|"
      r"clos(?:er|ed in)|nearer|deeper into|came in|"
@@ -304,6 +321,9 @@ _FILLER = frozenset(
     "half quarter yard yards unit units physically exactly precisely actually really overall net "
     "sense centre center new over entire whole "
     "itself body there significant noticeable appreciable obvious visible clear "
+    "real sharp sharply gentle gently quite lot amount tiny minor modest modestly moderate moderately "
+    "considerable considerably substantial substantially aside "
+    "shots snapshots photos pictures images "
     "real".split()
 )
 
@@ -473,7 +493,13 @@ def _rotation(part: _Part, degrees: float | None, source: str) -> Claim:
     )
     ways = list(dict.fromkeys(part.ways))
     senses = list(dict.fromkeys(part.senses))
-    if part.negated and axis is None and any(w.startswith(("rotat", "rotation")) for w in part.words):
+    if (
+        part.negated
+        and axis is None
+        and not part.ways
+        and not part.senses
+        and any(w.startswith(("rotat", "rotation")) for w in part.words)
+    ):
         # "did not rotate", "no rotation": about no axis at all
         return Compound(
             parts=tuple(Rotation(axis=a, sense="none", source=source) for a in _AXES), source=source
@@ -559,7 +585,7 @@ _TARGET = re.compile(
 # read: the option is left unread rather than risk a claim of the wrong sign.
 _CONTENT = re.compile(
     r"\b(?:scene|scenery|objects?|contents?|things|everything|world|background|foreground|surroundings|"
-    r"room|furniture|subject|image|picture|photo|frame)\b"
+    r"room|furniture|subject|images?|pictures?|photos?|frames?)\b"
 )
 _CAMERA_SUBJECT = re.compile(
     r"\b(?:camera|it|photographer|shooter|viewer|lens|\d+|first|second|third|last|later|latter|new|final|"
@@ -594,6 +620,7 @@ _LATER_REFERENCE = re.compile(
 _NO_CLAIM = {
     "source": "a direction it came from is the opposite of the way it went",
     "zoom": "a zoom changes the focal length, not the camera's place",
+    "survey": "looking around is a scan, not a turn to one side",
     "return": "a return to an earlier place states no direction",
 }
 
