@@ -170,6 +170,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"lateral(?:ly)?|vertical(?:ly)?|horizontal(?:ly)?|"
      r"where (?:the )?(?:first |earlier |other |previous |reference )?(?:image|photo|picture|view|shot|frame|"
      r"camera|snapshot)(?: \w+)? (?:was|is|had been) (?:taken|shot|captured|located|positioned)|"
+     r"(?:a |some )?(?:long|short|little|small|good|fair|tiny) (?:way|distance)|some distance|"
+     r"(?:the )?(?:person|one|someone) (?:holding|carrying|with) the camera|"
      r"at all|than (?:before|previously|earlier|"
      r"originally|it was|at first)|vantage point|view ?point|standpoint", Sense("filler")),
     # ---- negation of the next verb
@@ -233,6 +235,7 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     # ---- position of one camera relative to another
     (r"locat(?:ed|es|ing)|position(?:ed|ing)|placed|situat(?:ed|es|ing)|lies|lay|lying|sits|sat|stands|stood|"
      r"(?:was |were |is )?taken from|shot from|captured from|set up|"
+     r"(?:(?<=image )|(?<=photo )|(?<=picture )|(?<=view )|(?<=snapshot ))(?:\d+ )?(?:taken|shot|captured)|"
      r"(?:was|were|is|been) (?:taken|shot|captured|snapped|photographed)", Sense("place")),
     # ---- a step toward an edge of the photo: the frame's own directions
     (r"(?:toward|towards|to) (?:the )?(?:frame|image|picture|photo|view)(?: s)? (?:upper|"
@@ -245,7 +248,7 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"view)(?: s)? right edge", Sense(_STEP, "right")),
     # ---- translation verbs that carry their way
     (_verb("sidestep", "strafe", "truck", "crab", "sidle", "shuffle", "hop", "shimmy", "creep", "wander",
-           "mosey", "bob", "duck", "push", "pull"), Sense(_STEP)),
+           "mosey", "bob", "duck", "push", "pull", "stroll", "amble", "march", "pace", "roam"), Sense(_STEP)),
     (r"climb\w*|ascen\w*|rose|ris(?:e|en|es|ing)|rais\w*|lift\w*|elevat\w*|gain(?:ed|s|ing)? height|"
      r"(?:at|to) a (?:greater|higher|larger) (?:height|elevation|level|altitude)|"
      r"(?:from|at) a higher|higher up|"
@@ -323,7 +326,7 @@ _FILLER = frozenset(
     "itself body there significant noticeable appreciable obvious visible clear "
     "real sharp sharply gentle gently quite lot amount tiny minor modest modestly moderate moderately "
     "considerable considerably substantial substantially aside "
-    "shots snapshots photos pictures images "
+    "shots snapshots photos pictures images throughout our my operator cameraman camerawoman observer "
     "real".split()
 )
 
@@ -340,7 +343,15 @@ def normalized(text: str) -> str:
     """Lower case; hyphens, slashes, apostrophes and punctuation as spaces; single spaces."""
     lowered = re.sub(r"[-_/'’]", " ", (text or "").lower())
     lowered = re.sub(r"[^a-z0-9°.\s]", " ", lowered)
-    return " ".join(lowered.replace(". ", " ").rstrip(".").split())
+    words = " ".join(lowered.replace(". ", " ").rstrip(".").split())
+    # "image two" is "image 2": a photo's number in words, so the pair can be checked
+    return _NUMBERED_VIEW.sub(lambda m: f"{m.group(1)} {_NUMBERS[m.group(2)]}", words)
+
+
+_NUMBERS = {"one": 1, "two": 2, "three": 3, "four": 4, "five": 5, "six": 6}
+_NUMBERED_VIEW = re.compile(
+    r"\b(image|photo|picture|view|shot|frame|camera|snapshot|img) (one|two|three|four|five|six)\b"
+)
 
 
 def tokens(text: str) -> list[Token]:
@@ -479,6 +490,27 @@ def _aims_at(parts: list[_Part], negate: bool) -> bool:
     return part.verb.kind == "step" and part.ways in (["up"], ["down"])
 
 
+def _kind_nouns_folded(parts: list[_Part]) -> list[_Part]:
+    """A verb alone right after a part of its own family names that part's kind ("moved left
+    (translation)", "turned right, a yaw"): it joins the part, and a verb of one axis replaces a
+    general turn so the axis is checked against the direction."""
+    folded: list[_Part] = []
+    for part in parts:
+        previous = folded[-1] if folded else None
+        alone = part.verb is not None and not (part.ways or part.senses or part.axis or part.negated)
+        if alone and previous is not None and previous.verb is not None and not previous.negated:
+            kind, before = part.verb.kind, previous.verb.kind
+            if kind in ("step", "weak") and not part.verb.value and before in ("step", "weak"):
+                previous.words += part.words
+                continue
+            if kind in _TURNING and (kind == before or before == "aim"):
+                previous.verb = part.verb
+                previous.words += part.words
+                continue
+        folded.append(part)
+    return folded
+
+
 def _conflict(ways: list[str]) -> str | None:
     distinct = set(ways)
     for one, other in (("left", "right"), ("up", "down"), ("forward", "backward")):
@@ -589,7 +621,7 @@ _CONTENT = re.compile(
 )
 _CAMERA_SUBJECT = re.compile(
     r"\b(?:camera|it|photographer|shooter|viewer|lens|\d+|first|second|third|last|later|latter|new|final|"
-    r"next)\b"
+    r"next|cameraman|camerawoman|operator|observer|our|my|i|we)\b"
 )
 # "moved left in the frame" (content), not "moved left in image 1's frame" (whose directions)
 _IN_THE_PICTURE = re.compile(
@@ -647,6 +679,25 @@ def _later_content_subject(words: str, found: list[Token]) -> str | None:
     return None
 
 
+# The scene's own things (not a photo's name, as in "image 2's camera"): named before the camera
+# ("the subject in image 2") or owned by it ("the camera's subject"), they are the clause's subject.
+_SCENE_THING = re.compile(
+    r"\b(?:scene|scenery|objects?|contents?|things|everything|world|background|foreground|surroundings|"
+    r"room|furniture|subject)\b"
+)
+
+
+def _content_is_the_subject(subject: str) -> bool:
+    camera = _CAMERA_SUBJECT.search(subject)
+    if camera is None:
+        return True
+    thing = _SCENE_THING.search(subject)
+    if thing is None:
+        return False
+    owned = re.search(r"\bs (?:\w+ )?" + re.escape(thing.group()) + r"\b", subject)
+    return thing.start() < camera.start() or owned is not None
+
+
 def _no_claim(words: str, found: list[Token]) -> str | None:
     """Why words that look like motion state no claim about the camera, else None."""
     for token in found:
@@ -655,7 +706,8 @@ def _no_claim(words: str, found: list[Token]) -> str | None:
     verb = next((t for t in found if t.sense.kind in _VERBS), None)
     subject = words[: verb.start] if verb is not None else ""
     content = _CONTENT.search(subject)
-    if content and not _CAMERA_SUBJECT.search(subject) and verb is not None and verb.sense.kind != "place":
+    moving = verb is not None and verb.sense.kind != "place"
+    if content and moving and _content_is_the_subject(subject):
         return (
             f"it says the {content.group()} moved: content shifts in the frame opposite to the camera, "
             "which is not read"
@@ -698,7 +750,7 @@ def read_phrase(text: str) -> Claim:
         return Unread(source=text, why="it offers two claims joined by 'or'", two_claims=True)
     stated = _DEGREES.search(words)
     degrees = float(stated.group(1)) if stated else None
-    parts = _parts(found)
+    parts = _kind_nouns_folded(_parts(found))
     # "its position and direction were unchanged": a noun of place that no direction follows states
     # nothing of its own
     parts = [
