@@ -272,6 +272,8 @@ LABELS_AND_SUBJECTS = [
     ("My position moved right", "T right"),
     ("Second image taken further right", "P right"),
     ("Photo 2 captured from higher up", "P up"),
+    ("Moved right, away from the first position", "T right"),
+    ("Pulled to the left", "T left"),
 ]
 
 # a kind noun after a part must fit it; a verb with no side stays unread
@@ -281,6 +283,8 @@ KIND_NOUN_MISSES = [
     ("Moved left and turned", "U"),
     ("Tilted up and panned", "U"),
     ("Rolled left (roll)", "U"),
+    ("The camera pulled up", "U"),
+    ("Pushed up", "U"),
     ("The subject walked a long way left", "U"),
     ("The observer's subject moved left", "U"),
     ("The camera's subject moved left", "U"),

@@ -171,6 +171,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"where (?:the )?(?:first |earlier |other |previous |reference )?(?:image|photo|picture|view|shot|frame|"
      r"camera|snapshot)(?: \w+)? (?:was|is|had been) (?:taken|shot|captured|located|positioned)|"
      r"(?:a |some )?(?:long|short|little|small|good|fair|tiny) (?:way|distance)|some distance|"
+     r"away from (?:the |its )?(?:first|original|initial|previous|earlier|starting|old|former) "
+     r"(?:position|place|spot|location|point|pose|viewpoint)|"
      r"(?:the )?(?:person|one|someone) (?:holding|carrying|with) the camera|"
      r"at all|than (?:before|previously|earlier|"
      r"originally|it was|at first)|vantage point|view ?point|standpoint", Sense("filler")),
@@ -248,7 +250,9 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"view)(?: s)? right edge", Sense(_STEP, "right")),
     # ---- translation verbs that carry their way
     (_verb("sidestep", "strafe", "truck", "crab", "sidle", "shuffle", "hop", "shimmy", "creep", "wander",
-           "mosey", "bob", "duck", "push", "pull", "stroll", "amble", "march", "pace", "roam"), Sense(_STEP)),
+           "mosey", "bob", "duck", "stroll", "amble", "march", "pace", "roam"), Sense(_STEP)),
+    # "pulled up" is stopping, "pushed up" unclear: pushing and pulling carry only the other ways
+    ("(?:" + _verb("push", "pull") + r")(?! (?:up|down|over)\b)", Sense(_STEP)),
     (r"climb\w*|ascen\w*|rose|ris(?:e|en|es|ing)|rais\w*|lift\w*|elevat\w*|gain(?:ed|s|ing)? height|"
      r"(?:at|to) a (?:greater|higher|larger) (?:height|elevation|level|altitude)|"
      r"(?:from|at) a higher|higher up|"
