@@ -292,8 +292,31 @@ KIND_NOUN_MISSES = [
     ("The objects seen by the camera shifted right", "U"),
 ]
 
+# the second camera's place said with verbs of setting and standing, and heights as adjectives
+SETTINGS = [
+    ("Set off to the left", "P left"),
+    ("Perched higher", "P up"),
+    ("It was mounted higher", "P up"),
+    ("It was held lower", "P down"),
+    ("The later camera is set back", "P backward"),
+    ("Standing to the left", "P left"),
+    ("Sitting above", "P up"),
+    ("It was set up further left", "P left"),
+    ("Up high", "B up"),
+    ("Down low", "B down"),
+    ("Out to the right", "B right"),
+    ("Way off to the left", "B left"),
+    ("Nearer the scene than it", "T forward"),
+    ("The camera sat still", "S"),
+    ("It held still", "S"),
+    # a high or low camera angle: where it stands and where it looks at once
+    ("Taken from a high angle", "U"),
+    ("A low-angle shot", "U"),
+    ("A bird's-eye angle", "U"),
+]
+
 TABLE = NOUNS + ADVERBS + PASSIVE + OPERATOR + COLLOQUIAL + HEDGES + PLACES + STILL + NEAR_MISSES
-TABLE += LABELS_AND_SUBJECTS + KIND_NOUN_MISSES
+TABLE += LABELS_AND_SUBJECTS + KIND_NOUN_MISSES + SETTINGS
 
 
 def test_the_second_batch_is_large() -> None:

@@ -118,7 +118,7 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"(?:the )?same (?:position|place|spot|location)(?: and)? (?:the )?same "
      r"(?:direction|orientation|heading|"
      r"angle|aim)", Sense("still")),
-    (r"(?:stay|stayed|stays|staying|kept|keep|stood|stand|held|hold|remained|remain|remains)\s+"
+    (r"(?:stay|stayed|stays|staying|kept|keep|stood|stand|held|hold|remained|remain|remains|sat|sit|sits)\s+"
      r"(?:(?:completely|perfectly|exactly|precisely|right|roughly|approximately|basically|essentially|"
      r"more or less|almost|nearly|virtually|practically)\s+)?"
      r"(?:still|put|stationary|motionless|fixed|steady|in place|where it was|"
@@ -150,6 +150,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     # ---- looking around is a scan of the room, not a turn to one side or about face
     (r"(?:" + _verb("look", "glance", "peer", "peek", "gaze") + r") (?:all )?(?:a)?round(?! to\b)",
      Sense("survey")),
+    # ---- a high or low camera angle is where the camera looks from and toward, not one motion
+    (r"(?:high|low|higher|lower|bird s eye|worm s eye|eye level)(?: camera)? angle", Sense("camera_angle")),
     # ---- a return to where it was ("went back to", "came back"): no direction of its own
     (r"back to|(?:came|come|comes|coming) back|turn(?:ed|s|ing)? back|" + _verb("return"), Sense("return")),
     # ---- words that only grade or place a direction: "right behind it", "further to the left",
@@ -238,7 +240,10 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"locat(?:ed|es|ing)|position(?:ed|ing)|placed|situat(?:ed|es|ing)|lies|lay|lying|sits|sat|stands|stood|"
      r"(?:was |were |is )?taken from|shot from|captured from|set up|"
      r"(?:(?<=image )|(?<=photo )|(?<=picture )|(?<=view )|(?<=snapshot ))(?:\d+ )?(?:taken|shot|captured)|"
-     r"(?:was|were|is|been) (?:taken|shot|captured|snapped|photographed)", Sense("place")),
+     r"(?:was|were|is|been) (?:taken|shot|captured|snapped|photographed)|"
+     + _verb("set", "perch", "mount", "station", "stand", "sit") + "|"
+     r"held(?= (?:higher|lower|further|farther|more|up|down|to|above|below|slightly|a bit|somewhat)\b)",
+     Sense("place")),
     # ---- a step toward an edge of the photo: the frame's own directions
     (r"(?:toward|towards|to) (?:the )?(?:frame|image|picture|photo|view)(?: s)? (?:upper|"
      r"top) edge", Sense(_STEP, "up")),
@@ -294,11 +299,11 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"(?:to |toward |towards |on |at )?(?:the |its |their |his |her |your |my )?right(?:ward|"
      r"wards)?(?: hand)?(?: side| edge)?",
      Sense("way", "right")),
-    (r"up(?:ward|wards)?|upper|above|higher|top|overhead|skyward|"
+    (r"up(?:ward|wards)?|upper|above|higher|high|top|overhead|skyward|"
      r"(?:toward|towards|to|at|face|faces|faced|facing) the (?:ceiling|sky)|taller|"
      r"over(?= (?:it|them|the|its)\b)",
      Sense("way", "up")),
-    (r"down(?:ward|wards)?|below|beneath|under(?:neath)?|lower|bottom|"
+    (r"down(?:ward|wards)?|below|beneath|under(?:neath)?|lower|low|bottom|"
      r"(?:toward|towards|to|at|face|faces|faced|facing) the (?:floor|ground)",
      Sense("way", "down")),
     (r"forwards?|forth|ahead|in front|front|frontward|onward|towards? the (?:scene|subject)|"
@@ -657,6 +662,7 @@ _NO_CLAIM = {
     "source": "a direction it came from is the opposite of the way it went",
     "zoom": "a zoom changes the focal length, not the camera's place",
     "survey": "looking around is a scan, not a turn to one side",
+    "camera_angle": "a high or low camera angle says both where it stands and where it looks",
     "return": "a return to an earlier place states no direction",
 }
 
