@@ -315,8 +315,39 @@ SETTINGS = [
     ("A bird's-eye angle", "U"),
 ]
 
+# rolls, stillness and turns in everyday sentences
+EVERYDAY = [
+    ("It tilted clockwise", "R roll clockwise"),
+    ("It leaned counterclockwise", "R roll counterclockwise"),
+    ("It revolved clockwise", "R roll clockwise"),
+    ("Twirled anticlockwise", "R roll counterclockwise"),
+    ("Took a turn to the left", "R yaw left"),
+    ("It made a right turn", "R yaw right"),
+    ("It took a left turn", "R yaw left"),
+    ("Made a move to the right", "T right"),
+    ("It stayed at rest", "S"),
+    ("At rest", "S"),
+    ("It rested in place", "S"),
+    ("It remained where it stood", "S"),
+    ("It stood its ground", "S"),
+    ("Stayed as it was", "S"),
+    ("It sat still", "S"),
+    ("No movement or rotation", "S"),
+    ("No rotation and no translation", "S"),
+    ("It stayed fixed in place", "S"),
+    ("It did not change its pose", "S"),
+    ("Unmoved and unrotated", "S"),
+    # still unread: the sense of a swivel or spin to a side, a lean to a side, a dip
+    ("Tilted up clockwise", "U"),
+    ("It leaned left", "U"),
+    ("Swiveled clockwise", "U"),
+    ("It spun left", "U"),
+    ("It dipped down", "U"),
+    ("Took a photo from the left", "U"),
+]
+
 TABLE = NOUNS + ADVERBS + PASSIVE + OPERATOR + COLLOQUIAL + HEDGES + PLACES + STILL + NEAR_MISSES
-TABLE += LABELS_AND_SUBJECTS + KIND_NOUN_MISSES + SETTINGS
+TABLE += LABELS_AND_SUBJECTS + KIND_NOUN_MISSES + SETTINGS + EVERYDAY
 
 
 def test_the_second_batch_is_large() -> None:

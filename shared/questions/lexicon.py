@@ -121,7 +121,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"(?:stay|stayed|stays|staying|kept|keep|stood|stand|held|hold|remained|remain|remains|sat|sit|sits)\s+"
      r"(?:(?:completely|perfectly|exactly|precisely|right|roughly|approximately|basically|essentially|"
      r"more or less|almost|nearly|virtually|practically)\s+)?"
-     r"(?:still|put|stationary|motionless|fixed|steady|in place|where it was|"
+     r"(?:still|put|stationary|motionless|fixed|steady|in place|where it (?:was|stood|had been)|at rest|"
+     r"as it was|its ground|"
      r"(?:at|in) (?:the same|its|its original|the original|its initial|the initial|its previous|"
      r"the previous|its starting|the starting) (?:spot|place|position|point|location))", Sense("still")),
     (r"(?:its |the )?(?:pose|position|place|location|viewpoint)(?: and (?:its )?(?:orientation|heading|"
@@ -138,7 +139,11 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"(?:did not|didn t|does not|doesn t|never)\s+(?:move|budge|change position|"
      r"shift)\b(?!\s+(?:left|right|up|down|forward|back))",
      Sense("still")),
-    (r"neither moved nor (?:turned|rotated)|no (?:camera )?(?:motion|movement|change)(?: at all)?|not moving|"
+    (r"no (?:motion|movement|translation|displacement) (?:or|nor|and no|and) (?:rotation|turning|turn)|"
+     r"no (?:rotation|turning|turn) (?:or|nor|and no|and) (?:motion|movement|translation|displacement)|"
+     r"at rest|" + _verb("rest") + r"(?= in place| still| where)|unrotated|"
+     r"(?:did not|didn t|never) change (?:its |the )?(?:pose|position|place|location|spot)|"
+     r"neither moved nor (?:turned|rotated)|no (?:camera )?(?:motion|movement|change)(?: at all)?|not moving|"
      r"stationary|motionless|unmoved|static|unchanged|(?:the )?same (?:position|place|spot|location|"
      r"pose|point|viewpoint)|"
      r"in place|did not budge|no displacement", Sense("still")),
@@ -210,7 +215,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"(?:rotat\w*|turn\w*|spun|spin\w*|twist\w*)\s+(?:about|around|round|on)\s+(?:its\s+|the\s+)?"
      r"(?:lens|optical|viewing|view|camera s|line of sight|forward)\s*(?:axis)?", Sense("roll")),
     # "a yaw rotation", "tilt movement": the noun after an axis word adds nothing
-    (r"(?:roll\w*|spin\w*|spun|cant\w*|bank\w*|twist\w*|barrel roll|dutch(?: angle| tilt)?)" + _KIND_NOUN,
+    (r"(?:roll\w*|spin\w*|spun|cant\w*|bank\w*|twist\w*|barrel roll|dutch(?: angle| tilt)?|"
+     r"lean(?:s|ed|ing)?|leant)" + _KIND_NOUN,
      Sense("roll")),
     (r"counter clockwise|counterclockwise|anticlockwise|anti clockwise|"
      r"ccw", Sense("sense", "counterclockwise")),
@@ -234,7 +240,7 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"face(?:d)? the opposite (?:way|direction)",
      Sense("aim", "around")),
     (r"turn\w*|rotat\w*|point\w*|aim\w*|fac(?:e|ed|es|ing)|orient\w*|look\w*|gaz\w*|view direction|"
-     + _verb("glance", "peer", "peek") + "|"
+     + _verb("glance", "peer", "peek", "revolve", "twirl") + "|"
      r"direction (?:it|the camera) (?:faces|faced|points|pointed)|heading", Sense("aim")),
     # ---- position of one camera relative to another
     (r"locat(?:ed|es|ing)|position(?:ed|ing)|placed|situat(?:ed|es|ing)|lies|lay|lying|sits|sat|stands|stood|"
@@ -335,6 +341,7 @@ _FILLER = frozenset(
     "itself body there significant noticeable appreciable obvious visible clear "
     "real sharp sharply gentle gently quite lot amount tiny minor modest modestly moderate moderately "
     "considerable considerably substantial substantially aside "
+    "made make makes making took takes taking executed performed "
     "shots snapshots photos pictures images throughout our my operator cameraman camerawoman observer "
     "real".split()
 )
@@ -563,6 +570,8 @@ def _rotation(part: _Part, degrees: float | None, source: str) -> Claim:
         return Rotation(axis="yaw", sense=side, degrees=degrees, source=source)
     if axis == "yaw_from_above":
         return Unread(source=source, why="a sense seen from above fits only a turn")
+    if senses and axis == "pitch" and part.verb is not None and part.verb.kind == "pitch" and not ways:
+        axis = "roll"  # "tilted clockwise": a tilt with a clock sense is a dutch tilt, about the lens
     if senses:
         if ways or axis not in (None, "roll"):
             return Unread(source=source, why="it names a roll's sense with another direction")
@@ -809,6 +818,8 @@ def _merged(claims: list[Claim], text: str) -> list[Claim] | Unread:
                 return Unread(source=text, why=f"it names two {claim.axis} senses", two_claims=True)
             if twin is not None:
                 continue
+        if isinstance(claim, Still) and any(isinstance(m, Still) for m in merged):
+            continue  # "stayed fixed in place": one stillness said twice
         if claim not in merged:
             merged.append(claim)
     return merged
