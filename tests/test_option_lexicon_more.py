@@ -346,8 +346,24 @@ EVERYDAY = [
     ("Took a photo from the left", "U"),
 ]
 
+# toward and away from the scene, and heights, in idioms
+IDIOMS = [
+    ("It crept up on the scene", "T forward"),
+    ("It walked up to the subject", "T forward"),
+    ("It fell back", "T backward"),
+    ("It closed the distance", "T forward"),
+    ("It reduced its distance to the scene", "T forward"),
+    ("It increased its distance from the subject", "T backward"),
+    ("It gained altitude", "T up"),
+    ("It lost elevation", "T down"),
+    ("It eased back", "T backward"),
+    ("It eased left", "T left"),
+    ("It surged forward", "T forward"),
+    ("It went up toward the ceiling", "T up"),
+]
+
 TABLE = NOUNS + ADVERBS + PASSIVE + OPERATOR + COLLOQUIAL + HEDGES + PLACES + STILL + NEAR_MISSES
-TABLE += LABELS_AND_SUBJECTS + KIND_NOUN_MISSES + SETTINGS + EVERYDAY
+TABLE += LABELS_AND_SUBJECTS + KIND_NOUN_MISSES + SETTINGS + EVERYDAY + IDIOMS
 
 
 def test_the_second_batch_is_large() -> None:

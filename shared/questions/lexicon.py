@@ -261,25 +261,32 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"view)(?: s)? right edge", Sense(_STEP, "right")),
     # ---- translation verbs that carry their way
     (_verb("sidestep", "strafe", "truck", "crab", "sidle", "shuffle", "hop", "shimmy", "creep", "wander",
-           "mosey", "bob", "duck", "stroll", "amble", "march", "pace", "roam"), Sense(_STEP)),
+           "mosey", "bob", "duck", "stroll", "amble", "march", "pace", "roam", "ease", "surge"),
+     Sense(_STEP)),
     # "pulled up" is stopping, "pushed up" unclear: pushing and pulling carry only the other ways
     ("(?:" + _verb("push", "pull") + r")(?! (?:up|down|over)\b)", Sense(_STEP)),
-    (r"climb\w*|ascen\w*|rose|ris(?:e|en|es|ing)|rais\w*|lift\w*|elevat\w*|gain(?:ed|s|ing)? height|"
+    (r"climb\w*|ascen\w*|rose|ris(?:e|en|es|ing)|rais\w*|lift\w*|elevat\w*|"
+     r"gain(?:ed|s|ing)? (?:height|altitude|elevation)|"
      r"(?:at|to) a (?:greater|higher|larger) (?:height|elevation|level|altitude)|"
      r"(?:from|at) a higher|higher up|"
      r"pedestal(?:l?ed|l?ing|s)? up|boom(?:ed|ing|s)? up|" + _verb("hoist"),
      Sense(_STEP, "up")),
-    (r"descen\w*|sank|sink\w*|sunk|dropp?\w*|lower(?:ed|ing|s)|los(?:t|es|ing) height|"
+    (r"descen\w*|sank|sink\w*|sunk|dropp?\w*|lower(?:ed|ing|s)|los(?:t|es|ing) (?:height|altitude|elevation)|"
      r"(?:at|to) a (?:lower|lesser|smaller|reduced) (?:height|elevation|level|altitude)|"
      r"(?:from|at) a lower|lower down|pedestal(?:l?ed|l?ing|s)? down|"
      r"boom(?:ed|ing|s)? down|hunker(?:ed|s|ing)? down|"
      + _verb("fall", "crouch", "stoop", "squat", "kneel") + "|knelt",
      Sense(_STEP, "down")),
-    (r"advanc\w*|proceed\w*|approach\w*|push(?:ed|es|ing)? in|dolly(?:ing)? in|dollied in|"
+    (r"(?:clos|reduc|shorten|narrow|shrink|shrank|cut)\w* (?:its |the )?distance"
+     r"(?: (?:to|from) (?:the )?(?:scene|subject))?|"
+     r"(?:crept|creep\w*|sneak\w*|snuck|came|come|walk\w*|mov\w*) up (?:on|to) (?:the |it\b)|"
+     r"advanc\w*|proceed\w*|approach\w*|push(?:ed|es|ing)? in|dolly(?:ing)? in|dollied in|"
      r"clos(?:er|ed in)|nearer|deeper into|came in|"
      rf"(?:{_verb('move', 'step', 'walk', 'lean')}) in(?: closer| nearer)?(?=$| and\b| then\b| toward)",
      Sense(_STEP, "forward")),
-    (r"withdr\w*|retreat\w*|reced\w*|back(?:ed|s|ing)? (?:up|off|away|out)|step(?:ped|s|ping)? back|"
+    (r"fell back|fall(?:s|ing)? back|(?:increas|widen|grow|lengthen)\w* (?:its |the )?distance"
+     r"(?: (?:to|from) (?:the )?(?:scene|subject))?|"
+     r"withdr\w*|retreat\w*|reced\w*|back(?:ed|s|ing)? (?:up|off|away|out)|step(?:ped|s|ping)? back|"
      r"pull(?:ed|s|ing)? (?:back|out|away)|dolly(?:ing)? out|dollied out|"
      r"(?:farther|further)(?: away| back| off)?|away from|more distant",
      Sense(_STEP, "backward")),
