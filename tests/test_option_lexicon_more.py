@@ -362,8 +362,23 @@ IDIOMS = [
     ("It went up toward the ceiling", "T up"),
 ]
 
+# where it ended, said with verbs of arriving
+ENDINGS = [
+    ("Further out to the left", "B left"),
+    ("It wound up on the left", "B left"),
+    ("It finished to the right", "B right"),
+    ("It landed further right", "B right"),
+    ("It came to rest further left", "B left"),
+    ("It settled lower", "B down"),
+    ("It ended higher", "B up"),
+    ("Dead ahead", "B forward"),
+    ("Well to the left", "B left"),
+    ("Atop it", "B up"),
+    ("It settled", "U"),
+]
+
 TABLE = NOUNS + ADVERBS + PASSIVE + OPERATOR + COLLOQUIAL + HEDGES + PLACES + STILL + NEAR_MISSES
-TABLE += LABELS_AND_SUBJECTS + KIND_NOUN_MISSES + SETTINGS + EVERYDAY + IDIOMS
+TABLE += LABELS_AND_SUBJECTS + KIND_NOUN_MISSES + SETTINGS + EVERYDAY + IDIOMS + ENDINGS
 
 
 def test_the_second_batch_is_large() -> None:

@@ -162,7 +162,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     # ---- words that only grade or place a direction: "right behind it", "further to the left",
     # "ended up to the right", "glided over to the right"
     (r"right(?= (?:above|below|behind|in front|ahead|over|under|beneath|underneath|beside|next)\b)|"
-     r"(?:further|farther)(?= (?:to |toward |towards |on )?(?:the |its |their )?(?:left|right|up|upward|"
+     r"(?:further|farther)(?= (?:out |over |off )?(?:to |toward |towards |on )?(?:the |its |their )?"
+     r"(?:left|right|up|upward|"
      r"down|downward|forward|ahead|in)\b)|"
      r"point of view|perspective|(?:as )?(?:seen|viewed) from (?:the |its )?(?:\w+ )?(?:camera|image|photo|"
      r"picture|view|shot|photographer|shooter|viewer)(?: s (?:side|position|place))?|"
@@ -171,7 +172,11 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"(?:when |as )?(?:seen|viewed|looking) from behind(?: the camera| the lens)?|"
      r"(?:when |while )?looking (?:through|along) the (?:lens|viewfinder|camera)|"
      r"in (?:terms of|the direction of)(?= (?:the |its )?(?:left|right))|"
-     r"(?:end|ends|ended|ending) up|(?:by|through) (?:a |an )?(?:\w+ )?angle(?: of)?|"
+     r"(?:end|ends|ended|ending) up|wound up|came to rest|"
+     r"(?:end|finish|land|settl|arriv)(?:ed|es|s|ing)?(?= (?:up |out )?(?:on|at|to|in|further|farther|more|"
+     r"higher|lower|slightly|a|somewhat|just|above|below|behind|ahead)\b)|"
+     r"dead(?= ahead)|well(?= (?:to|above|below|behind|in front|ahead|back|over|under|off)\b)|"
+     r"(?:by|through) (?:a |an )?(?:\w+ )?angle(?: of)?|"
      r"(?:its|the camera s|his|her|their) head(?= (?:to|toward|towards|left|right|"
      r"up|down)\b)|over(?= to\b)|(?:a)?round(?= to (?:the |its )?(?:left|right)\b)|"
      r"lateral(?:ly)?|vertical(?:ly)?|horizontal(?:ly)?|"
@@ -312,7 +317,7 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"(?:to |toward |towards |on |at )?(?:the |its |their |his |her |your |my )?right(?:ward|"
      r"wards)?(?: hand)?(?: side| edge)?",
      Sense("way", "right")),
-    (r"up(?:ward|wards)?|upper|above|higher|high|top|overhead|skyward|"
+    (r"up(?:ward|wards)?|upper|above|higher|high|top|atop|overhead|skyward|"
      r"(?:toward|towards|to|at|face|faces|faced|facing) the (?:ceiling|sky)|taller|"
      r"over(?= (?:it|them|the|its)\b)",
      Sense("way", "up")),
