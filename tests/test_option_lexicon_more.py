@@ -377,8 +377,22 @@ ENDINGS = [
     ("It settled", "U"),
 ]
 
+# the orientation as a noun subject
+ORIENTATION_NOUNS = [
+    ("Its direction shifted left", "R yaw left"),
+    ("Its bearing swung right", "R yaw right"),
+    ("Its bearing shifted left", "R yaw left"),
+    ("Its optical axis tilted down", "R pitch down"),
+    ("The camera's gaze drifted left", "R yaw left"),
+    ("Rolled through 15 degrees clockwise", "R roll clockwise"),
+    ("It rotated about its forward axis clockwise", "R roll clockwise"),
+    ("Its yaw went left", "U"),
+    ("A roll to the left", "U"),
+    ("The horizon rotated counterclockwise", "U"),
+]
+
 TABLE = NOUNS + ADVERBS + PASSIVE + OPERATOR + COLLOQUIAL + HEDGES + PLACES + STILL + NEAR_MISSES
-TABLE += LABELS_AND_SUBJECTS + KIND_NOUN_MISSES + SETTINGS + EVERYDAY + IDIOMS + ENDINGS
+TABLE += LABELS_AND_SUBJECTS + KIND_NOUN_MISSES + SETTINGS + EVERYDAY + IDIOMS + ENDINGS + ORIENTATION_NOUNS
 
 
 def test_the_second_batch_is_large() -> None:

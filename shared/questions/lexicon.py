@@ -193,7 +193,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     # ---- two claims offered as one ("backward or to the left"): the option says two things
     (r"or|either", Sense("or")),
     # ---- the camera's orientation as a noun: "its aim rose", "the heading swung left"
-    (r"(?:its|the|camera s|the camera s) (?:aim|heading|gaze|line of sight|"
+    (r"^(?:its|the camera s) direction(?! (?:of|it|the camera)\b)|"
+     r"(?:its|the|camera s|the camera s) (?:aim|heading|bearing|gaze|line of sight|"
      r"(?:view|viewing|facing|pointing|looking) direction|direction of (?:view|gaze|sight)|"
      r"orientation|optical axis)", Sense("aimnoun")),
     # ---- a step along the way the camera looks is forward, against it backward
@@ -353,7 +354,7 @@ _FILLER = frozenset(
     "itself body there significant noticeable appreciable obvious visible clear "
     "real sharp sharply gentle gently quite lot amount tiny minor modest modestly moderate moderately "
     "considerable considerably substantial substantially aside "
-    "made make makes making took takes taking executed performed "
+    "made make makes making took takes taking executed performed through "
     "shots snapshots photos pictures images throughout our my operator cameraman camerawoman observer "
     "real".split()
 )
