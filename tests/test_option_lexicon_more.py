@@ -389,6 +389,12 @@ ORIENTATION_NOUNS = [
     ("Its yaw went left", "U"),
     ("A roll to the left", "U"),
     ("The horizon rotated counterclockwise", "U"),
+    # the scene's place, and the scene made to move
+    ("The subject sat to the left", "U"),
+    ("The subject is located to the left", "U"),
+    ("High in the frame", "U"),
+    ("It made the scene move left", "U"),
+    ("Image 2's camera sits above image 1's", "P up"),
 ]
 
 TABLE = NOUNS + ADVERBS + PASSIVE + OPERATOR + COLLOQUIAL + HEDGES + PLACES + STILL + NEAR_MISSES

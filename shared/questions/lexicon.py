@@ -183,6 +183,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"where (?:the )?(?:first |earlier |other |previous |reference )?(?:image|photo|picture|view|shot|frame|"
      r"camera|snapshot)(?: \w+)? (?:was|is|had been) (?:taken|shot|captured|located|positioned)|"
      r"(?:a |some )?(?:long|short|little|small|good|fair|tiny) (?:way|distance)|some distance|"
+     r"(?:made|make|makes|making|took|take|takes|taking) (?:a|an|one)(?= (?:\w+ )?(?:\w+ )?(?:turn|move|"
+     r"step|shift|pan|tilt|roll|rotation|movement)\b)|"
      r"away from (?:the |its )?(?:first|original|initial|previous|earlier|starting|old|former) "
      r"(?:position|place|spot|location|point|pose|viewpoint)|"
      r"(?:the )?(?:person|one|someone) (?:holding|carrying|with) the camera|"
@@ -354,7 +356,7 @@ _FILLER = frozenset(
     "itself body there significant noticeable appreciable obvious visible clear "
     "real sharp sharply gentle gently quite lot amount tiny minor modest modestly moderate moderately "
     "considerable considerably substantial substantially aside "
-    "made make makes making took takes taking executed performed through "
+    "executed performed through "
     "shots snapshots photos pictures images throughout our my operator cameraman camerawoman observer "
     "real".split()
 )
@@ -739,7 +741,9 @@ def _no_claim(words: str, found: list[Token]) -> str | None:
     subject = words[: verb.start] if verb is not None else ""
     content = _CONTENT.search(subject)
     moving = verb is not None and verb.sense.kind != "place"
-    if content and moving and _content_is_the_subject(subject):
+    # "the subject sat to the left" is the subject's place; "image 2 sits above" is the camera's
+    thing_placed = verb is not None and _SCENE_THING.search(subject) is not None
+    if content and (moving or thing_placed) and _content_is_the_subject(subject):
         return (
             f"it says the {content.group()} moved: content shifts in the frame opposite to the camera, "
             "which is not read"
@@ -756,7 +760,7 @@ def _no_claim(words: str, found: list[Token]) -> str | None:
         )
     if _REFERENCE_SUBJECT.match(words) or _LATER_REFERENCE.search(words):
         return "it says where the first camera is, relative to the second (the reverse of what is asked)"
-    if verb is not None and _IN_THE_PICTURE.search(words[verb.end :]):
+    if _IN_THE_PICTURE.search(words[verb.end :] if verb is not None else words):
         return "it describes motion within the picture, not the camera's"
     return None
 
