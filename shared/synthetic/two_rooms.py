@@ -11,11 +11,18 @@ Kinds:
 - ``ring``: the goal is inside a closed pen of low partitions.
 
 ``varied=True`` draws the capture the way real ones vary (the route benchmark's scenes): 3-7 views,
-one camera height per scene in 1.0-1.8 m, a doorway ``coverage`` of ``full`` (views look through
-the doorway from both rooms), ``partial`` (from room A only, the doorway off-centre) or ``none``
-(room A's views look at the dividing wall beside the doorway, not through it; room B's view
-stands with its back to the doorway), and furniture allowed
-near the doorway. The default is the fixed capture (5-7 views at 1.5 m) the tests were written on.
+one camera height per scene in 1.0-1.8 m, furniture allowed near the doorway, and one of four
+doorway ``coverage`` levels (``COVERAGES``, drawn evenly):
+- ``full``: views look through the doorway from both rooms;
+- ``partial``: from room A only, the doorway off-centre;
+- ``doorway``: the doorway is in a photo but the floor past it is in none: a room A view stands
+  close to the dividing wall and looks along it, so both jambs are framed while every ray into the
+  gap meets the far jamb's end face; room B's view of the goal is placed so that the floor within
+  1.2 m past the doorway (a metre wider than it each side) is out of its frame, and no other view
+  frames that floor (the start view faces away from the wall);
+- ``none``: no photo shows the doorway: room A's views look at the dividing wall beside it, not
+  through it; room B's view stands near the far end of the dividing wall.
+The default is the fixed capture (5-7 views at 1.5 m) the tests were written on.
 
 Besides the rendering mesh, every scene keeps its *solids*: the convex parts (wall slabs,
 furniture parts, partitions) as vertex sets, so the true footprint at the robot's body height is
@@ -41,6 +48,7 @@ from shared.synthetic.scene import (
 )
 
 KINDS = ("reachable", "narrow_door", "ring")
+COVERAGES = ("full", "partial", "doorway", "none")  # the varied capture's doorway coverage, drawn evenly
 EYE_HEIGHT = 1.5
 WALL = 0.12  # thickness of every wall slab
 _PITCH_DOWN_DEG = 28.0  # views look down so the floor in front of them is seen
@@ -61,7 +69,7 @@ class TwoRoomScene:
     divider_x: float
     goal_view: int = 3  # the view that looks at the goal
     camera_height: float = EYE_HEIGHT  # the start view's camera above the floor, metres
-    coverage: str = "fixed"  # the capture's doorway coverage: fixed, full, partial or none
+    coverage: str = "fixed"  # the capture's doorway coverage: fixed or one of COVERAGES
 
     def start_floor(self) -> np.ndarray:
         pose = self.extrinsics[0]
@@ -246,16 +254,23 @@ def _varied_views(rng: np.random.Generator, layout: _Layout, start: np.ndarray) 
     """Replace the fixed capture by a drawn one: 3-7 views, one height, a doorway coverage."""
     divider, width, length = layout.divider, layout.width, layout.length
     door_centre = 0.5 * sum(layout.door)
-    coverage = str(rng.choice(["full", "partial", "none"]))
-    if coverage == "none":  # the start view faces away from the dividing wall
-        heading = float(rng.uniform(0.6 * np.pi, 1.4 * np.pi))
+    coverage = str(rng.choice(list(COVERAGES)))
+    hides_beyond = coverage in ("none", "doorway")  # no view may see room B's floor by the doorway
+    beyond = _beyond_the_doorway(layout)
+    if hides_beyond:  # the start view faces away from the dividing wall
+        for _ in range(20):
+            heading = float(rng.uniform(0.6 * np.pi, 1.4 * np.pi))
+            if coverage == "none" or not _frustum_meets(start, start + _unit(heading), beyond):
+                break
     else:
         heading = float(rng.uniform(0, 2 * np.pi))
     eyes = [start]
-    looks = [start + [np.cos(heading), np.sin(heading)]]
+    looks = [start + _unit(heading)]
     if coverage == "none":  # room B's view stands near the dividing wall and looks away from it
         far_end = 0.8 if door_centre > width / 2 else width - 0.8  # the end of the wall away from the door
         eyes.append(np.array([divider + WALL / 2 + 0.6, far_end]))
+    elif coverage == "doorway":
+        eyes.append(_goal_view_missing(rng, layout, beyond))
     else:
         eyes.append(_farthest_corner(layout.goal, divider + WALL / 2, length, width))
     looks.append(layout.goal)
@@ -270,6 +285,10 @@ def _varied_views(rng: np.random.Generator, layout: _Layout, start: np.ndarray) 
         target_y = float(np.clip(door_centre + offset, 0.5, width - 0.5))
         eyes.append(np.array([divider - rng.uniform(0.9, 1.3), target_y + 0.2 * np.sign(offset)]))
         looks.append(np.array([divider, target_y]))
+    if coverage == "doorway":
+        eye, look = _along_the_wall(rng, layout)
+        eyes.append(eye)
+        looks.append(look)
     if coverage == "full":
         eyes.append(np.array([divider + rng.uniform(1.8, 3.0), door_centre + rng.uniform(-0.5, 0.5)]))
         looks.append(np.array([divider - 1.5, door_centre]))
@@ -278,26 +297,102 @@ def _varied_views(rng: np.random.Generator, layout: _Layout, start: np.ndarray) 
         (_farthest_corner(start, 0.0, divider - WALL / 2, width), start),
         (np.array([divider - 0.8, width / 2 + side * (width / 2 - 0.7)]), np.array([divider / 2, width / 2])),
     ]
-    if coverage != "none":  # a view from room B's far end would see the floor past the doorway
+    if not hides_beyond:  # a view from room B's far end would see the floor past the doorway
         b_corner = np.array([length - 0.7, width / 2 - side * (width / 2 - 0.7)])
         extras.append((b_corner, np.array([(divider + length) / 2, width / 2])))
     wanted = int(rng.integers(max(0, 3 - len(eyes)), min(len(extras), 7 - len(eyes)) + 1))
     door = np.array([divider, door_centre])
     for index in rng.permutation(len(extras))[:wanted]:
         eye, look = extras[index]
-        if coverage == "none" and _angle_deg(look - eye, door - eye) < 55.0:
+        if hides_beyond and _angle_deg(look - eye, door - eye) < 55.0:
             continue  # it would look through the doorway
         eyes.append(eye)
         looks.append(look)
     if len(eyes) < 3:  # the start area, seen from just behind the start
-        eyes.append(start - 0.8 * np.array([np.cos(heading), np.sin(heading)]))
-        looks.append(start + np.array([np.cos(heading), np.sin(heading)]))
+        eyes.append(start - 0.8 * _unit(heading))
+        looks.append(start + _unit(heading))
     height = float(rng.uniform(1.0, 1.8))
     layout.heights = [height] + [
         float(np.clip(height + rng.uniform(-0.15, 0.15), 0.9, 1.9)) for _ in eyes[1:]
     ]
     layout.eyes, layout.looks, layout.goal_view, layout.coverage = eyes, looks, 1, coverage
     layout.door_keep_out = float(rng.uniform(0.5, 1.4))
+
+
+def _unit(angle: float) -> np.ndarray:
+    return np.array([np.cos(angle), np.sin(angle)])
+
+
+def _beyond_the_doorway(layout: _Layout) -> np.ndarray:
+    """Floor points just past the doorway in room B: 1.2 m deep, a metre wider than it each side."""
+    xs = np.linspace(layout.divider + WALL / 2, layout.divider + WALL / 2 + 1.2, 7)
+    ys = np.linspace(layout.door[0] - 1.0, layout.door[1] + 1.0, 12)
+    return np.array([[x, y] for x in xs for y in ys])
+
+
+def _frustum_meets(eye: np.ndarray, look: np.ndarray, floor_points: np.ndarray) -> bool:
+    """Whether a view (at any camera height the generator draws) has any of the floor points in frame.
+
+    Occlusion is ignored, so False means the view cannot see them.
+    """
+    intrinsic = default_intrinsic(320, 240, _FOV_DEG)
+    points = np.column_stack([floor_points, np.zeros(len(floor_points))])
+    for height in (0.9, 1.9):
+        pose = _view(eye, look, height)
+        camera = points @ pose[:, :3].T + pose[:, 3]
+        front = camera[:, 2] > 1e-6
+        pixels = camera[front] @ intrinsic.T
+        u, v = pixels[:, 0] / pixels[:, 2], pixels[:, 1] / pixels[:, 2]
+        if np.any((u >= -10) & (u <= 330) & (v >= -10) & (v <= 250)):
+            return True
+    return False
+
+
+def _goal_view_missing(rng: np.random.Generator, layout: _Layout, beyond: np.ndarray) -> np.ndarray:
+    """Where room B's view of the goal stands so that the floor by the doorway is out of its frame.
+
+    Candidates: room B's corners and points on the far side of the goal from the doorway's line,
+    in a drawn order; the first whose frame holds the goal but none of ``beyond``.
+    """
+    x0, x1 = layout.divider + WALL / 2 + 0.7, layout.length - 0.7
+    corners = [np.array([x, y]) for x in (x0, x1) for y in (0.7, layout.width - 0.7)]
+    door = np.array([layout.divider, 0.5 * sum(layout.door)])
+    away = (layout.goal - door) / np.linalg.norm(layout.goal - door)
+    between = [np.clip(layout.goal - d * away, [x0, 0.7], [x1, layout.width - 0.7]) for d in (1.2, 1.6, 2.0)]
+    candidates = [corners[i] for i in rng.permutation(4)] + between
+    for eye in candidates:
+        if np.linalg.norm(eye - layout.goal) < 1.0:
+            continue
+        if not _frustum_meets(eye, layout.goal, beyond):
+            return eye
+    return candidates[-1]  # the check on the rendered views (``seen_beyond_the_doorway``) decides
+
+
+def _along_the_wall(rng: np.random.Generator, layout: _Layout) -> tuple[np.ndarray, np.ndarray]:
+    """A room A view along the dividing wall that frames both jambs but sees nothing through the gap.
+
+    A camera ``a`` metres from the wall's face and ``s`` metres along it from the near jamb sees
+    through the doorway (width ``w``, wall ``WALL`` thick) only when ``a * w >= WALL * s``: standing
+    closer to the wall than ``WALL * s / w``, every ray into the gap meets the far jamb's end face.
+    """
+    low, high = layout.door
+    door_width = high - low
+    room_below, room_above = low - 0.5, layout.width - 0.5 - high
+    sign = -1.0 if room_below >= room_above else 1.0  # stand on the side with more wall
+    along = float(rng.uniform(0.75, 1.0)) * max(room_below, room_above)
+    along = min(along, 3.4)
+    off_wall = float(rng.uniform(0.45, 0.8)) * WALL * along / door_width
+    near_jamb = low if sign < 0 else high
+    eye = np.array([layout.divider - WALL / 2 - off_wall, near_jamb + sign * along])
+    door = np.array([layout.divider, 0.5 * (low + high)])
+    towards = (door - eye) / np.linalg.norm(door - eye)
+    turn = np.radians(float(rng.uniform(8.0, 18.0)))  # a little into room A, the jambs still in frame
+    into_a = -sign  # looking +y (from below the doorway) a counter-clockwise turn faces -x, room A
+    cosine, sine = np.cos(into_a * turn), np.sin(into_a * turn)
+    look = eye + 2.0 * np.array(
+        [cosine * towards[0] - sine * towards[1], sine * towards[0] + cosine * towards[1]]
+    )
+    return eye, look
 
 
 def _layout(rng: np.random.Generator, kind: str, varied: bool = False) -> _Layout:
