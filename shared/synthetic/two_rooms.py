@@ -243,6 +243,7 @@ class _Layout:
     goal_view: int = 3
     coverage: str = "fixed"
     door_keep_out: float = 1.4  # furniture keeps this far from the doorway's centre
+    goal_margin: float = 0.8  # the goal keeps this far from room B's walls
 
 
 def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:
@@ -270,10 +271,12 @@ def _varied_views(rng: np.random.Generator, layout: _Layout, start: np.ndarray) 
         far_end = 0.8 if door_centre > width / 2 else width - 0.8  # the end of the wall away from the door
         eyes.append(np.array([divider + WALL / 2 + 0.6, far_end]))
     elif coverage == "doorway":
-        eyes.append(_goal_view_missing(rng, layout, beyond))
+        _goal_away_from_the_doorway(rng, layout)
+        eye, look = _goal_view_missing(rng, layout, beyond)
+        eyes.append(eye)
     else:
         eyes.append(_farthest_corner(layout.goal, divider + WALL / 2, length, width))
-    looks.append(layout.goal)
+    looks.append(layout.goal if coverage != "doorway" else look)
     if coverage in ("full", "partial"):
         shift = 0.0 if coverage == "full" else float(rng.choice([-1, 1]) * rng.uniform(0.8, 1.6))
         eyes.append(np.array([divider - rng.uniform(1.8, 3.0), door_centre + rng.uniform(-0.5, 0.5)]))
@@ -330,42 +333,72 @@ def _beyond_the_doorway(layout: _Layout) -> np.ndarray:
     return np.array([[x, y] for x in xs for y in ys])
 
 
-def _frustum_meets(eye: np.ndarray, look: np.ndarray, floor_points: np.ndarray) -> bool:
+def _frustum_meets(eye: np.ndarray, look: np.ndarray, floor_points: np.ndarray, count: bool = False):
     """Whether a view (at any camera height the generator draws) has any of the floor points in frame.
 
-    Occlusion is ignored, so False means the view cannot see them.
+    Occlusion is ignored, so False means the view cannot see them. ``count``: how many are.
     """
     intrinsic = default_intrinsic(320, 240, _FOV_DEG)
     points = np.column_stack([floor_points, np.zeros(len(floor_points))])
+    total = 0
     for height in (0.9, 1.9):
         pose = _view(eye, look, height)
         camera = points @ pose[:, :3].T + pose[:, 3]
         front = camera[:, 2] > 1e-6
         pixels = camera[front] @ intrinsic.T
         u, v = pixels[:, 0] / pixels[:, 2], pixels[:, 1] / pixels[:, 2]
-        if np.any((u >= -10) & (u <= 330) & (v >= -10) & (v <= 250)):
+        framed = int(np.count_nonzero((u >= -10) & (u <= 330) & (v >= -10) & (v <= 250)))
+        if framed and not count:
             return True
-    return False
+        total += framed
+    return total if count else False
 
 
-def _goal_view_missing(rng: np.random.Generator, layout: _Layout, beyond: np.ndarray) -> np.ndarray:
+def _goal_view_missing(
+    rng: np.random.Generator, layout: _Layout, beyond: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Where room B's view of the goal stands so that the floor by the doorway is out of its frame.
 
-    Candidates: room B's corners and points on the far side of the goal from the doorway's line,
-    in a drawn order; the first whose frame holds the goal but none of ``beyond``.
+    Candidates: room B's corners, then points 2.4 or 3 m around the goal, each in a drawn order,
+    looking at the goal or up to 28 degrees beside it; the first at least 2.1 m from the goal
+    (nearer, a pen's near side would be below the frame) whose frame holds none of ``beyond``.
+    Returns (eye, look).
     """
     x0, x1 = layout.divider + WALL / 2 + 0.7, layout.length - 0.7
     corners = [np.array([x, y]) for x in (x0, x1) for y in (0.7, layout.width - 0.7)]
-    door = np.array([layout.divider, 0.5 * sum(layout.door)])
-    away = (layout.goal - door) / np.linalg.norm(layout.goal - door)
-    between = [np.clip(layout.goal - d * away, [x0, 0.7], [x1, layout.width - 0.7]) for d in (1.2, 1.6, 2.0)]
-    candidates = [corners[i] for i in rng.permutation(4)] + between
+    around = [
+        np.clip(layout.goal + distance * _unit(angle), [x0, 0.7], [x1, layout.width - 0.7])
+        for distance in (2.4, 3.0)
+        for angle in np.radians(np.arange(0, 360, 30))
+    ]
+    candidates = [corners[i] for i in rng.permutation(4)] + [around[i] for i in rng.permutation(len(around))]
+    best, fewest = None, np.inf
     for eye in candidates:
-        if np.linalg.norm(eye - layout.goal) < 1.0:
-            continue
-        if not _frustum_meets(eye, layout.goal, beyond):
-            return eye
-    return candidates[-1]  # the check on the rendered views (``seen_beyond_the_doorway``) decides
+        if np.linalg.norm(eye - layout.goal) < 2.1:
+            continue  # closer, the floor a metre before the goal (a pen's near side) is below the frame
+        towards = layout.goal - eye
+        for swing in np.radians([0.0, 15.0, -15.0, 28.0, -28.0]):  # the goal off the frame's centre
+            cosine, sine = np.cos(swing), np.sin(swing)
+            look = eye + np.array(
+                [cosine * towards[0] - sine * towards[1], sine * towards[0] + cosine * towards[1]]
+            )
+            framed = _frustum_meets(eye, look, beyond, count=True)
+            if framed < fewest:
+                best, fewest = (eye, look), framed
+            if framed == 0:
+                return eye, look
+    return best  # the fewest such floor points in frame (the bench measures what was seen)
+
+
+def _goal_away_from_the_doorway(rng: np.random.Generator, layout: _Layout) -> None:
+    """Redraw the goal at least 2.6 m from the doorway: a view framing a goal beside it frames its floor."""
+    door = np.array([layout.divider, 0.5 * sum(layout.door)])
+    margin = layout.goal_margin
+    low, high = [layout.divider + 1.5, margin], [layout.length - margin, layout.width - margin]
+    for _ in range(50):
+        if np.linalg.norm(layout.goal - door) >= 2.6:
+            return
+        layout.goal = rng.uniform(low, high)
 
 
 def _along_the_wall(rng: np.random.Generator, layout: _Layout) -> tuple[np.ndarray, np.ndarray]:
@@ -428,7 +461,7 @@ def _layout(rng: np.random.Generator, kind: str, varied: bool = False) -> _Layou
     for index in rng.permutation(len(extras))[: int(rng.integers(0, len(extras) + 1))]:
         eyes.append(extras[index][0])
         looks.append(extras[index][1])
-    layout = _Layout(length, width, divider, door, eyes, looks, goal)
+    layout = _Layout(length, width, divider, door, eyes, looks, goal, goal_margin=margin)
     if varied:
         _varied_views(rng, layout, start)
     return layout
