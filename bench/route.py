@@ -448,7 +448,8 @@ def _scene(options, index: int, tallies: dict, backbone, groups: dict) -> str:
         groups.setdefault(group, CoverageTally()).add(two, plan, reached)
     line = (
         f"scene {index:2d} {kind:11s} {len(views)} views h {two.camera_height:.2f} {two.coverage:7s} "
-        f"doorway {'in' if in_photo else 'in no'} photo, floor past it seen {doorway_coverage(two, views):4.0%}  "
+        f"doorway {'in' if in_photo else 'in no'} photo, "
+        f"floor past it seen {doorway_coverage(two, views):4.0%}  "
         f"shortest {case.shortest or 0:5.2f}  posed: {verdict}"
     )
     if index < options.photo_scenes:
