@@ -12,7 +12,7 @@ Length ratio: the plan's driven length over the true shortest route (2.5 cm grid
 over the successes. A refusal is correct only on an unreachable scene, with a true reason: a
 narrow doorway is ``narrow_gap`` with a width within 0.1 m of the doorway's, a pen is ``enclosed``.
 Unseen floor is checked independently of the planner: a path point is seen when some view's depth
-at its pixel is the floor point's own depth (within 3 cm); a plan whose path has >= 0.2 m unseen
+at its pixel back-projects to the floor within 0.1 m of it; a plan whose path has >= 0.2 m unseen
 that way must report ``unseen_m > 0``.
 
 Posed plan_route outcomes are also given per doorway coverage and split by whether some view's
@@ -61,6 +61,9 @@ BAND = (0.05, 0.5)
 TOLERANCE_M = 0.3
 WIDTH_TOLERANCE_M = 0.1
 UNSEEN_CHECK_M = 0.2
+_SEEN_NEAR_M = (
+    0.1  # a pixel's floor point this close to a floor point shows it (the planner's cells are 5 cm)
+)
 _KIND_CYCLE = ("reachable",) * 4 + ("narrow_door", "ring")
 METHODS = ("plan_route", "straight line", "turn-then-go")
 _NO_RECONSTRUCTION = "no reconstruction"
@@ -183,9 +186,16 @@ def _drive(tally: Tally, two: TwoRoomScene, shortest: float | None, steps, scale
 
 
 def seen_floor(two: TwoRoomScene, views, points: np.ndarray) -> np.ndarray:
-    """Per floor point (z = 0), whether some view's depth at its pixel is that point (it was seen)."""
+    """Per floor point (z = 0), whether some view's depth at its pixel shows the floor there (seen).
+
+    The pixel's depth, back-projected, must be a floor point (within 3 cm of z = 0) within
+    ``_SEEN_NEAR_M`` of the point: far off, a pixel spans several centimetres of grazing floor, so
+    its depth differs from the point's own by more than any fixed depth tolerance though the floor
+    there was seen.
+    """
     seen = np.zeros(len(points), bool)
     width, height = two.size
+    inverse = np.linalg.inv(two.intrinsic)
     for pose, view in zip(two.extrinsics, views, strict=True):
         camera = points @ pose[:, :3].T + pose[:, 3]
         pixels = camera @ two.intrinsic.T
@@ -195,7 +205,11 @@ def seen_floor(two: TwoRoomScene, views, points: np.ndarray) -> np.ndarray:
         inside = front & (u >= 0) & (v >= 0) & (u < width) & (v < height)
         depth = np.zeros(len(points))
         depth[inside] = view.depth[v[inside], u[inside]]
-        seen |= inside & (np.abs(depth - camera[:, 2]) < 0.03)
+        rays = np.stack([u, v, np.ones_like(u)], axis=1) @ inverse.T
+        world = (rays * depth[:, None] - pose[:, 3]) @ pose[:, :3]
+        on_floor = np.abs(world[:, 2]) < 0.03
+        near = np.linalg.norm(world[:, :2] - points[:, :2], axis=1) <= _SEEN_NEAR_M
+        seen |= inside & (depth > 0) & on_floor & near
     return seen
 
 
