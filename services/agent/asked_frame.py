@@ -1,0 +1,75 @@
+"""Whether a motion measured in the start view's axes answers a question asked in another frame.
+
+The motion sentences (shared/geometry/camera_motion.py, motion_determinacy.py) state the step and the
+rotation in the start view's image axes (and, apart, the room's gravity frame). A question may ask
+in another frame: "in image 2's directions", "from the lamp's point of view". What carries over:
+
+- still, and closer to / farther from a target: no axes at all;
+- a rotation about one axis (only a turn, or only a tilt, or only a roll named): the relative
+  rotation leaves its own axis fixed, so that axis has the same coordinates in the start and the end
+  view's axes, and its sense and angle read the same in both. A rotation that names two axes splits
+  into turn, tilt and roll differently per frame (a 90-degree turn plus a tilt is, in the end view's
+  axes, a turn plus a roll), so it does not carry over;
+- a step, only when the views did not rotate significantly (their axes then agree within the
+  thresholds the start frame is read with). After a turn, a step "forward" in image 1's axes is
+  "left" or "right" in image 2's.
+
+Anything else is refused with the frame named: a wrong frame gives a wrong answer, worse than none.
+A view outside the pair, or an object's point of view, carries only what has no axes. The room's
+frame is the sentence's gravity clause (claim_matching.py), and a frame the question does not state
+is the start view's, the convention every sentence states.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+from services.agent.motion_clue import MotionStatement
+from shared.questions.reading import QuestionReading
+
+_NO_AXES = frozenset({"still", "target"})
+_STEP = frozenset({"direction", "vertical"})
+_ROTATION = frozenset({"turn", "tilt", "roll"})
+
+
+def measured_rotations(statement: MotionStatement) -> set[str]:
+    """Which of turn, tilt and roll the sentence names (over focal hypotheses: any hypothesis may;
+    a quantity an older sentence leaves unstated may be anything, so it counts)."""
+    over = statement.over_focal
+    if over is not None:
+        spans = {"turn": over.yaw_range_deg, "tilt": over.tilt_range_deg, "roll": over.roll_range_deg}
+        return {name for name, span in spans.items() if span is not None or name in over.unstated}
+    reading = statement.reading_for("image")
+    named = {"turn": reading.turn not in (None, "no turn"), "tilt": reading.tilt not in (None, "no tilt")}
+    named["roll"] = reading.roll is not None
+    return {name for name, said in named.items() if said}
+
+
+def frame_refusal(reading: QuestionReading, statement: MotionStatement, keys: Iterable[str]) -> str | None:
+    """Why the start-frame motion cannot answer the quantities `keys` (a MotionReading's fields) in the
+    frame the question asks; None when it can."""
+    frame, pair = reading.frame, reading.views
+    asked = set(keys) - _NO_AXES
+    if frame is None or frame.kind == "room" or pair is None or not asked:
+        return None
+    if frame.kind == "object":
+        return f"asked from the {frame.object}'s point of view, which this answer cannot yet express"
+    start, end = pair
+    if frame.view == start:
+        return None
+    cannot = f"asked in image {frame.view}'s axes, which this answer cannot yet express"
+    if frame.view != end:
+        return f"{cannot} (image {frame.view} is not one of the two compared)"
+    rotated = measured_rotations(statement)
+    if asked & _STEP and rotated:
+        return (
+            f"{cannot}: the step is measured in image {start}'s axes, and the camera "
+            f"{'may have ' if statement.over_focal is not None else ''}rotated between the two"
+        )
+    if asked & _ROTATION and len(rotated) > 1:
+        combined = " and ".join(sorted(rotated))
+        return f"{cannot}: the rotation combines {combined}, which split differently per frame"
+    return None
+
+
+__all__ = ["frame_refusal", "measured_rotations"]
