@@ -8,6 +8,8 @@ pair: the step and the turn are read in the asked view's own axes from the poses
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -33,10 +35,15 @@ def _centre(pose: np.ndarray) -> np.ndarray:
     return -pose[:, :3].T @ pose[:, 3]
 
 
+def true_heading(cameras: np.ndarray, view: int) -> float:
+    """The heading of camera 2's step in (1-based) `view`'s image axes (0 forward, + right)."""
+    step = cameras[view - 1, :, :3] @ (_centre(cameras[1]) - _centre(cameras[0]))
+    return float(np.degrees(np.arctan2(step[0], step[2])))
+
+
 def true_step(cameras: np.ndarray, view: int) -> str:
     """The compass word of camera 2's step, in (1-based) `view`'s image axes, from the poses."""
-    step = cameras[view - 1, :, :3] @ (_centre(cameras[1]) - _centre(cameras[0]))
-    return direction_name(float(np.degrees(np.arctan2(step[0], step[2]))))
+    return direction_name(true_heading(cameras, view))
 
 
 def true_turn(cameras: np.ndarray, view: int) -> str:
@@ -65,17 +72,17 @@ def test_the_start_views_axes_answer_as_before(turn_deg: float, stem: str) -> No
     assert result.answer == LETTER_OF_STEP[true_step(cameras, 1)], result.reason
 
 
+END_STEMS = [
+    "From image 1 to image 2, which way did the camera move, in the directions of image 2?",
+    "Which way did the camera move from image 1 to image 2, in image 2's axes?",
+    "Using the second photo's directions, which way did the camera go between photo 1 and photo 2?",
+    "Which way did the camera move from image 1 to image 2, in the coordinates of the last picture?",
+]
+
+
 @pytest.mark.parametrize("turn_deg", [-90.0, 90.0])
-@pytest.mark.parametrize(
-    "stem",
-    [
-        "From image 1 to image 2, which way did the camera move, in the directions of image 2?",
-        "Which way did the camera move from image 1 to image 2, in image 2's axes?",
-        "Using the second photo's directions, which way did the camera go between photo 1 and photo 2?",
-        "Which way did the camera move from image 1 to image 2, in the coordinates of the last picture?",
-    ],
-)
-def test_a_step_asked_in_the_end_views_axes_after_a_turn_is_refused_naming_the_frame(
+@pytest.mark.parametrize("stem", END_STEMS)
+def test_a_step_asked_in_the_end_views_axes_after_a_turn_is_answered_in_those_axes(
     turn_deg: float, stem: str
 ) -> None:
     cameras = pair(step_in_camera=FORWARD, rotation_in_camera=_axis_rotation("y", turn_deg))
@@ -84,7 +91,18 @@ def test_a_step_asked_in_the_end_views_axes_after_a_turn_is_refused_naming_the_f
     reading = read_question(f"{stem} {STEPS}", 2)
     assert reading.frame is not None and reading.frame.view == 2 and reading.frame_certain
     result = _ask(stem, STEPS, clue(cameras))
+    assert result.answer == LETTER_OF_STEP[true_step(cameras, 2)], result.reason
+
+
+@pytest.mark.parametrize("turn_deg", [-90.0, 180.0])
+def test_a_sentence_without_the_end_views_step_is_refused_naming_the_frame(turn_deg: float) -> None:
+    cameras = pair(step_in_camera=FORWARD, rotation_in_camera=_axis_rotation("y", turn_deg))
+    text = clue(cameras)
+    older = re.sub(r"; in view 2's image axes it [^;.]+", "", text)  # as sentences before the clause
+    assert older != text and true_step(cameras, 1) != true_step(cameras, 2)
+    result = _ask(END_STEMS[1], STEPS, older)
     assert result.answer is None and "asked in image 2's axes" in (result.reason or ""), result
+    assert _ask(END_STEMS[1], STEPS, text).answer == LETTER_OF_STEP[true_step(cameras, 2)]
 
 
 @pytest.mark.parametrize("step", [(-0.3, 0.0, 0.0), (0.0, 0.0, -0.4), (0.3, 0.0, 0.0)])

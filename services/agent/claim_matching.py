@@ -21,7 +21,7 @@ import math
 
 from pydantic import BaseModel
 
-from services.agent.asked_frame import frame_refusal
+from services.agent.asked_frame import frame_refusal, in_asked_frame
 from services.agent.motion_clue import (
     NO_GRAVITY_OVER_FOCAL,
     UNDETERMINED,
@@ -118,7 +118,7 @@ def match_claims(reading: QuestionReading, statement: MotionStatement) -> ClaimM
             any(claim.degrees is not None for claim in read.values()),
         )
     else:
-        said = statement.reading_for("gravity" if gravity else "image")
+        said = in_asked_frame(reading, statement, statement.reading_for("gravity" if gravity else "image"))
         variants = [Hypothetical(said, None)]
     nearest = [_nearest(read, variant) for variant in variants]
     letters = {best[0] if len(best) == 1 else None for best, _ in nearest}

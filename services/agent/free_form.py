@@ -95,7 +95,7 @@ def answer_offline(intent: QuestionIntent, clue_text: str | None, clue_images: l
     if statement is None:
         return no_answer(why)
     said = {"turn"} if intent.asks_turn_only else {"direction", "vertical", "turn", "tilt", "roll"}
-    if (refused := frame_refusal(reading, statement, said)) is not None:
+    if (refused := frame_refusal(reading, statement, said, end_step_used=False)) is not None:
         return no_answer(f"{refused} ({reading.summary})")
     if statement.over_focal is not None:
         if intent.motion_frame == "gravity":
