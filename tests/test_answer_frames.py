@@ -173,3 +173,14 @@ def test_over_focal_hypotheses_keep_the_same_rules() -> None:
     )
     refused = match_sentence(step, motion.sentence)
     assert refused.letter is None and "asked in image 2's axes" in (refused.reason or "")
+
+
+def test_axes_named_in_words_the_reading_does_not_read_are_refused_not_defaulted() -> None:
+    cameras = pair(step_in_camera=FORWARD, rotation_in_camera=_axis_rotation("y", 90.0))
+    stem = "Which way did the camera move from image 1 to image 2? Answer with the axes set by image 2."
+    reading = read_question(f"{stem} {STEPS}", 2)
+    assert not reading.frame_certain and "axes" in reading.frame_source
+    result = _ask(stem, STEPS, clue(cameras))
+    assert result.answer is None and "axes" in (result.reason or ""), result
+    read = "Use the directions of image 2 itself. Which way did the camera move from image 1 to image 2?"
+    assert _ask(read, STEPS, clue(cameras)).answer == LETTER_OF_STEP[true_step(cameras, 2)]

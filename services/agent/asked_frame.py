@@ -79,6 +79,8 @@ def frame_refusal(
     asked = set(keys) - _NO_AXES
     if frame is None or frame.kind == "room" or pair is None or not asked:
         return None
+    if not reading.frame_certain and reading.frame_source:
+        return f"the question names its axes in words this reading does not read ({reading.frame_source!r})"
     if frame.kind == "object":
         return f"asked from the {frame.object}'s point of view, which this answer cannot yet express"
     start, end = pair
