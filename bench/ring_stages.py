@@ -37,9 +37,11 @@ def stages(ring, images: list[int], given: bool) -> list[str]:
         backbone._prepare(i, picture, backbone.fov_deg, intrinsics[i] if intrinsics else None)
         for i, picture in enumerate(pictures)
     ]
-    lines = [f"{images} keypoints " + " ".join(str(len(view.features)) for view in prepared)]
     keys = [(a, b) for a in range(len(images)) for b in range(a + 1, len(images))]
     matches = {key: match_features(prepared[key[0]].features, prepared[key[1]].features) for key in keys}
+    # As the backbone does: a dark view's tilts only where no pair ties it well.
+    prepared, matches = backbone._tilts_where_needed(prepared, list(range(len(images))), matches)
+    lines = [f"{images} keypoints " + " ".join(str(len(view.features)) for view in prepared)]
     pairs = relate_pairs(
         [view.features.keypoints for view in prepared], [view.intrinsic for view in prepared], matches
     )

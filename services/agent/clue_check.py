@@ -7,6 +7,8 @@ A clue is refused (and the program sent back for repair, with a hint that names 
   option, or any clue that states a letter; a value among several lines is no answer);
 - its camera-motion sentences are about other view pairs than the question's ("From view 1 to view
   2" for "how did I move from image 1 to image 3");
+- it states no camera motion at all (the program's own arithmetic on poses) while the question asks
+  the camera's motion between a pair the reading is sure of;
 - its rendered views were rendered from another view than the question asks from (a camera turned
   in place at view 1 for "from image 3, what is to your left?");
 - it is images only while nothing here reads images (no vision answer model is configured: the
@@ -32,7 +34,7 @@ _SAME_PLACE = 0.05
 
 @dataclass(frozen=True)
 class ClueProblem:
-    kind: str  # empty_clue | answer_letter | wrong_view | unread_images
+    kind: str  # empty_clue | answer_letter | wrong_view | no_motion | unread_images
     message: str
     fix: str
 
@@ -47,6 +49,18 @@ def _pairs(pairs: list[tuple[int, int]]) -> str:
     return ", ".join(f"view {a} to view {b}" for a, b in pairs)
 
 
+def _reads_as_camera_motion(intent: QuestionIntent) -> bool:
+    """A question about the camera's motion (its family says so) whose pair the reading is sure of.
+
+    Which motion (a step or a turn) need not be certain: the sentence states both."""
+    reading = intent.reading
+    return (
+        reading is not None
+        and reading.views_certain
+        and reading.quantity in ("translation", "rotation", "position", "motion", "still")
+    )
+
+
 def _motion_problem(intent: QuestionIntent, clue_text: str) -> ClueProblem | None:
     if intent.family != "self_movement" or intent.motion_pair is None or not clue_text:
         return None  # an image-only clue (the photos, for a vision answerer) names no pair to check
@@ -55,6 +69,16 @@ def _motion_problem(intent: QuestionIntent, clue_text: str) -> ClueProblem | Non
     first, second = intent.motion_pair
     statements = motion_statements(clue_text)
     pairs = list(dict.fromkeys(s.pair for s in statements if s.pair is not None))
+    if not pairs and _reads_as_camera_motion(intent):
+        # Its own arithmetic on poses ("stepped unknown by 0.14 metres") says neither the pair nor the
+        # determinacy; the tool's sentence says both, and it is what every answerer reads.
+        return ClueProblem(
+            "no_motion",
+            f"the clue states no camera motion of any view pair, but the question asks how the camera "
+            f"moved from image {first} to image {second}",
+            f"return {motion_call(intent)}: its sentence is the measured motion, with what the photos "
+            "leave undetermined",
+        )
     if not pairs or intent.motion_pair in pairs:
         return None  # no sentence about any pair: not a wrong pair (the answerer says it cannot tell)
     said = f"describes {_pairs(pairs)}"

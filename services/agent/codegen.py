@@ -473,6 +473,7 @@ def _run(
 # What the repair request says first, per failure class (the hints then name the fix).
 _PROBLEMS = {
     "wrong_view": "Your program ran, but its clue is about other views than the question asks.",
+    "no_motion": "Your program ran, but its clue does not say how the camera moved between the views.",
     "answer_letter": "Your program returned an answer instead of a clue.",
     "not_evidence": "Your program returned text it wrote itself instead of a tool's output.",
     "empty_clue": "Your program returned an empty clue.",

@@ -77,7 +77,7 @@ def pointed_hints(error: str, kind: str | None = None, intent: QuestionIntent | 
     hints: list[str] = []
     if kind == "rejected" or _UNAVAILABLE.search(error):
         hints += _forbidden(error)
-    if kind == "wrong_view":
+    if kind in ("wrong_view", "no_motion"):
         hints += _wrong_view(intent)
     if kind in ("answer_letter", "not_evidence"):
         hints.append(

@@ -10,7 +10,9 @@ degrees, a tilt of 4 or more between views, and plain SIFT then finds only a han
 matches. So features are also detected on the image compressed horizontally by each factor in
 TILTS (anti-aliased first), which views the floor and other receding surfaces as if from higher
 up; their positions are mapped back to the original pixels. A keypoint found again at (nearly)
-the same place in a simulated view is the same keypoint with one more descriptor.
+the same place in a simulated view is the same keypoint with one more descriptor. On a dark
+(brightened) photo the backbone adds the tilts later, and only to views that no pair ties well
+(`with_tilts`, backbone.WELL_TIED_MATCHES).
 
 Matches pass Lowe's ratio test in both directions and must be mutual nearest neighbours, which
 removes most repeated-texture confusions before RANSAC. Descriptors of one keypoint never compete
@@ -53,18 +55,46 @@ def sift_available() -> bool:
     return hasattr(cv2, "SIFT_create")
 
 
-def detect_features(gray: np.ndarray, max_features: int, kind: str = "sift") -> ViewFeatures:
-    """Keypoints and descriptors of a uint8 grayscale image and of its simulated tilts."""
+def detect_features(
+    gray: np.ndarray, max_features: int, kind: str = "sift", tilts: tuple[float, ...] = TILTS
+) -> ViewFeatures:
+    """Keypoints and descriptors of a uint8 grayscale image and of its simulated `tilts`."""
     kind = "sift" if kind == "sift" and sift_available() else "orb"
+    image, max_features = _detection_input(gray, max_features)
+    positions, descriptors = _detect(image, max_features, kind)
+    plain = ViewFeatures(positions, descriptors, np.arange(len(positions), dtype=np.int64), kind)
+    return _add_tilts(plain, image, max_features, tilts)
+
+
+def with_tilts(
+    features: ViewFeatures, gray: np.ndarray, max_features: int, tilts: tuple[float, ...] = TILTS
+) -> ViewFeatures:
+    """`features` (detected without tilts from `gray`) with the simulated tilts' keypoints added:
+    the same as detecting with the tilts at once. The existing keypoints keep their indices."""
+    image, max_features = _detection_input(gray, max_features)
+    return _add_tilts(features, image, max_features, tilts)
+
+
+def is_dark(gray: np.ndarray) -> bool:
+    """Whether detection brightens this photo (exposure_normalized)."""
+    return exposure_normalized(gray) is not gray
+
+
+def _detection_input(gray: np.ndarray, max_features: int) -> tuple[np.ndarray, int]:
+    """The image detection runs on (brightened when dark) and its keypoint budget."""
     brightened = exposure_normalized(gray)
     if brightened is not gray:
         max_features = min(max_features, DARK_MAX_FEATURES)
-    gray = brightened
-    positions, descriptors = _detect(gray, max_features, kind)
-    owners = np.arange(len(positions), dtype=np.int64)
-    for tilt in TILTS:
-        compressed, x_scale = _compress_horizontally(gray, tilt)
-        tilted_positions, tilted_descriptors = _detect(compressed, max_features // 2, kind)
+    return brightened, max_features
+
+
+def _add_tilts(
+    features: ViewFeatures, image: np.ndarray, max_features: int, tilts: tuple[float, ...]
+) -> ViewFeatures:
+    positions, descriptors, owners = features.keypoints, features.descriptors, features.owners
+    for tilt in tilts:
+        compressed, x_scale = _compress_horizontally(image, tilt)
+        tilted_positions, tilted_descriptors = _detect(compressed, max_features // 2, features.kind)
         if len(tilted_positions) == 0:
             continue
         # Map back with pixel centres aligned (the cv2.resize pixel-area model).
@@ -72,7 +102,7 @@ def detect_features(gray: np.ndarray, max_features: int, kind: str = "sift") -> 
         tilted_owners, positions = _merge_keypoints(positions, tilted_positions)
         descriptors = np.concatenate([descriptors, tilted_descriptors])
         owners = np.concatenate([owners, tilted_owners])
-    return ViewFeatures(positions, descriptors, owners, kind)
+    return ViewFeatures(positions, descriptors, owners, features.kind)
 
 
 def exposure_normalized(gray: np.ndarray) -> np.ndarray:
