@@ -138,7 +138,9 @@ def test_combined_move_and_turn_with_a_tilted_camera() -> None:
         motion.gravity.phrase == "moved diagonally forward and left and turned left by about 90 degrees "
         "(a step of 1.00 scene units)"
     )
-    assert motion.sentence.endswith("; in the scene's gravity frame it " + motion.gravity.phrase + ".")
+    assert "; in the scene's gravity frame it " + motion.gravity.phrase + ";" in motion.sentence
+    # After the turn the step is stated again in view 2's own axes (the last clause).
+    assert motion.sentence.split("; ")[-1].startswith("in view 2's image axes it moved ")
     payload = json.loads(json.dumps(motion.to_dict()))
     assert payload["from_view"] == 0 and payload["to_view"] == 1
     assert len(payload["displacement_in_first_camera"]) == 3
@@ -193,8 +195,8 @@ def test_vertical_motion_with_a_turn() -> None:
     assert motion.sentence == (
         "From view 1 to view 2, in view 1's image axes, "
         "the camera moved left and up, and turned left by about 60 degrees "
-        "(a step of 1.22 scene units)."
-    )
+        "(a step of 1.22 scene units); in view 2's image axes it moved diagonally forward and left and up."
+    )  # left of view 1 is 30 degrees left of forward once the camera turned left by 60
 
 
 def test_scene_scale_from_points_keeps_a_pure_turn_a_turn() -> None:

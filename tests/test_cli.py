@@ -227,7 +227,8 @@ def test_serve_all_runs_both_and_stops_both_on_sigterm(tmp_path):
         command, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT
     )
     try:
-        deadline = time.monotonic() + 60
+        ready = None  # two services' imports: a loaded machine takes minutes
+        deadline = time.monotonic() + 180
         while time.monotonic() < deadline:
             with contextlib.suppress(httpx.HTTPError):
                 ready = httpx.get(f"http://127.0.0.1:{agent_port}/readyz", timeout=1.0)
@@ -235,13 +236,18 @@ def test_serve_all_runs_both_and_stops_both_on_sigterm(tmp_path):
                     break
             assert parent.poll() is None, parent.stdout.read().decode()
             time.sleep(0.2)
+        assert ready is not None and ready.status_code == 200, "serve all did not become ready in 180 s"
         assert ready.json()["recon"]["cache"] == "memory"  # no REDIS_URL: the in-process cache
         parent.send_signal(signal.SIGTERM)
         assert parent.wait(timeout=30) == 0
     finally:
-        if parent.poll() is None:
-            parent.kill()
-            parent.wait()
+        if parent.poll() is None:  # SIGTERM first: it stops both services, a bare kill orphans them
+            parent.terminate()
+            try:
+                parent.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                parent.kill()
+                parent.wait()
     log = parent.stdout.read().decode()
     assert "recon service: backbone=classical" in log and "agent service: recon=" in log
     for port in (recon_port, agent_port):

@@ -10,13 +10,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bench.route import unseen_along
+from bench.route import doorway_coverage, doorway_in_photo, seen_floor, unseen_along
 from shared.geometry.backprojection import reconstruction_from_rgbd
 from shared.navigation import plan_route
 from shared.navigation.grid import Grid
 from shared.navigation.passage import _closest_pair
 from shared.navigation.walls import continued_walls
-from shared.synthetic.two_rooms import execute_steps, generate_two_rooms
+from shared.synthetic.two_rooms import WALL, execute_steps, generate_two_rooms
 
 RADIUS = 0.25
 BAND = (0.05, 0.5)
@@ -59,6 +59,25 @@ def test_a_hidden_gap_between_two_seen_stretches_of_one_wall_stays_open():
     _wall(grid, 20, range(50, 75))
     _hide(grid, range(30, 50), range(10, 30))  # a doorway's width, its floor and its line unseen
     assert not continued_walls(grid, grid.tall, 1.0, 2 * RADIUS).any()
+
+
+def test_a_doorway_between_seen_jambs_stays_open_though_a_jamb_face_and_a_corner_are_near():
+    # The wall's room-A face runs along column 10 below and above a doorway; its far side (room B)
+    # is hidden. The near jamb's end face (row 30) and a meeting wall (row 2) are within a line
+    # fit's reach: a fit on all of them is tilted, and a tilted line misses the far part of the wall.
+    grid = _grid()
+    _hide(grid, range(0, 80), range(11, 40))
+    _wall(grid, 10, range(0, 31))
+    _wall(grid, 10, range(52, 80))
+    grid.occupied[30, 10:13] = grid.tall[30, 10:13] = True  # the near jamb's end face
+    grid.occupied[2, 2:10] = grid.tall[2, 2:10] = True  # a meeting wall's last cells
+    _hide(grid, range(31, 52), range(10, 11))  # the doorway, not seen from room A along the wall
+    walls = continued_walls(grid, grid.tall, 1.0, 2 * RADIUS)
+    assert not walls[32:51, 9:14].any()  # (the cells at the jambs' corners may be the wall's hidden face)
+    # the same wall with nothing seen beyond the hidden stretch is continued across it
+    grid.occupied[52:, 10] = grid.tall[52:, 10] = False
+    _hide(grid, range(52, 80), range(10, 11))
+    assert continued_walls(grid, grid.tall, 1.0, 2 * RADIUS)[31:52, 10].all()
 
 
 def test_no_wall_is_guessed_where_none_or_only_a_short_run_was_seen():
@@ -129,3 +148,23 @@ def test_a_narrow_doorway_beside_unlooked_space_is_still_refused_with_its_width(
     plan = plan_route(recon, 0, two.goal, robot_radius=RADIUS)
     assert not plan.reachable and plan.refusal == "narrow_gap", plan.reason
     assert plan.narrowest_passage_m == pytest.approx(two.door[1] - two.door[0], abs=0.1)
+
+
+def test_a_doorway_in_a_photo_with_the_floor_past_it_in_none_is_crossed_and_said():
+    two, views, recon = _tuning_scene(2, "reachable")  # bench.route seed 23 scene 2: coverage doorway
+    assert two.coverage == "doorway"
+    # what the capture shows, measured on the rendered depth: both jambs, and none of the floor within
+    # 1.2 m past the doorway (a metre wider than it each side)
+    assert doorway_in_photo(two, views)
+    assert doorway_coverage(two, views) == 0.0
+    xs = np.arange(two.divider_x + WALL / 2 + 0.025, two.divider_x + WALL / 2 + 1.2, 0.05)
+    ys = np.arange(two.door[0] - 1.0, two.door[1] + 1.0, 0.05)
+    assert not seen_floor(two, views, np.array([[x, y, 0.0] for x in xs for y in ys])).any()
+    plan = plan_route(recon, 0, two.goal, robot_radius=RADIUS)
+    assert plan.reachable, plan.reason
+    run = execute_steps(two, plan.steps, RADIUS, BAND)
+    assert not run.collided and np.linalg.norm(run.end - two.goal[:2]) <= 0.3
+    crossing = unseen_along(two, views, plan.path_world)
+    assert crossing >= 0.2  # past the doorway, at least
+    assert plan.unseen_m > 0 and plan.unseen_m >= crossing - 0.2
+    assert any("no view saw" in warning for warning in plan.warnings)

@@ -250,9 +250,12 @@ def test_queue_limit_cancellation_and_retry_after(tmp_path, redis_url, views):
             client.upload_scene(jittered(views.images, 30 + i)).scene_id for i in range(3)
         )
         leases = [foreign_lease(abandoned), foreign_lease(queued)]
-        with pytest.raises(httpx.ReadTimeout):  # waits for the lease, then its client leaves
-            httpx.post(f"{service.url}/v1/scenes/{abandoned}/reconstruct", timeout=1.0)
-        time.sleep(0.5)
+        # It waits for the lease, then its client leaves. The client stays a few seconds so that a
+        # loaded machine's service has queued the job before the client goes: a request it only
+        # reads after its client has left may find the lease free by then and start running.
+        with pytest.raises(httpx.ReadTimeout):
+            httpx.post(f"{service.url}/v1/scenes/{abandoned}/reconstruct", timeout=5.0)
+        time.sleep(1.0)
         outcome: dict = {}
         waiter = threading.Thread(
             target=lambda: outcome.update(

@@ -4,7 +4,9 @@ Given a question's reading (shared/questions/reading.py) and the motion sentence
 measured for the asked pair (read by motion_clue.py: exact, or over every focal hypothesis with its
 ranges and determinacy marks), `match_claims` returns the one option that holds at every
 hypothesis while no other does, or no answer with the reason (and the range, when the photos do
-not determine it). Claims are compared quantity by quantity: a translation claim looks only at the
+not determine it). The sentence's axes are the start view's; a question asked in another frame is
+answered only where its claims read the same there (asked_frame.py), else refused naming the frame.
+Claims are compared quantity by quantity: a translation claim looks only at the
 step, so a sentence that also reports a turn does not block it; a position claim is the step too
 (the second camera's centre in the first camera's frame).
 
@@ -19,6 +21,7 @@ import math
 
 from pydantic import BaseModel
 
+from services.agent.asked_frame import frame_refusal, in_asked_frame
 from services.agent.motion_clue import (
     NO_GRAVITY_OVER_FOCAL,
     UNDETERMINED,
@@ -99,6 +102,9 @@ def match_claims(reading: QuestionReading, statement: MotionStatement) -> ClaimM
     read = {letter: claim for letter, claim in claims.items() if claim is not None}
     if not read:
         return ClaimMatch(letter=None, reason="no option reads as a camera claim")
+    stated = {key for claim in read.values() for key in claim.stated()}
+    if (refused := frame_refusal(reading, statement, stated)) is not None:
+        return ClaimMatch(letter=None, reason=refused)  # never an answer in another frame's axes
     gravity = reading.frame is not None and reading.frame.kind == "room"
     if statement.over_focal is not None:
         if gravity:
@@ -108,11 +114,11 @@ def match_claims(reading: QuestionReading, statement: MotionStatement) -> ClaimM
         variants = hypothetical_readings(
             statement.over_focal,
             _asked(reading, read),
-            {key for claim in read.values() for key in claim.stated()},
+            stated,
             any(claim.degrees is not None for claim in read.values()),
         )
     else:
-        said = statement.reading_for("gravity" if gravity else "image")
+        said = in_asked_frame(reading, statement, statement.reading_for("gravity" if gravity else "image"))
         variants = [Hypothetical(said, None)]
     nearest = [_nearest(read, variant) for variant in variants]
     letters = {best[0] if len(best) == 1 else None for best, _ in nearest}

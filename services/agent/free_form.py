@@ -18,6 +18,7 @@ import re
 from typing import Literal
 
 from services.agent.answer_result import AnswerResult, json_object, no_answer
+from services.agent.asked_frame import frame_refusal
 from services.agent.claim_matching import pick_pair_statement, question_reading
 from services.agent.motion_clue import (
     NO_GRAVITY_OVER_FOCAL,
@@ -93,6 +94,9 @@ def answer_offline(intent: QuestionIntent, clue_text: str | None, clue_images: l
     statement, why = pick_pair_statement(reading, statements)
     if statement is None:
         return no_answer(why)
+    said = {"turn"} if intent.asks_turn_only else {"direction", "vertical", "turn", "tilt", "roll"}
+    if (refused := frame_refusal(reading, statement, said, end_step_used=False)) is not None:
+        return no_answer(f"{refused} ({reading.summary})")
     if statement.over_focal is not None:
         if intent.motion_frame == "gravity":
             return no_answer(f"{UNDETERMINED}: {NO_GRAVITY_OVER_FOCAL}")

@@ -46,6 +46,7 @@ _MOVED_OR_NOT = re.compile(
     r"\b(?:moved|stayed in place|stayed still|neither moved|tilted|rolled)\b", re.IGNORECASE
 )
 _GRAVITY_CLAUSE = re.compile(r"^in the scene'?s gravity frame (?:it )?", re.IGNORECASE)
+_END_AXES_CLAUSE = re.compile(r"^in view (?P<view>\d+)'?s image axes it ", re.IGNORECASE)
 _TARGET_CLAUSE = re.compile(r"^it (?:came closer to|moved farther from|stayed as far from)\b", re.IGNORECASE)
 _STEP = re.compile(r"\b(?:a step of )?(\d+(?:\.\d+)?) ?(m|scene units)\b")
 
@@ -77,6 +78,10 @@ class MotionStatement(BaseModel):
     main_clause: str = ""  # the first frame's words, for free-form answers
     gravity_clause: str | None = None
 
+    # The step again in the second view's own image axes (camera_motion.py states it when the views
+    # rotated): its view and reading (direction and vertical only).
+    end_axes: tuple[int, MotionReading] | None = None
+
     over_focal: OverFocal | None = None  # set for a motion over focal hypotheses (then the above are None)
 
     def reading_for(self, frame: Frame) -> MotionReading:
@@ -86,17 +91,29 @@ class MotionStatement(BaseModel):
         return self.reading or read_motion(self.sentence)
 
 
-def _clauses(sentence: str) -> tuple[str, str | None, str | None]:
-    """(the first frame's clause, the gravity frame's, the target's) of one motion sentence."""
-    main, gravity, target = "", None, None
+def _end_axes(clause: str | None) -> tuple[int, MotionReading] | None:
+    """The second view's number and the step its axes give, from 'in view 2's image axes it moved left'."""
+    found = _END_AXES_CLAUSE.match(clause or "")
+    if found is None:
+        return None
+    step = read_motion(clause[found.end() :])  # type: ignore[index]
+    return int(found.group("view")), MotionReading(direction=step.direction, vertical=step.vertical)
+
+
+def _clauses(sentence: str) -> tuple[str, str | None, str | None, str | None]:
+    """(the first frame's clause, the gravity frame's, the target's, the second view's axes') of one
+    motion sentence."""
+    main, gravity, target, end = "", None, None, None
     for position, clause in enumerate(part.strip() for part in sentence.rstrip(".").split(";")):
         if position and _GRAVITY_CLAUSE.match(clause):
             gravity = _GRAVITY_CLAUSE.sub("", clause)
+        elif position and _END_AXES_CLAUSE.match(clause):
+            end = clause
         elif position and _TARGET_CLAUSE.match(clause):
             target = clause
         else:
             main = f"{main}; {clause}" if main else clause
-    return main, gravity, target
+    return main, gravity, target, end
 
 
 def _with_target(reading: MotionReading, target: str | None) -> MotionReading:
@@ -228,7 +245,7 @@ def motion_statements(clue_text: str) -> list[MotionStatement]:
                     )
                 )
                 continue
-            main, gravity, target = _clauses(sentence)
+            main, gravity, target, end = _clauses(sentence)
             direction, turn = normalize_direction(main), normalize_turn(main)
             if direction is None and turn is None and not _MOVED_OR_NOT.search(main):
                 continue
@@ -250,6 +267,7 @@ def motion_statements(clue_text: str) -> list[MotionStatement]:
                     ),
                     main_clause=main,
                     gravity_clause=gravity,
+                    end_axes=_end_axes(end),
                 )
             )
     return statements

@@ -15,6 +15,11 @@ Two frames, each stated in the sentence:
   up is reliable; the sentence adds it only when its words differ from the image frame's (rolled
   photos, steeply pitched cameras).
 
+- **the second view's image axes**: only the step, and only when the views rotated (a step
+  "forward" in view 1's axes is "left" in view 2's after a right turn of 90 degrees). A rotation
+  needs no second statement when it is about one axis: it leaves its own axis fixed, so that axis
+  and its sense read the same in both views' axes (services/agent/asked_frame.py).
+
 Compass: angle = atan2(right, forward), positive to the right; eight 45-degree sectors centred on
 forward, diagonally forward and right, right, ... name it. The up/down step is said when it is at
 least the distance threshold and at least 22.5 degrees above or below the compass plane (the
@@ -339,14 +344,31 @@ _TARGET_WORDS = {
 }
 
 
+def _end_axes_step(
+    second: np.ndarray, step_world: np.ndarray, image: FrameMotion, limits: _Limits
+) -> str | None:
+    """'moved right': the step in the second view's own image axes, when the views rotated (else
+    the first view's axes say it within the thresholds) and the camera stepped."""
+    rotated = _rotation_words(image.turn_deg, image.tilt_deg, image.roll_deg, limits)
+    stepped = image.direction != NO_MOVEMENT or image.vertical_direction is not None
+    if not (rotated and stepped):
+        return None
+    d = second[:3, :3] @ step_world
+    direction, vertical, _, _ = _step_words(float(d[0]), float(-d[1]), float(d[2]), limits)
+    parts = [word for word in (None if direction == NO_MOVEMENT else direction, vertical) if word]
+    return "moved " + " and ".join(parts) if parts else "made no significant step"
+
+
 def _sentence(
     indices: tuple[int, int],
     frames: tuple[FrameMotion, FrameMotion | None],
     limits: _Limits,
     target: tuple[str | None, tuple[float, float] | None, str],
+    end_step: str | None = None,
 ) -> str:
     """'From view 1 to view 2, in view 1's image axes, the camera moved ...; in the scene's gravity
-    frame it ...; it came closer to the target (0.90 to 0.60 scene units).'"""
+    frame it ...; in view 2's image axes it moved ...; it came closer to the target (0.90 to 0.60
+    scene units).'"""
     first, second = indices
     image, gravity = frames
     frame = FRAME_NAMES[IMAGE_FRAME].format(view=first + 1)
@@ -354,6 +376,8 @@ def _sentence(
     sentence = f"From view {first + 1} to view {second + 1}, {frame}, the camera {body}"
     if gravity is not None:
         sentence += f"; {FRAME_NAMES[GRAVITY_FRAME]} it {gravity.phrase or 'stayed still'}"
+    if end_step is not None:
+        sentence += f"; {FRAME_NAMES[IMAGE_FRAME].format(view=second + 1)} it {end_step}"
     change, distances, name = target
     if change is not None and distances is not None:
         before, after = (_length(d, limits.units) for d in distances)
@@ -397,7 +421,11 @@ def _motion(
         yaw_deg=gravity.turn_deg,
         turn=describe_turn(gravity.turn_deg, limits.turn_deg),
         sentence=_sentence(
-            indices, (image, gravity if differ else None), limits, (change, distances, target[1])
+            indices,
+            (image, gravity if differ else None),
+            limits,
+            (change, distances, target[1]),
+            _end_axes_step(second, step_world, image, limits),
         ),
         vertical_direction=vertical_direction,
         units=limits.units,

@@ -20,6 +20,10 @@ _NEIGHBOURHOOD_M = 1.2  # the run's line is fitted on the tall cells this close
 _MIN_RUN_M = 1.1  # a shorter run (a post, a bookshelf's front) gives no line to follow
 _SIDE_CELLS = 3  # a line of sight that crossed the wall's line passed over cells this far either side
 _RESUMES_M = 0.4  # seen standing this far along the line after a gap: the same wall goes on there
+# ... within this many cells across the line: a line fitted near a jamb (its end face seen too) is
+# tilted a few degrees, and over a doorway's width it drifts off the wall's far part by a cell or two
+_RESUMES_ACROSS_CELLS = 2
+_ON_LINE_CELLS = 1.5  # a run's cells lie this close to its line (the refit keeps only those)
 _MAX_THICKNESS_RATIO = 0.2  # across the line / along it (standard deviations): straight enough
 
 
@@ -44,9 +48,34 @@ def continued_walls(grid: Grid, tall: np.ndarray, per_metre: float, min_gap: flo
         direction = _line_direction(near, _MIN_RUN_M * per_metre / grid.cell)
         if direction is None:
             continue
+        offset = cell - near.mean(axis=0)
+        if abs(offset[0] * direction[1] - offset[1] * direction[0]) > _ON_LINE_CELLS:
+            continue  # off the run's line (a jamb's end face, a corner): not where the wall runs on
+        direction = _refined(near, cell, direction, _MIN_RUN_M * per_metre / grid.cell)
         for sign in (1.0, -1.0):
             _follow(grid, hidden, tall, cell, sign * direction, along, out, per_cell, min_gap / grid.cell)
     return out
+
+
+def _refined(
+    cells: np.ndarray, through: np.ndarray, direction: np.ndarray, min_run_cells: float
+) -> np.ndarray:
+    """The direction of the line through ``through`` that most of the nearby cells lie on.
+
+    Cells off the run's line (a jamb's end face, the stub of a meeting wall) tilt a fit on all of
+    them by several degrees; followed across a doorway, a tilted line misses the wall's far part.
+    So the line is the one (scanned every degree) with the most cells within ``_ON_LINE_CELLS`` of
+    it, refitted on those; the first fit stands when they do not make a run.
+    """
+    offset = (cells - through).astype(np.float64)
+    angles = np.radians(np.arange(0.0, 180.0, 1.0))
+    across = np.abs(offset[:, None, 0] * np.sin(angles) - offset[:, None, 1] * np.cos(angles))
+    best = angles[int(np.argmax((across <= _ON_LINE_CELLS).sum(axis=0)))]
+    on_line = cells[np.abs(offset[:, 0] * np.sin(best) - offset[:, 1] * np.cos(best)) <= _ON_LINE_CELLS]
+    refit = _line_direction(np.vstack([on_line, through[None]]), 0.5 * min_run_cells)
+    if refit is None:
+        return direction
+    return refit if refit @ direction >= 0 else -refit
 
 
 def _line_direction(cells: np.ndarray, min_run_cells: float) -> np.ndarray | None:
@@ -86,15 +115,23 @@ def _follow(grid: Grid, hidden, tall, cell, direction, along, out, per_cell: flo
     step = along[1] - along[0]
     wide = [first for first, last in _runs(crossed) if (last - first + 1) * step >= gap_cells]
     stop = wide[0] if wide else len(cells)
-    wall = (grid.occupied | tall)[cells[:stop, 0], cells[:stop, 1]]
-    gap = hidden[cells[:stop, 0], cells[:stop, 1]] & ~wall
+    standing_wall = grid.occupied | tall
+    on_line = standing_wall[cells[:stop, 0], cells[:stop, 1]]
+    near = on_line.copy()  # seen standing on the line or a cell or two beside it
+    for offset in range(-_RESUMES_ACROSS_CELLS, _RESUMES_ACROSS_CELLS + 1):
+        beside = np.rint(line[:stop] + offset * normal).astype(np.int64)
+        ok = grid.inside(beside)
+        near[ok] |= standing_wall[beside[ok, 0], beside[ok, 1]]
+    # Hidden cells on the line are the wall (its unseen face and inside, or its unseen run on) ...
+    marked = hidden[cells[:stop, 0], cells[:stop, 1]] & ~on_line
     resumes = int(np.ceil(_RESUMES_M * per_cell / (along[1] - along[0])))
-    for first, last in _runs(gap):
-        after = wall[last + 1 : last + 1 + resumes]
-        if len(after) == resumes and after.all():
-            continue  # the same wall is seen again beyond: a gap between seen wall points stays open
-        marked = cells[first : last + 1]
-        out[marked[:, 0], marked[:, 1]] = True
+    # ... except in a gap the wall is seen again beyond: a stretch with no wall seen beside the line
+    # (hidden cells and seen floor alike: a doorway looked into only part way) followed by seen wall.
+    for first, last in _runs(~near):
+        after = near[last + 1 : last + 1 + resumes]
+        if first > 0 and len(after) == resumes and after.all():
+            marked[first : last + 1] = False
+    out[cells[:stop][marked, 0], cells[:stop][marked, 1]] = True
 
 
 def _runs(flags: np.ndarray) -> list[tuple[int, int]]:

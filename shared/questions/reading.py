@@ -336,6 +336,20 @@ _VIEW_AXES = re.compile(
     r"coordinate (?:frame|system)|"
     r"frame of reference|reference frame|orientation|point of view|viewpoint|perspective|side)\b"
 )
+# The same with the view after its noun: "in the directions of image 2", "along the axes of the second
+# photo". A few words after "of" are read as a pair; only the view they name is kept.
+_VIEW_AXES_OF = re.compile(
+    r"\b(?:in|from|use|using|relative to|with respect to|according to|along|as seen (?:in|from))\s+"
+    r"(?:the\s+)?(?:own\s+)?(?:axes|directions|coordinates|coordinate (?:frame|system)|frame of reference|"
+    r"reference frame|orientation|point of view|viewpoint|perspective)\s+of\s+(?:the\s+)?"
+    r"(?P<view>\w+(?:\s+\w+){0,2})"
+)
+# Words that say whose axes are meant ("use image 2's axes itself"); when none of the patterns above
+# read them, the frame is unread (not the default).
+_FRAME_WORDS = re.compile(
+    r"\b(?:axes|coordinates|coordinate (?:frame|system)|frame of reference|reference frame|"
+    r"directions of|s (?:own )?directions)\b"
+)
 _SHOOTER = re.compile(r"\b(?:shooter|photographer|camera operator|camera person|viewer|camera)\b")
 _OBJECT_FRAME = re.compile(
     r"\b(?:facing|from|at) the (?P<object>(?!camera|photographer|shooter|"
@@ -349,17 +363,27 @@ def _frame(
     words = normalized(ask)
     if room := _ROOM.search(words):
         return FrameReading(kind="room"), room.group(), True
+    if of := _VIEW_AXES_OF.search(words):
+        named = read_pair(of.group("view"), image_count).view_set
+        if named:
+            return FrameReading(kind="view_axes", view=named[0]), of.group(), True
+        if _SHOOTER.search(of.group("view")) and views is not None:
+            return FrameReading(kind="view_axes", view=views[0]), of.group(), True
+        return FrameReading(kind="object", object=of.group("view").split()[0]), of.group(), True
     if axes := _VIEW_AXES.search(words):
         named = read_pair(axes.group("view"), image_count).view_set
-        if named:
+        if len(named) == 1:  # "from image 1 to image 2 in the coordinates ..." names no one view
             return FrameReading(kind="view_axes", view=named[0]), axes.group(), True
         if _SHOOTER.search(axes.group("view")) and views is not None:
             return FrameReading(kind="view_axes", view=views[0]), axes.group(), True
     if obj := _OBJECT_FRAME.search(words):
         return FrameReading(kind="object", object=obj.group("object")), obj.group(), True
-    if views is not None:
-        return FrameReading(kind="view_axes", view=views[0]), "", False  # the first photo's, unless said
-    return None, "", False
+    if views is None:
+        return None, "", False
+    # The first photo's, unless said; words that name axes but were not read above keep it uncertain
+    # with their source, so that the answer is refused rather than given in a frame not asked.
+    unread = _FRAME_WORDS.search(words)
+    return FrameReading(kind="view_axes", view=views[0]), unread.group() if unread else "", False
 
 
 # ---- the whole reading ----------------------------------------------------------------------

@@ -11,11 +11,18 @@ Kinds:
 - ``ring``: the goal is inside a closed pen of low partitions.
 
 ``varied=True`` draws the capture the way real ones vary (the route benchmark's scenes): 3-7 views,
-one camera height per scene in 1.0-1.8 m, a doorway ``coverage`` of ``full`` (views look through
-the doorway from both rooms), ``partial`` (from room A only, the doorway off-centre) or ``none``
-(room A's views look at the dividing wall beside the doorway, not through it; room B's view
-stands with its back to the doorway), and furniture allowed
-near the doorway. The default is the fixed capture (5-7 views at 1.5 m) the tests were written on.
+one camera height per scene in 1.0-1.8 m, furniture allowed near the doorway, and one of four
+doorway ``coverage`` levels (``COVERAGES``, drawn evenly):
+- ``full``: views look through the doorway from both rooms;
+- ``partial``: from room A only, the doorway off-centre;
+- ``doorway``: the doorway is in a photo but the floor past it is in none: a room A view stands
+  close to the dividing wall and looks along it, so both jambs are framed while every ray into the
+  gap meets the far jamb's end face; room B's view of the goal is placed so that the floor within
+  1.2 m past the doorway (a metre wider than it each side) is out of its frame, and no other view
+  frames that floor (the start view faces away from the wall);
+- ``none``: no photo shows the doorway: room A's views look at the dividing wall beside it, not
+  through it; room B's view stands near the far end of the dividing wall.
+The default is the fixed capture (5-7 views at 1.5 m) the tests were written on.
 
 Besides the rendering mesh, every scene keeps its *solids*: the convex parts (wall slabs,
 furniture parts, partitions) as vertex sets, so the true footprint at the robot's body height is
@@ -41,6 +48,7 @@ from shared.synthetic.scene import (
 )
 
 KINDS = ("reachable", "narrow_door", "ring")
+COVERAGES = ("full", "partial", "doorway", "none")  # the varied capture's doorway coverage, drawn evenly
 EYE_HEIGHT = 1.5
 WALL = 0.12  # thickness of every wall slab
 _PITCH_DOWN_DEG = 28.0  # views look down so the floor in front of them is seen
@@ -61,7 +69,7 @@ class TwoRoomScene:
     divider_x: float
     goal_view: int = 3  # the view that looks at the goal
     camera_height: float = EYE_HEIGHT  # the start view's camera above the floor, metres
-    coverage: str = "fixed"  # the capture's doorway coverage: fixed, full, partial or none
+    coverage: str = "fixed"  # the capture's doorway coverage: fixed or one of COVERAGES
 
     def start_floor(self) -> np.ndarray:
         pose = self.extrinsics[0]
@@ -235,6 +243,7 @@ class _Layout:
     goal_view: int = 3
     coverage: str = "fixed"
     door_keep_out: float = 1.4  # furniture keeps this far from the doorway's centre
+    goal_margin: float = 0.8  # the goal keeps this far from room B's walls
 
 
 def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:
@@ -246,19 +255,28 @@ def _varied_views(rng: np.random.Generator, layout: _Layout, start: np.ndarray) 
     """Replace the fixed capture by a drawn one: 3-7 views, one height, a doorway coverage."""
     divider, width, length = layout.divider, layout.width, layout.length
     door_centre = 0.5 * sum(layout.door)
-    coverage = str(rng.choice(["full", "partial", "none"]))
-    if coverage == "none":  # the start view faces away from the dividing wall
-        heading = float(rng.uniform(0.6 * np.pi, 1.4 * np.pi))
+    coverage = str(rng.choice(list(COVERAGES)))
+    hides_beyond = coverage in ("none", "doorway")  # no view may see room B's floor by the doorway
+    beyond = _beyond_the_doorway(layout)
+    if hides_beyond:  # the start view faces away from the dividing wall
+        for _ in range(20):
+            heading = float(rng.uniform(0.6 * np.pi, 1.4 * np.pi))
+            if coverage == "none" or not _frustum_meets(start, start + _unit(heading), beyond):
+                break
     else:
         heading = float(rng.uniform(0, 2 * np.pi))
     eyes = [start]
-    looks = [start + [np.cos(heading), np.sin(heading)]]
+    looks = [start + _unit(heading)]
     if coverage == "none":  # room B's view stands near the dividing wall and looks away from it
         far_end = 0.8 if door_centre > width / 2 else width - 0.8  # the end of the wall away from the door
         eyes.append(np.array([divider + WALL / 2 + 0.6, far_end]))
+    elif coverage == "doorway":
+        _goal_away_from_the_doorway(rng, layout)
+        eye, look = _goal_view_missing(rng, layout, beyond)
+        eyes.append(eye)
     else:
         eyes.append(_farthest_corner(layout.goal, divider + WALL / 2, length, width))
-    looks.append(layout.goal)
+    looks.append(layout.goal if coverage != "doorway" else look)
     if coverage in ("full", "partial"):
         shift = 0.0 if coverage == "full" else float(rng.choice([-1, 1]) * rng.uniform(0.8, 1.6))
         eyes.append(np.array([divider - rng.uniform(1.8, 3.0), door_centre + rng.uniform(-0.5, 0.5)]))
@@ -270,6 +288,10 @@ def _varied_views(rng: np.random.Generator, layout: _Layout, start: np.ndarray) 
         target_y = float(np.clip(door_centre + offset, 0.5, width - 0.5))
         eyes.append(np.array([divider - rng.uniform(0.9, 1.3), target_y + 0.2 * np.sign(offset)]))
         looks.append(np.array([divider, target_y]))
+    if coverage == "doorway":
+        eye, look = _along_the_wall(rng, layout)
+        eyes.append(eye)
+        looks.append(look)
     if coverage == "full":
         eyes.append(np.array([divider + rng.uniform(1.8, 3.0), door_centre + rng.uniform(-0.5, 0.5)]))
         looks.append(np.array([divider - 1.5, door_centre]))
@@ -278,26 +300,132 @@ def _varied_views(rng: np.random.Generator, layout: _Layout, start: np.ndarray) 
         (_farthest_corner(start, 0.0, divider - WALL / 2, width), start),
         (np.array([divider - 0.8, width / 2 + side * (width / 2 - 0.7)]), np.array([divider / 2, width / 2])),
     ]
-    if coverage != "none":  # a view from room B's far end would see the floor past the doorway
+    if not hides_beyond:  # a view from room B's far end would see the floor past the doorway
         b_corner = np.array([length - 0.7, width / 2 - side * (width / 2 - 0.7)])
         extras.append((b_corner, np.array([(divider + length) / 2, width / 2])))
     wanted = int(rng.integers(max(0, 3 - len(eyes)), min(len(extras), 7 - len(eyes)) + 1))
     door = np.array([divider, door_centre])
     for index in rng.permutation(len(extras))[:wanted]:
         eye, look = extras[index]
-        if coverage == "none" and _angle_deg(look - eye, door - eye) < 55.0:
+        if hides_beyond and _angle_deg(look - eye, door - eye) < 55.0:
             continue  # it would look through the doorway
         eyes.append(eye)
         looks.append(look)
     if len(eyes) < 3:  # the start area, seen from just behind the start
-        eyes.append(start - 0.8 * np.array([np.cos(heading), np.sin(heading)]))
-        looks.append(start + np.array([np.cos(heading), np.sin(heading)]))
+        eyes.append(start - 0.8 * _unit(heading))
+        looks.append(start + _unit(heading))
     height = float(rng.uniform(1.0, 1.8))
     layout.heights = [height] + [
         float(np.clip(height + rng.uniform(-0.15, 0.15), 0.9, 1.9)) for _ in eyes[1:]
     ]
     layout.eyes, layout.looks, layout.goal_view, layout.coverage = eyes, looks, 1, coverage
     layout.door_keep_out = float(rng.uniform(0.5, 1.4))
+
+
+def _unit(angle: float) -> np.ndarray:
+    return np.array([np.cos(angle), np.sin(angle)])
+
+
+def _beyond_the_doorway(layout: _Layout) -> np.ndarray:
+    """Floor points just past the doorway in room B: 1.2 m deep, a metre wider than it each side."""
+    xs = np.linspace(layout.divider + WALL / 2, layout.divider + WALL / 2 + 1.2, 7)
+    ys = np.linspace(layout.door[0] - 1.0, layout.door[1] + 1.0, 12)
+    return np.array([[x, y] for x in xs for y in ys])
+
+
+def _frustum_meets(eye: np.ndarray, look: np.ndarray, floor_points: np.ndarray, count: bool = False):
+    """Whether a view (at any camera height the generator draws) has any of the floor points in frame.
+
+    Occlusion is ignored, so False means the view cannot see them. ``count``: how many are.
+    """
+    intrinsic = default_intrinsic(320, 240, _FOV_DEG)
+    points = np.column_stack([floor_points, np.zeros(len(floor_points))])
+    total = 0
+    for height in (0.9, 1.9):
+        pose = _view(eye, look, height)
+        camera = points @ pose[:, :3].T + pose[:, 3]
+        front = camera[:, 2] > 1e-6
+        pixels = camera[front] @ intrinsic.T
+        u, v = pixels[:, 0] / pixels[:, 2], pixels[:, 1] / pixels[:, 2]
+        framed = int(np.count_nonzero((u >= -10) & (u <= 330) & (v >= -10) & (v <= 250)))
+        if framed and not count:
+            return True
+        total += framed
+    return total if count else False
+
+
+def _goal_view_missing(
+    rng: np.random.Generator, layout: _Layout, beyond: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Where room B's view of the goal stands so that the floor by the doorway is out of its frame.
+
+    Candidates: room B's corners, then points 2.4 or 3 m around the goal, each in a drawn order,
+    looking at the goal or up to 28 degrees beside it; the first at least 2.1 m from the goal
+    (nearer, a pen's near side would be below the frame) whose frame holds none of ``beyond``.
+    Returns (eye, look).
+    """
+    x0, x1 = layout.divider + WALL / 2 + 0.7, layout.length - 0.7
+    corners = [np.array([x, y]) for x in (x0, x1) for y in (0.7, layout.width - 0.7)]
+    around = [
+        np.clip(layout.goal + distance * _unit(angle), [x0, 0.7], [x1, layout.width - 0.7])
+        for distance in (2.4, 3.0)
+        for angle in np.radians(np.arange(0, 360, 30))
+    ]
+    candidates = [corners[i] for i in rng.permutation(4)] + [around[i] for i in rng.permutation(len(around))]
+    best, fewest = None, np.inf
+    for eye in candidates:
+        if np.linalg.norm(eye - layout.goal) < 2.1:
+            continue  # closer, the floor a metre before the goal (a pen's near side) is below the frame
+        towards = layout.goal - eye
+        for swing in np.radians([0.0, 15.0, -15.0, 28.0, -28.0]):  # the goal off the frame's centre
+            cosine, sine = np.cos(swing), np.sin(swing)
+            look = eye + np.array(
+                [cosine * towards[0] - sine * towards[1], sine * towards[0] + cosine * towards[1]]
+            )
+            framed = _frustum_meets(eye, look, beyond, count=True)
+            if framed < fewest:
+                best, fewest = (eye, look), framed
+            if framed == 0:
+                return eye, look
+    return best  # the fewest such floor points in frame (the bench measures what was seen)
+
+
+def _goal_away_from_the_doorway(rng: np.random.Generator, layout: _Layout) -> None:
+    """Redraw the goal at least 2.6 m from the doorway: a view framing a goal beside it frames its floor."""
+    door = np.array([layout.divider, 0.5 * sum(layout.door)])
+    margin = layout.goal_margin
+    low, high = [layout.divider + 1.5, margin], [layout.length - margin, layout.width - margin]
+    for _ in range(50):
+        if np.linalg.norm(layout.goal - door) >= 2.6:
+            return
+        layout.goal = rng.uniform(low, high)
+
+
+def _along_the_wall(rng: np.random.Generator, layout: _Layout) -> tuple[np.ndarray, np.ndarray]:
+    """A room A view along the dividing wall that frames both jambs but sees nothing through the gap.
+
+    A camera ``a`` metres from the wall's face and ``s`` metres along it from the near jamb sees
+    through the doorway (width ``w``, wall ``WALL`` thick) only when ``a * w >= WALL * s``: standing
+    closer to the wall than ``WALL * s / w``, every ray into the gap meets the far jamb's end face.
+    """
+    low, high = layout.door
+    door_width = high - low
+    room_below, room_above = low - 0.5, layout.width - 0.5 - high
+    sign = -1.0 if room_below >= room_above else 1.0  # stand on the side with more wall
+    along = float(rng.uniform(0.75, 1.0)) * max(room_below, room_above)
+    along = min(along, 3.4)
+    off_wall = float(rng.uniform(0.45, 0.8)) * WALL * along / door_width
+    near_jamb = low if sign < 0 else high
+    eye = np.array([layout.divider - WALL / 2 - off_wall, near_jamb + sign * along])
+    door = np.array([layout.divider, 0.5 * (low + high)])
+    towards = (door - eye) / np.linalg.norm(door - eye)
+    turn = np.radians(float(rng.uniform(8.0, 18.0)))  # a little into room A, the jambs still in frame
+    into_a = -sign  # looking +y (from below the doorway) a counter-clockwise turn faces -x, room A
+    cosine, sine = np.cos(into_a * turn), np.sin(into_a * turn)
+    look = eye + 2.0 * np.array(
+        [cosine * towards[0] - sine * towards[1], sine * towards[0] + cosine * towards[1]]
+    )
+    return eye, look
 
 
 def _layout(rng: np.random.Generator, kind: str, varied: bool = False) -> _Layout:
@@ -333,7 +461,7 @@ def _layout(rng: np.random.Generator, kind: str, varied: bool = False) -> _Layou
     for index in rng.permutation(len(extras))[: int(rng.integers(0, len(extras) + 1))]:
         eyes.append(extras[index][0])
         looks.append(extras[index][1])
-    layout = _Layout(length, width, divider, door, eyes, looks, goal)
+    layout = _Layout(length, width, divider, door, eyes, looks, goal, goal_margin=margin)
     if varied:
         _varied_views(rng, layout, start)
     return layout
