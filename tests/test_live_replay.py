@@ -27,8 +27,8 @@ def _live() -> dict:
     return json.loads(LIVE.read_text(encoding="utf-8"))
 
 
-def _replay(llm: ScriptedLLM, monkeypatch, tmp_path: Path, questions: int) -> list[dict]:
-    live = _live()
+def _run_on_replies(llm: ScriptedLLM, monkeypatch, tmp_path: Path, live: dict, arguments: list[str]) -> dict:
+    """bench.real_model with `arguments`, its code model the scripted server replaying `live`'s replies."""
     facts = live["record"]
     llm.reset()
     llm.text_only()
@@ -38,11 +38,18 @@ def _replay(llm: ScriptedLLM, monkeypatch, tmp_path: Path, questions: int) -> li
     monkeypatch.setenv("PYSPATIAL_CODE_MODEL_TEXT_ONLY", "true")
     monkeypatch.setenv("PYSPATIAL_ANSWER_MODEL", "")
     record = tmp_path / "replayed.json"
-    arguments = ["--questions", str(questions), "--seed", str(facts["seed"]), "--record", str(record)]
-    arguments += ["--width", str(facts["width"]), "--height", str(facts["height"])]
-    assert real_model.main(arguments) == 0
+    assert real_model.main([*arguments, "--record", str(record)]) == 0
     replayed = json.loads(record.read_text(encoding="utf-8"))
     assert replayed["prompt"] == facts["prompt"], "the code prompt changed since the live run"
+    return replayed
+
+
+def _replay(llm: ScriptedLLM, monkeypatch, tmp_path: Path, questions: int) -> list[dict]:
+    live = _live()
+    facts = live["record"]
+    arguments = ["--questions", str(questions), "--seed", str(facts["seed"])]
+    arguments += ["--width", str(facts["width"]), "--height", str(facts["height"])]
+    replayed = _run_on_replies(llm, monkeypatch, tmp_path, live, arguments)
     return replayed["results"]
 
 
@@ -80,24 +87,13 @@ def test_the_held_out_live_run_replays_with_no_wrong_answer(llm, monkeypatch, tm
 
     assert realdata_dir() is not None, "templeRing not found: ../shared/realdata or PYSPATIAL_REALDATA_DIR"
     live = json.loads(HELDOUT_LIVE.read_text(encoding="utf-8"))
-    facts, recorded = live["record"], live["record"]["results"]
+    recorded = live["record"]["results"]
     rows = mmsi_rows("heldout", limit=len(recorded))
     truth = {row["id"]: row["answer"] for row in rows}
     parquet = tmp_path / "heldout.parquet"
     write_parquet(rows, parquet)
-    llm.reset()
-    llm.text_only()
-    llm.script(live["replies"], model=facts["model"])
-    monkeypatch.setenv("PYSPATIAL_CODE_MODEL", facts["model"])
-    monkeypatch.setenv("PYSPATIAL_CODE_MODEL_BASE_URL", llm.base_url)
-    monkeypatch.setenv("PYSPATIAL_CODE_MODEL_TEXT_ONLY", "true")
-    monkeypatch.setenv("PYSPATIAL_ANSWER_MODEL", "")
-    record = tmp_path / "replayed.json"
-    arguments = ["--questions", str(len(recorded)), "--parquet", str(parquet), "--record", str(record)]
-    assert real_model.main(arguments) == 0
-    replayed = json.loads(record.read_text(encoding="utf-8"))
-    assert replayed["prompt"] == facts["prompt"], "the code prompt changed since the live run"
-    results = replayed["results"]
+    arguments = ["--questions", str(len(recorded)), "--parquet", str(parquet)]
+    results = _run_on_replies(llm, monkeypatch, tmp_path, live, arguments)["results"]
     assert [r["id"] for r in results] == [r["id"] for r in recorded]
     # The replies come in the order the live loop asked for them: up to the first question where
     # today's loop asks for a different number of them (a check added since sends a program back),
