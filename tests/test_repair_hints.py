@@ -60,8 +60,9 @@ def test_an_option_word_among_listed_values_is_no_answer() -> None:
     # the sandbox's ordinary-code control prints "left" as one of thirteen values
     left_or_right = parse_question("Which way did the camera move from view 1 to view 2? A. left B. right", 2)
     assert "left" in FALSE_POSITIVES_CLUE.splitlines()
-    # Not an answer; still no motion sentence, which a camera question needs.
-    assert clue_problem(left_or_right, FALSE_POSITIVES_CLUE, [], 0).kind == "no_motion"
+    assert clue_problem(left_or_right, FALSE_POSITIVES_CLUE, [], 0) is None
+    # Not an answer; but no motion sentence either, which the offline answerer needs.
+    assert clue_problem(left_or_right, FALSE_POSITIVES_CLUE, [], 0, answer_model=False).kind == "no_motion"
     assert clue_problem(left_or_right, "left", [], 0).kind == "answer_letter"
 
 
@@ -117,7 +118,7 @@ def test_a_clue_of_its_own_pose_arithmetic_is_sent_back_for_the_motion_sentence(
     # A real model's clue (Qwen2.5-Coder-1.5B, held-out live run): numbers of its own, no pair, no
     # determinacy. With a certain reading of a camera question, the tool's sentence is asked for.
     own_arithmetic = "The photographer stepped unknown by 0.14 metres."
-    problem = clue_problem(TWO_TO_THREE, own_arithmetic, [], 0)
+    problem = clue_problem(TWO_TO_THREE, own_arithmetic, [], 0, answer_model=False)
     assert problem is not None and problem.kind == "no_motion"
     assert "image 2 to image 3" in problem.message and "describe_camera_motion(recon, 2, 3)" in problem.fix
     assert "describe_camera_motion(recon, 2, 3)" in pointed_hints("x", "no_motion", TWO_TO_THREE)[0]
@@ -126,5 +127,9 @@ def test_a_clue_of_its_own_pose_arithmetic_is_sent_back_for_the_motion_sentence(
         "From image 1 to image 2 and from image 2 to image 3, how did I move? A. Left B. Right", 3
     )
     assert doubtful.reading is not None and not doubtful.reading.views_certain
-    assert clue_problem(doubtful, own_arithmetic, [], 0) is None
-    assert clue_problem(FROM_THREE, own_arithmetic, [], 0) is None
+    assert clue_problem(doubtful, own_arithmetic, [], 0, answer_model=False) is None
+    assert clue_problem(FROM_THREE, own_arithmetic, [], 0, answer_model=False) is None
+    # An answer model reads any clue; a question with no options (a route) may have any clue.
+    assert clue_problem(TWO_TO_THREE, own_arithmetic, [], 0) is None
+    free_form = parse_question("How did I move from image 2 to image 3?", 3)
+    assert clue_problem(free_form, own_arithmetic, [], 0, answer_model=False) is None

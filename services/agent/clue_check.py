@@ -7,8 +7,9 @@ A clue is refused (and the program sent back for repair, with a hint that names 
   option, or any clue that states a letter; a value among several lines is no answer);
 - its camera-motion sentences are about other view pairs than the question's ("From view 1 to view
   2" for "how did I move from image 1 to image 3");
-- it states no camera motion at all (the program's own arithmetic on poses) while the question asks
-  the camera's motion between a pair the reading is sure of;
+- it states no camera motion at all (the program's own arithmetic on poses) while the options read
+  as camera claims between a pair the reading is sure of, and the offline answerer (which reads
+  motion sentences only) is to choose;
 - its rendered views were rendered from another view than the question asks from (a camera turned
   in place at view 1 for "from image 3, what is to your left?");
 - it is images only while nothing here reads images (no vision answer model is configured: the
@@ -26,6 +27,7 @@ import numpy as np
 
 from services.agent.motion_clue import motion_statements
 from shared.questions.choices import read_choice
+from shared.questions.claims import is_read
 from shared.questions.intent import QuestionIntent
 
 # A rendered pose whose centre is this close to a view's (relative to the cameras' spread) stands there.
@@ -49,19 +51,22 @@ def _pairs(pairs: list[tuple[int, int]]) -> str:
     return ", ".join(f"view {a} to view {b}" for a, b in pairs)
 
 
-def _reads_as_camera_motion(intent: QuestionIntent) -> bool:
-    """A question about the camera's motion (its family says so) whose pair the reading is sure of.
+def _options_ask_camera_motion(intent: QuestionIntent) -> bool:
+    """Options that all read as camera claims, between a pair the reading is sure of.
 
-    Which motion (a step or a turn) need not be certain: the sentence states both."""
+    Which motion (a step or a turn) need not be certain: the sentence states both. A question with
+    no options (a route, a free-form question) is not checked so: its clue may be anything."""
     reading = intent.reading
     return (
         reading is not None
         and reading.views_certain
         and reading.quantity in ("translation", "rotation", "position", "motion", "still")
+        and bool(reading.options)
+        and all(is_read(claim) for claim in reading.options.values())
     )
 
 
-def _motion_problem(intent: QuestionIntent, clue_text: str) -> ClueProblem | None:
+def _motion_problem(intent: QuestionIntent, clue_text: str, answer_model: bool) -> ClueProblem | None:
     if intent.family != "self_movement" or intent.motion_pair is None or not clue_text:
         return None  # an image-only clue (the photos, for a vision answerer) names no pair to check
     if intent.reading is not None and not intent.reading.views_certain:
@@ -69,7 +74,7 @@ def _motion_problem(intent: QuestionIntent, clue_text: str) -> ClueProblem | Non
     first, second = intent.motion_pair
     statements = motion_statements(clue_text)
     pairs = list(dict.fromkeys(s.pair for s in statements if s.pair is not None))
-    if not pairs and _reads_as_camera_motion(intent):
+    if not pairs and not answer_model and _options_ask_camera_motion(intent):
         # Its own arithmetic on poses ("stepped unknown by 0.14 metres") says neither the pair nor the
         # determinacy; the tool's sentence says both, and it is what every answerer reads.
         return ClueProblem(
@@ -168,12 +173,15 @@ def clue_problem(
     num_images: int,
     view_extrinsics: list[np.ndarray] | None = None,
     answerer_reads_images: bool = True,
+    answer_model: bool = True,
 ) -> ClueProblem | None:
     """What is wrong with the clue of a successful run (None: it covers what the question asks).
 
     `rendered`: the camera-from-world poses of the clue's rendered images; `num_images` counts all
     clue images (photos included); `view_extrinsics`: the input views' poses, when known;
-    `answerer_reads_images`: whether a vision answer model will see the clue's images.
+    `answerer_reads_images`: whether a vision answer model will see the clue's images;
+    `answer_model`: whether an answer model reads the clue (else the offline answerer, which reads
+    motion sentences only).
     """
     text = (clue_text or "").strip()
     if text == "None" and num_images == 0:  # what a program without a `return` gives
@@ -185,7 +193,7 @@ def clue_problem(
         return _unread_images_problem(intent, num_images)
     return (
         _letter_problem(intent, text, num_images > 0)
-        or _motion_problem(intent, text)
+        or _motion_problem(intent, text, answer_model)
         or _render_problem(intent, rendered, view_extrinsics or [])
     )
 

@@ -221,6 +221,7 @@ class SolvePipeline:
             gate=self.sandbox_gate,
             cpu_budget=CpuBudget(self.settings.sandbox_solve_cpu_s),
             answerer_reads_images=self.answer_client is not None and not self.settings.answer_model_text_only,
+            answer_model=self.answer_client is not None,
         )
 
 

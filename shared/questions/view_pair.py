@@ -314,6 +314,28 @@ def _sentence_spans(words: str) -> list[tuple[int, int]]:
 _LISTED = re.compile(r"\s*(?:and|or|vs|versus|as well as|plus)?\s*")
 
 
+def _set_frames_apart(
+    views: tuple[int, ...], roles: dict[int, set[str]]
+) -> tuple[tuple[int, ...], dict[int, set[str]], list[int]]:
+    """(views, roles without "frame", the photos named as the frame of the axes)."""
+    frames = [v for v in views if "frame" in roles[v]]
+    roles = {v: r - {"frame"} for v, r in roles.items()}
+    if frames and all(v in frames and not roles[v] for v in views):
+        views = ()  # "which way did it move, as seen in image 2?": a note on the axes names no pair
+    return views, roles, frames
+
+
+def _start_and_end(views: tuple[int, ...], sources: list[int], targets: list[int]) -> tuple[int, int]:
+    """The pair from the start and end said; the other named photo fills the role not said."""
+    first = sources[0] if sources else None
+    last = targets[0] if targets else None
+    if first is None:
+        first = next(v for v in views if v != last)
+    if last is None:
+        last = next(v for v in views if v != first)
+    return first, last
+
+
 def _ordered(
     views: tuple[int, ...],
     roles: dict[int, set[str]],
@@ -322,10 +344,7 @@ def _ordered(
     source: str,
     listed: bool = True,
 ) -> PairReading:
-    frames = [v for v in views if "frame" in roles[v]]
-    roles = {v: r - {"frame"} for v, r in roles.items()}
-    if frames and all(v in frames and not roles[v] for v in views):
-        views = ()  # "which way did it move, as seen in image 2?": a note on the axes names no pair
+    views, roles, frames = _set_frames_apart(views, roles)
     if any(len(r) > 1 for r in roles.values()):
         return PairReading(
             view_set=views,
@@ -363,12 +382,7 @@ def _ordered(
                 views=(1, 2), view_set=views, source="two photos named in no order: 1 to 2", certain=True
             )
         return PairReading(view_set=views, doubt="it names two photos, and no word says which is the start")
-    first = sources[0] if sources else None
-    last = targets[0] if targets else None
-    if first is None:
-        first = next(v for v in views if v != last)
-    if last is None:
-        last = next(v for v in views if v != first)
+    first, last = _start_and_end(views, sources, targets)
     how = "its words" if sources or targets else "the order of mention"
     return PairReading(
         views=(first, last),

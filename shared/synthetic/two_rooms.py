@@ -251,6 +251,28 @@ def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
 
 
+def _start_heading(rng: np.random.Generator, coverage: str, start: np.ndarray, beyond) -> float:
+    """The start view's heading; with the floor past the doorway hidden, it faces away from the wall."""
+    if coverage not in ("none", "doorway"):
+        return float(rng.uniform(0, 2 * np.pi))
+    for _ in range(20):
+        heading = float(rng.uniform(0.6 * np.pi, 1.4 * np.pi))
+        if coverage == "none" or not _frustum_meets(start, start + _unit(heading), beyond):
+            break
+    return heading
+
+
+def _beside_the_doorway(rng: np.random.Generator, layout: _Layout) -> tuple[np.ndarray, np.ndarray]:
+    """(eye, look) of a room A view of the dividing wall beside the doorway, not through it."""
+    divider, width, door_centre = layout.divider, layout.width, 0.5 * sum(layout.door)
+    offset = float(rng.choice([-1, 1]) * rng.uniform(1.7, 2.3))
+    if not 0.5 <= door_centre + offset <= width - 0.5:
+        offset = -offset
+    target_y = float(np.clip(door_centre + offset, 0.5, width - 0.5))
+    eye = np.array([divider - rng.uniform(0.9, 1.3), target_y + 0.2 * np.sign(offset)])
+    return eye, np.array([divider, target_y])
+
+
 def _varied_views(rng: np.random.Generator, layout: _Layout, start: np.ndarray) -> None:
     """Replace the fixed capture by a drawn one: 3-7 views, one height, a doorway coverage."""
     divider, width, length = layout.divider, layout.width, layout.length
@@ -258,13 +280,7 @@ def _varied_views(rng: np.random.Generator, layout: _Layout, start: np.ndarray) 
     coverage = str(rng.choice(list(COVERAGES)))
     hides_beyond = coverage in ("none", "doorway")  # no view may see room B's floor by the doorway
     beyond = _beyond_the_doorway(layout)
-    if hides_beyond:  # the start view faces away from the dividing wall
-        for _ in range(20):
-            heading = float(rng.uniform(0.6 * np.pi, 1.4 * np.pi))
-            if coverage == "none" or not _frustum_meets(start, start + _unit(heading), beyond):
-                break
-    else:
-        heading = float(rng.uniform(0, 2 * np.pi))
+    heading = _start_heading(rng, coverage, start, beyond)
     eyes = [start]
     looks = [start + _unit(heading)]
     if coverage == "none":  # room B's view stands near the dividing wall and looks away from it
@@ -281,15 +297,8 @@ def _varied_views(rng: np.random.Generator, layout: _Layout, start: np.ndarray) 
         shift = 0.0 if coverage == "full" else float(rng.choice([-1, 1]) * rng.uniform(0.8, 1.6))
         eyes.append(np.array([divider - rng.uniform(1.8, 3.0), door_centre + rng.uniform(-0.5, 0.5)]))
         looks.append(np.array([divider + 1.5, door_centre + shift]))
-    if coverage == "none":  # room A's view of the dividing wall beside the doorway, not through it
-        offset = float(rng.choice([-1, 1]) * rng.uniform(1.7, 2.3))
-        if not 0.5 <= door_centre + offset <= width - 0.5:
-            offset = -offset
-        target_y = float(np.clip(door_centre + offset, 0.5, width - 0.5))
-        eyes.append(np.array([divider - rng.uniform(0.9, 1.3), target_y + 0.2 * np.sign(offset)]))
-        looks.append(np.array([divider, target_y]))
-    if coverage == "doorway":
-        eye, look = _along_the_wall(rng, layout)
+    if coverage in ("none", "doorway"):  # the wall beside the doorway, or along it: not through it
+        eye, look = _beside_the_doorway(rng, layout) if coverage == "none" else _along_the_wall(rng, layout)
         eyes.append(eye)
         looks.append(look)
     if coverage == "full":

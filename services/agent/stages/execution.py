@@ -49,6 +49,7 @@ class SandboxRuns:
     gate: SandboxGate | None = None  # the agent's cap on running sandboxes
     cpu_budget: CpuBudget | None = None  # this solve's CPU across its attempts
     answerer_reads_images: bool = True  # False: no vision answer model, an image-only clue is unread
+    answer_model: bool = True  # False: the offline answerer chooses, and it reads motion sentences only
     attempts_so_far: list[AttemptRecord] = field(default_factory=list)
 
     def execute(self, source: str, written_by_model: bool = True) -> ExecutionOutcome:
@@ -114,7 +115,9 @@ class SandboxRuns:
         # An image-only clue nothing can read sends the model's program back; the planner's program
         # is what it is (its answer is null with the reason).
         reads_images = self.answerer_reads_images or not written_by_model
-        problem = clue_problem(self.intent, step.clue_text, rendered, step.clue_images, views, reads_images)
+        problem = clue_problem(
+            self.intent, step.clue_text, rendered, step.clue_images, views, reads_images, self.answer_model
+        )
         if problem is not None:
             step.ok, step.error_kind = False, problem.kind
             step.error = f"{problem.message}; {problem.fix}"
