@@ -500,6 +500,10 @@ def test_whole_questions_with_own_option_wordings_read_every_option_right(seed: 
         ("Photo 1 is above photo 2", "U"),
         # photos outside the pair
         ("Image 3 was taken to the left of image 1", "U"),
+        # photos named by number words are checked against the pair like digits
+        ("Image two is to the left of image one", "P left"),
+        ("Image one is to the left of image two", "U"),
+        ("Photo three was taken to the left of photo one", "U"),
     ],
 )
 def test_options_that_name_photos_must_name_the_pair_in_its_order(option: str, expected: str) -> None:

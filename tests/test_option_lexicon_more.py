@@ -12,7 +12,6 @@ import pytest
 
 from shared.questions.claims import Unread
 from shared.questions.lexicon import read_phrase
-from shared.questions.reading import read_question
 from tests.test_option_lexicon import short
 
 NOUNS = [
@@ -415,19 +414,3 @@ def test_each_second_batch_wording_reads_as_its_claim(wording: str, expected: st
 def test_second_batch_near_misses_say_why(wording: str, expected: str) -> None:
     claim = read_phrase(wording)
     assert isinstance(claim, Unread) and claim.why, claim
-
-
-@pytest.mark.parametrize(
-    ("option", "expected"),
-    [
-        ("Image two is to the left of image one", "P left"),
-        # photos named by number words are checked against the pair like digits
-        ("Image one is to the left of image two", "U"),
-        ("Photo three was taken to the left of photo one", "U"),
-    ],
-)
-def test_photos_named_in_words_are_checked_against_the_pair(option: str, expected: str) -> None:
-    other = "Image 2 was taken below image 1"
-    text = f"Where was image 2 taken relative to image 1? Options: A: {option}, B: {other}"
-    reading = read_question(text, 3)
-    assert short(reading.options["A"]) == expected, reading.options["A"]
