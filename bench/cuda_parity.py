@@ -39,17 +39,23 @@ def cases() -> list[tuple[str, object, torch.Tensor, dict, dict[str, np.ndarray]
     images = torch.from_numpy(np.load(pi3_dir / "tiny_pi3_input.npy"))[None]
     found = []
     for arch, conditions in (("pi3", {"": ()}), ("pi3x", PI3X_CONDITIONS)):
-        model = load_pi3(pi3_dir / f"tiny_{arch}.safetensors", read_pi3_config(pi3_dir / f"tiny_{arch}_config.json"))
+        model = load_pi3(
+            pi3_dir / f"tiny_{arch}.safetensors", read_pi3_config(pi3_dir / f"tiny_{arch}_config.json")
+        )
         for case, names in conditions.items():
             with np.load(pi3_dir / f"tiny_{arch}_expected{case}.npz") as stored:
                 reference = {name: stored[name] for name in stored.files}
-            kwargs = {name: torch.from_numpy(np.load(pi3_dir / f"tiny_pi3x_{name}.npy"))[None] for name in names}
+            kwargs = {
+                name: torch.from_numpy(np.load(pi3_dir / f"tiny_pi3x_{name}.npy"))[None] for name in names
+            }
             if arch == "pi3x":
                 kwargs["masks"] = tuple(
                     torch.from_numpy(reference[f"mask_add_{kind}"]) for kind in ("depth", "ray", "pose")
                 )
             found.append((f"{arch}{case}", model, images, kwargs, reference))
-    vggt = load_vggt(vggt_dir / "tiny_vggt.safetensors", VGGTConfig.from_json(vggt_dir / "tiny_vggt_config.json"))
+    vggt = load_vggt(
+        vggt_dir / "tiny_vggt.safetensors", VGGTConfig.from_json(vggt_dir / "tiny_vggt_config.json")
+    )
     with np.load(vggt_dir / "tiny_vggt_expected.npz") as stored:
         reference = {name: stored[name] for name in stored.files}
     found.append(("vggt", vggt, torch.from_numpy(np.load(vggt_dir / "tiny_vggt_input.npy")), {}, reference))
@@ -82,11 +88,16 @@ def worst_errors(model, images, kwargs, reference, device: torch.device, bf16: b
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="pyspatial bench cuda_parity", description=__doc__)
-    parser.add_argument("--devices", nargs="+", default=["cpu", "cuda"] if torch.cuda.is_available() else ["cpu"])
+    parser.add_argument(
+        "--devices", nargs="+", default=["cpu", "cuda"] if torch.cuda.is_available() else ["cpu"]
+    )
     args = parser.parse_args(argv)
     torch.backends.cuda.matmul.allow_tf32 = False
     torch.backends.cudnn.allow_tf32 = False
-    print(f"torch {torch.__version__}" + (f", {torch.cuda.get_device_name()}" if torch.cuda.is_available() else ""))
+    print(
+        f"torch {torch.__version__}"
+        + (f", {torch.cuda.get_device_name()}" if torch.cuda.is_available() else "")
+    )
     print("| fixture | device | precision | outputs | worst output | worst error / range |")
     print("| --- | --- | --- | ---: | --- | ---: |")
     for name, model, images, kwargs, reference in cases():
@@ -95,7 +106,8 @@ def main(argv: list[str] | None = None) -> None:
                 errors = worst_errors(model, images, kwargs, reference, torch.device(device_name), bf16)
                 worst = max(errors, key=errors.get)
                 precision = "bf16 autocast" if bf16 else "float32"
-                print(f"| {name} | {device_name} | {precision} | {len(errors)} | {worst} | {errors[worst]:.2e} |")
+                cells = (name, device_name, precision, len(errors), worst, f"{errors[worst]:.2e}")
+                print("| " + " | ".join(str(cell) for cell in cells) + " |")
 
 
 if __name__ == "__main__":
