@@ -79,7 +79,7 @@ _IRREGULAR = {
 }
 # A final consonant after one short vowel may double: step/stepped, pan/panned, sidestep/sidestepping
 # (both spellings are kept: pivoted, travelled/traveled).
-_DOUBLED = re.compile(r"(?<![aeiou])[aeiou][bdglmnprt]$")
+_DOUBLED = re.compile(r"(?:(?<![aeiou])|(?<=qu))[aeiou][bdglmnprt]$")
 
 
 def _verb(*bases: str) -> str:
@@ -122,7 +122,7 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"(?:(?:completely|perfectly|exactly|precisely|right|roughly|approximately|basically|essentially|"
      r"more or less|almost|nearly|virtually|practically)\s+)?"
      r"(?:still|put|stationary|motionless|fixed|steady|in place|where it (?:was|stood|had been)|at rest|"
-     r"as it was|its ground|"
+     r"as it was|its ground|in one (?:spot|place|position|location)|"
      r"(?:at|in) (?:the same|its|its original|the original|its initial|the initial|its previous|"
      r"the previous|its starting|the starting) (?:spot|place|position|point|location))", Sense("still")),
     (r"(?:its |the )?(?:pose|position|place|location|viewpoint)(?: and (?:its )?(?:orientation|heading|"
@@ -177,8 +177,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"higher|lower|slightly|a|somewhat|just|above|below|behind|ahead)\b)|"
      r"dead(?= ahead)|well(?= (?:to|above|below|behind|in front|ahead|back|over|under|off)\b)|"
      r"(?:by|through) (?:a |an )?(?:\w+ )?angle(?: of)?|"
-     r"(?:its|the camera s|his|her|their) head(?= (?:to|toward|towards|left|right|"
-     r"up|down)\b)|over(?= to\b)|(?:a)?round(?= to (?:the |its )?(?:left|right)\b)|"
+     r"(?:its|the camera s|his|her|their|the photographer s|the shooter s) head|"
+     r"over(?= to\b)|(?:a)?round(?= to (?:the |its )?(?:left|right)\b)|"
      r"lateral(?:ly)?|vertical(?:ly)?|horizontal(?:ly)?|"
      r"where (?:the )?(?:first |earlier |other |previous |reference )?(?:image|photo|picture|view|shot|frame|"
      r"camera|snapshot)(?: \w+)? (?:was|is|had been) (?:taken|shot|captured|located|positioned)|"
@@ -189,7 +189,27 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"(?:position|place|spot|location|point|pose|viewpoint)|"
      r"(?:the )?(?:person|one|someone) (?:holding|carrying|with) the camera|"
      r"at all|than (?:before|previously|earlier|"
-     r"originally|it was|at first)|vantage point|view ?point|standpoint", Sense("filler")),
+     r"originally|it was|at first)|vantage point|view ?point|standpoint|"
+     # hedges: "it seems to have", "it looks as if", "apparently"
+     r"(?:it |the camera )?(?:seem|appear)(?:s|ed)?"
+     r"(?: to(?: have)?(?: been)?| as if| as though| that| like)?|"
+     r"(?:it |the camera )?look(?:s|ed)? (?:like|as if|as though)|"
+     r"(?:most |very |quite )?(?:probably|likely|apparently|perhaps|maybe|possibly|presumably|evidently|"
+     r"seemingly|clearly|obviously)|(?:i|we) (?:think|guess|believe|would say)|"
+     # notes on which photos are compared: "between the two shots", "from where it started"
+     r"between (?:the |these |those )?(?:two |both )?(?:shots|photos|pictures|images|views|frames|snapshots)|"
+     r"from one (?:shot|photo|picture|image|view|frame|snapshot) to the (?:next|other|second)|"
+     r"judging (?:by|from) (?:the )?(?:two |both )?(?:shots|photos|pictures|images|views|frames)|"
+     r"since the (?:first|earlier|previous|last) (?:shot|photo|picture|image|view|frame|snapshot)|"
+     r"(?:relative to |compared (?:with |to )|from )?where (?:it|the camera|the photographer|we|i|they) "
+     r"(?:started|was|had been|stood|began|were|first stood)(?: before)?|"
+     r"for the (?:second|later|latter|last|final|new|next|other) (?:image|photo|picture|view|shot|frame|"
+     r"snapshot)|"
+     # "from a point further left": a point is a place here, not a way of aiming
+     r"(?:a|another|one|some|that|this) point(?! (?:at|toward|towards|up|down|left|right)\b)|"
+     # "taken from the same spot with the same aim": the aim kept adds no claim
+     r"(?:with|and|facing|keeping|while keeping) (?:the |its )?same "
+     r"(?:aim|direction|orientation|heading|angle|way)", Sense("filler")),
     # ---- negation of the next verb
     (r"did not|didn t|does not|doesn t|not|without|no|never|neither|nor|zero", Sense("not")),
     # ---- two claims offered as one ("backward or to the left"): the option says two things
@@ -233,7 +253,9 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"(?:its |the |camera s |the camera s |camera )?(?:position|location|height|elevation|altitude)",
      Sense("placenoun")),
     (r"(?:its |the |camera s |the camera s )?nose|"
-     r"(?:its|the|camera s|the camera s) (?:viewing |camera |tilt )?angle|(?:the )?direction of the camera|"
+     r"(?:its|the|camera s|the camera s) (?:viewing |camera |tilt )?angle|"
+     r"(?:the )?direction of the camera(?! s (?:movement|motion|travel|displacement|translation|step|shift|"
+     r"walk|path|position|location)\b)|"
      r"(?:the )?camera (?:direction|heading|orientation)", Sense("aimnoun")),
     (r"(?:tilt\w*|pitch\w*|nod\w*|cran\w*|tip(?:s|ped|ping)?|angl(?:e|ed|es|ing)(?: the (?:view|camera|"
      r"shot|lens))?)" + _KIND_NOUN,
@@ -274,12 +296,13 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     # "pulled up" is stopping, "pushed up" unclear: pushing and pulling carry only the other ways
     ("(?:" + _verb("push", "pull") + r")(?! (?:up|down|over)\b)", Sense(_STEP)),
     (r"climb\w*|ascen\w*|rose|ris(?:e|en|es|ing)|rais\w*|lift\w*|elevat\w*|"
-     r"gain(?:ed|s|ing)? (?:height|altitude|elevation)|"
+     r"gain(?:ed|s|ing)? (?:(?:in|of) )?(?:height|altitude|elevation)|"
      r"(?:at|to) a (?:greater|higher|larger) (?:height|elevation|level|altitude)|"
      r"(?:from|at) a higher|higher up|"
      r"pedestal(?:l?ed|l?ing|s)? up|boom(?:ed|ing|s)? up|" + _verb("hoist"),
      Sense(_STEP, "up")),
-    (r"descen\w*|sank|sink\w*|sunk|dropp?\w*|lower(?:ed|ing|s)|los(?:t|es|ing) (?:height|altitude|elevation)|"
+    (r"descen\w*|sank|sink\w*|sunk|dropp?\w*|lower(?:ed|ing|s)|"
+     r"los(?:t|es|ing|s) (?:(?:in|of) )?(?:height|altitude|elevation)|"
      r"(?:at|to) a (?:lower|lesser|smaller|reduced) (?:height|elevation|level|altitude)|"
      r"(?:from|at) a lower|lower down|pedestal(?:l?ed|l?ing|s)? down|"
      r"boom(?:ed|ing|s)? down|hunker(?:ed|s|ing)? down|"
@@ -305,7 +328,7 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      + _verb("decrease", "shrink", "reduce") + r"|shrank|shrunk)", Sense(_STEP, "down")),
     (r"sideways|sidewise|laterally|shift\w*|slid\w*|translat\w*|displac\w*|relocat\w*|reposition\w*|"
      r"glid\w*|drift\w*|step\w*|walk\w*|"
-     r"dolly|dollied|carr(?:y|ied)|travel\w*|head(?:ed|ing)? (?=left|right|up|down|forward|back)|"
+     r"dolly|dollied|carr(?:y|ied)|travel\w*|head(?:ed|ing|s)|head (?=left|right|up|down|forward|back)|"
      + _verb("track", "scoot", "nudge")
      + r"|edg(?:ed|es|ing)|inch(?:ed|es|ing)|"
      + rf"(?:{_verb('take')}) (?:a |one |two |three |several |a few |some )?"
@@ -328,6 +351,7 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"(?:toward|towards|to|at|face|faces|faced|facing) the (?:floor|ground)",
      Sense("way", "down")),
     (r"forwards?|forth|ahead|in front|front|frontward|onward|towards? the (?:scene|subject)|"
+     r"(?:further|farther|deeper|closer|nearer) in|"
      r"into the scene|inward",
      Sense("way", "forward")),
     (r"backwards?|back|behind|rear(?:ward)?|reverse|away|outward", Sense("way", "backward")),
@@ -740,7 +764,8 @@ def _no_claim(words: str, found: list[Token]) -> str | None:
     verb = next((t for t in found if t.sense.kind in _VERBS), None)
     subject = words[: verb.start] if verb is not None else ""
     content = _CONTENT.search(subject)
-    moving = verb is not None and verb.sense.kind != "place"
+    # "the photos were taken from the same spot" is a stillness, "the scene stayed still" not ours
+    moving = verb is not None and verb.sense.kind not in ("place", "still")
     # "the subject sat to the left" is the subject's place; "image 2 sits above" is the camera's
     thing_placed = verb is not None and _SCENE_THING.search(subject) is not None
     if content and (moving or thing_placed) and _content_is_the_subject(subject):

@@ -99,8 +99,11 @@ _NOUNS = r"(?:images?|photos?|pictures?|views?|frames?|shots?|snapshots?)"
 # was taken to where photo 2 was taken").
 _WHERE = r"(?<!\bfrom )(?<!\bto )(?<!\bthan )(?<!\bwith )(?<!\bof )(?<!\bat )(?<!\band )\bwhere\b"
 _POSITION_ASK = re.compile(
-    rf"{_WHERE}[^?]*\b(?:taken|shot|captured|located|positioned|placed|situated|stand|stands|stood|standing|"
-    r"sit|sits|sat|was the camera|is the camera|were the cameras|camera|photographer|shooter|viewer)\b|"
+    rf"{_WHERE}[^?]*\b(?:taken|shot|captured|photographed|snapped|located|positioned|placed|situated|stand|"
+    r"stands|stood|standing|sit|sits|sat|was the camera|is the camera|were the cameras|camera|photographer|"
+    r"shooter|viewer|viewpoint|vantage point|standpoint)\b|"
+    # "From where was image 2 shot?", "image 2 was taken from where?"
+    r"^(?:from|out of) where\b|\b(?:taken|shot|captured|photographed|snapped) from where\b|"
     r"\blocate\b[^?]*\b(?:camera|photographer|shooter)\b|\b(?:from )?which side\b|"
     r"\bdirection from (?:the )?(?:camera|photographer|shooter|\w+ \w+ s camera|\w+ \w+ camera)\b|"
     r"\b(?:is|was|lies|lay|stands|stood|sits|sat) where\b|"
@@ -197,6 +200,14 @@ _LOOK_NOUNS = re.compile(
     r"(?:direction|angle|axis|orientation|heading|bearing)|line of sight|direction of (?:view|gaze|sight)|"
     r"orientation|heading|bearing|attitude|(?:re)?orient(?:ed|ing|s)?)\b"
 )
+# The verbs that build the pair, not the quantity: "going from image 1 to image 2", "on the way to".
+_PAIR_VERBS = re.compile(r"\b(?:going|coming|moving|on (?:the|its) way)(?= (?:back )?(?:from|to) )")
+# A step verb set beside a turn ("did it move or turn?", "moving and rotating"): both are asked.
+_MOVE_OR_TURN = re.compile(
+    r"\b(?:mov(?:e|ed|es|ing)|go|went|shift(?:ed|s|ing)?) (?:or|and|and or|and/or) "
+    r"((?:turn|rotat|pan|tilt|roll|pivot|swivel)\w*)\b"
+)
+_AUX_POINT = re.compile(r"\b((?:did|does|do|can|would|will) (?:the|its) cameras?) point\b")
 _PLACE_POINT = re.compile(r"\b(?:capture|capturing|shooting|vantage|taking|camera|view|standing) point\b")
 # A look that shifts is a turn: "how did the camera's aim shift?" ("shift" alone is a step).
 _LOOK_SHIFTS = re.compile(
@@ -220,7 +231,12 @@ _PLACE_NOUN = re.compile(
 def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
     """(quantity, strong, the words): strong when a word of one kind says it ("tilt"), weak for
     the everyday verbs ("move"), None when nothing does."""
-    words = _LOOK_SHIFTS.sub(" turned ", normalized(_APART_FROM.sub(" ", ask)))  # "its aim shifted"
+    plain = normalized(_APART_FROM.sub(" ", ask))
+    look_shifts = bool(_LOOK_SHIFTS.search(plain))
+    words = _LOOK_SHIFTS.sub(" turned ", plain)  # "its aim shifted"
+    words = _PAIR_VERBS.sub(" ", words)  # "going from image 1 to image 2" asks no step
+    words = _MOVE_OR_TURN.sub(r"translated \1", words)  # "move or turn": a step is asked as well
+    words = _AUX_POINT.sub(r"\1 aim", words)  # "where did the camera point?" is a look, not a place
     words = _PLACE_POINT.sub(" spot", words)  # "its capture point" is a place, not a way it points
     words = re.sub(r"\bpoints? of view\b", "viewpoint", words)  # a place and a look: no turn alone
     # "Not counting rotation, where did it go?": what is set aside is not asked, so the rest is
@@ -234,7 +250,7 @@ def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
     if not any(k in ("step", "weak") for k in kinds) and excluded & {"step", "weak", "place", "placenoun"}:
         return "rotation", True, words
     stepping = any(s.kind in ("step", "weak") for s in stem_senses(words))  # "shift", "go", "change"
-    looking = bool(_LOOK_NOUNS.search(words)) and not any(k == "step" for k in kinds)
+    looking = (look_shifts or bool(_LOOK_NOUNS.search(words))) and not any(k == "step" for k in kinds)
     if looking and _PLACE_NOUN.search(words):
         return "motion", True, words  # "how did its viewing direction and position change?"
     if _DESTINATION.search(words) and not looking and not any(k in _ROTATING for k in kinds):
@@ -544,7 +560,8 @@ _CAMERA_ASK = re.compile(
 # the scene, not the motion between two photos.
 _WHAT_IF = re.compile(
     r"\b(?:if (?:you|i|we|the camera)|suppose|supposing|imagine|were to|will (?:you|i|we) (?:be|get|see|end)|"
-    r"would (?:you|i|we)|after (?:you|i|we) (?:turn|walk|move|step|rotate)|(?:^|"
+    r"would (?:you|i|we)(?! (?:find|locate|place|put|say|describe|call|expect to find)\b)|"
+    r"after (?:you|i|we) (?:turn|walk|move|step|rotate)|(?:^|"
     r", )(?:then )?(?:turn|walk|move) )"
 )
 

@@ -1,0 +1,917 @@
+"""Development wordings for the reader, written for this file from the language of camera motion as a
+whole (a thesaurus-style sweep, not taken from the paraphrase corpus): option phrases built from
+parts, each part carrying its meaning, so every phrase's expected claim follows from how it was put
+together; stems for each quantity; and near-misses that must stay unread.
+
+Options are built as subject + verb + direction (+ a hedge or a frame note): "The photographer" +
+"edged" + "a little to the left" + ", as seen from behind the camera" is a step left, whatever the
+combination. Verbs that carry their own way ("climbed", "retreated"), noun phrases ("a leftward
+shift"), passives ("was swung"), fragments ("further left") and the second shot's place ("the second
+shot was taken from further left") are rows of their own. Expected claims are in the short form of
+tests/test_option_lexicon.py (``T left``, ``P up``, ``R yaw left``, ``R roll clockwise``, ``S``,
+``U``).
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import pytest
+
+from shared.questions.lexicon import read_phrase
+from shared.questions.reading import read_question
+from tests.test_option_lexicon import short
+
+OPPOSITE = {
+    "left": "right",
+    "right": "left",
+    "up": "down",
+    "down": "up",
+    "forward": "backward",
+    "backward": "forward",
+}
+
+
+def _mirror(text: str, way: str) -> str:
+    """A direction phrase written for "left" / "up" / "forward", said for its opposite."""
+    swaps = {
+        "left": (("left", "right"),),
+        "up": (
+            ("upward", "downward"),
+            ("up", "down"),
+            ("higher", "lower"),
+            ("ceiling", "floor"),
+            ("sky", "ground"),
+        ),
+    }
+    for old, new in swaps.get(way, ()):
+        text = text.replace(old, new)
+    return text
+
+
+# ---- directions, per way: the phrases a step verb takes ----------------------------------------
+
+STEP_WAYS: dict[str, list[str]] = {
+    "left": [
+        "left",
+        "to the left",
+        "leftward",
+        "leftwards",
+        "toward the left",
+        "towards the left",
+        "to its left",
+        "over to the left",
+        "off to the left",
+        "to the left side",
+        "to the left-hand side",
+        "in a leftward direction",
+        "a little to the left",
+        "slightly left",
+        "a bit to the left",
+        "further left",
+        "farther to the left",
+        "more to the left",
+        "to the camera's left",
+        "to the photographer's left",
+        "a few steps to the left",
+        "about half a metre to the left",
+        "sideways to the left",
+        "laterally to the left",
+        "a short distance to the left",
+    ],
+    "up": [
+        "up",
+        "upward",
+        "upwards",
+        "higher",
+        "up a bit",
+        "a little higher",
+        "further up",
+        "vertically upward",
+        "straight up",
+        "to a higher position",
+        "to a higher spot",
+        "a few centimetres up",
+        "up by about 20 cm",
+    ],
+    "forward": [
+        "forward",
+        "forwards",
+        "ahead",
+        "straight ahead",
+        "closer",
+        "nearer",
+        "closer to the scene",
+        "toward the scene",
+        "towards the subject",
+        "further in",
+        "into the scene",
+        "in the direction it was facing",
+        "along its line of sight",
+        "a few steps forward",
+        "nearer to the subject",
+        "a little closer",
+    ],
+    "backward": [
+        "back",
+        "backward",
+        "backwards",
+        "farther back",
+        "further back",
+        "away",
+        "away from the scene",
+        "farther away",
+        "further from the subject",
+        "back a bit",
+        "a few steps back",
+        "opposite to the direction it was facing",
+        "against its viewing direction",
+        "a little farther away",
+    ],
+}
+STEP_WAYS["right"] = [_mirror(t, "left") for t in STEP_WAYS["left"]]
+STEP_WAYS["down"] = [_mirror(t, "up") for t in STEP_WAYS["up"]]
+
+# Verbs of a step, by the axes they are said on (a sidestep is only sideways).
+STEP_VERBS: dict[str, tuple[str, ...]] = {
+    "any": (
+        "moved",
+        "shifted",
+        "slid",
+        "stepped",
+        "walked",
+        "drifted",
+        "travelled",
+        "traveled",
+        "went",
+        "headed",
+        "edged",
+        "inched",
+        "scooted",
+        "glided",
+        "was moved",
+        "was shifted",
+        "was carried",
+        "was displaced",
+        "was translated",
+        "translated",
+        "has moved",
+        "had moved",
+        "has been moved",
+        "moves",
+        "got moved",
+        "relocated",
+        "was repositioned",
+        "was slid",
+    ),
+    "lateral": ("sidestepped", "strafed", "trucked", "crabbed", "sidled", "shuffled"),
+    "vertical": (),
+    "depth": (),
+}
+_AXIS_OF = {"left": "lateral", "right": "lateral", "up": "vertical", "down": "vertical"}
+
+SUBJECTS = ("", "It ", "The camera ", "The photographer ", "The shooter ", "We ", "The camera position ")
+
+
+def _axis(way: str) -> str:
+    return _AXIS_OF.get(way, "depth")
+
+
+def _step_rows() -> list[tuple[str, str]]:
+    rows = []
+    for way, phrases in STEP_WAYS.items():
+        verbs = STEP_VERBS["any"] + STEP_VERBS[_axis(way)]
+        for verb, direction in itertools.product(verbs, phrases):
+            rows.append((f"{verb} {direction}", f"T {way}"))
+    return rows
+
+
+# Verbs (and fixed phrases) that carry their own way.
+CARRYING: dict[str, tuple[str, ...]] = {
+    "up": (
+        "rose",
+        "climbed",
+        "ascended",
+        "was raised",
+        "was lifted",
+        "was elevated",
+        "was hoisted",
+        "gained height",
+        "got higher",
+        "went higher",
+        "moved higher",
+        "rose up",
+        "was lifted up",
+        "pedestalled up",
+        "boomed up",
+    ),
+    "down": (
+        "sank",
+        "descended",
+        "dropped",
+        "was lowered",
+        "fell",
+        "crouched",
+        "squatted",
+        "lost height",
+        "got lower",
+        "went lower",
+        "moved lower",
+        "dropped down",
+        "sank lower",
+        "pedestalled down",
+        "stooped",
+    ),
+    "forward": (
+        "advanced",
+        "approached",
+        "approached the scene",
+        "closed in",
+        "came closer",
+        "got closer",
+        "drew nearer",
+        "pushed in",
+        "dollied in",
+        "proceeded",
+        "proceeded forward",
+        "moved in closer",
+        "stepped in",
+        "crept closer",
+        "closed the distance to the subject",
+    ),
+    "backward": (
+        "retreated",
+        "withdrew",
+        "receded",
+        "backed up",
+        "backed off",
+        "backed away",
+        "pulled back",
+        "pulled out",
+        "dollied out",
+        "drew back",
+        "fell back",
+        "stepped back",
+        "stepped away",
+        "moved away",
+        "increased its distance from the scene",
+    ),
+}
+
+STEP_NOUNS: dict[str, tuple[str, ...]] = {
+    "left": (
+        "A move to the left",
+        "A shift to the left",
+        "A step to the left",
+        "A slide to the left",
+        "A leftward move",
+        "Leftward movement",
+        "Leftward translation",
+        "Translation to the left",
+        "A translation toward the left",
+        "Lateral movement to the left",
+        "A sideways step to the left",
+        "Displacement to the left",
+        "A leftward displacement",
+        "A leftward step",
+        "Truck left",
+        "A truck to the left",
+    ),
+    "up": (
+        "An upward move",
+        "Upward translation",
+        "A rise",
+        "A climb",
+        "An ascent",
+        "An upward shift",
+        "A move upward",
+        "Vertical movement upward",
+        "A gain in height",
+        "Upward displacement",
+    ),
+    "forward": (
+        "A forward move",
+        "Forward translation",
+        "An advance",
+        "An approach",
+        "A step forward",
+        "A step closer",
+        "Forward movement",
+        "A move toward the scene",
+        "A push in",
+        "Dolly in",
+    ),
+    "backward": (
+        "A backward move",
+        "Backward translation",
+        "A retreat",
+        "A step back",
+        "Backward movement",
+        "A move away from the scene",
+        "A pull back",
+        "Dolly out",
+    ),
+}
+
+
+def _mirror_noun(text: str, way: str) -> str:
+    """A noun phrase written for "left" / "up", said for the opposite way (the case kept)."""
+    if way == "left":
+        return text.replace("left", "right").replace("Left", "Right")
+    swaps = (("upward", "downward"), ("Upward", "Downward"), ("rise", "descent"), ("climb", "drop"))
+    swaps += (("ascent", "descent"), ("gain in height", "loss of height"))
+    for old, new in swaps:
+        if old in text:
+            return text.replace(old, new)
+    return text.replace("up", "down")
+
+
+for _way in ("left", "up"):
+    STEP_NOUNS[OPPOSITE[_way]] = tuple(_mirror_noun(t, _way) for t in STEP_NOUNS[_way])
+
+# Hedges and frame notes: neither changes the claim.
+HEDGES = (
+    "{}",
+    "It seems to have {}",
+    "It appears to have {}",
+    "The camera seems to have {}",
+    "It seemed to have {}",
+    "It probably {}",
+    "Apparently it {}",
+    "Most likely it {}",
+    "It looks like it {}",
+    "It looks as if the camera {}",
+    "Perhaps it {}",
+    "It evidently {}",
+)
+NOTES = (
+    "",
+    " (in the first image's frame)",
+    ", from the photographer's point of view",
+    ", as seen from behind the camera",
+    ", relative to where it started",
+    ", compared with before",
+    " between the two shots",
+    " from one photo to the next",
+    ", judging by the two pictures",
+    ", relative to the first shot",
+    " since the first photo",
+)
+
+
+def _hedged_rows() -> list[tuple[str, str]]:
+    """A few claims (past form, participle) under every hedge and note."""
+    rows = []
+    samples = [
+        ("moved to the left", "moved to the left", "T left"),
+        ("shifted upward", "shifted upward", "T up"),
+        ("stepped back", "stepped back", "T backward"),
+        ("rose", "risen", "T up"),
+        ("advanced", "advanced", "T forward"),
+        ("turned to the right", "turned to the right", "R yaw right"),
+        ("tilted downward", "tilted downward", "R pitch down"),
+        ("rolled clockwise", "rolled clockwise", "R roll clockwise"),
+        ("stayed still", "stayed still", "S"),
+    ]
+    for (past, participle, claim), hedge, note in itertools.product(samples, HEDGES, NOTES):
+        verb = participle if "to have" in hedge else past
+        text = hedge.format(verb) + note
+        rows.append((text[:1].upper() + text[1:], claim))
+    return rows
+
+
+def _carrying_rows() -> list[tuple[str, str]]:
+    rows = []
+    for way, verbs in CARRYING.items():
+        for verb, subject in itertools.product(verbs, SUBJECTS[:5]):
+            rows.append((f"{subject}{verb}", f"T {way}"))
+    return rows
+
+
+# ---- rotations ------------------------------------------------------------------------------
+
+TURN_VERBS = (
+    "turned",
+    "rotated",
+    "panned",
+    "yawed",
+    "swung",
+    "swiveled",
+    "swivelled",
+    "pivoted",
+    "veered",
+    "was turned",
+    "was panned",
+    "was rotated",
+    "was swung",
+    "swung its view",
+    "turned its view",
+    "turned its head",
+    "has turned",
+    "had panned",
+)
+LOOK_VERBS = (
+    "looked",
+    "faced",
+    "pointed",
+    "aimed",
+    "now faces",
+    "now points",
+    "ended up facing",
+    "was aimed",
+)
+YAW_WAYS = (
+    "left",
+    "to the left",
+    "leftward",
+    "toward the left",
+    "to its left",
+    "a bit to the left",
+    "slightly left",
+    "about 20 degrees to the left",
+    "roughly 15° to the left",
+)
+LOOK_WAYS = ("more to the left", "further left", "farther to the left", "further to the left")
+YAW_NOUNS = (
+    "A turn to the left",
+    "A left turn",
+    "A leftward turn",
+    "A pan to the left",
+    "A leftward pan",
+    "Pan left",
+    "Yaw left",
+    "A yaw to the left",
+    "Leftward rotation",
+    "A rotation to the left",
+    "A swivel to the left",
+    "Its heading swung to the left",
+    "Its line of sight swung left",
+    "The viewing direction turned left",
+    "Its gaze moved left",
+    "Its aim shifted to the left",
+    "The camera's heading changed to the left",
+)
+
+PITCH_VERBS = (
+    "tilted",
+    "pitched",
+    "nodded",
+    "angled",
+    "tipped",
+    "looked",
+    "pointed",
+    "aimed",
+    "turned",
+    "rotated",
+    "was tilted",
+    "was angled",
+    "was pointed",
+    "was tipped",
+    "tilted its view",
+)
+PITCH_WAYS = (
+    "up",
+    "upward",
+    "upwards",
+    "a bit up",
+    "slightly upward",
+    "toward the ceiling",
+    "toward the sky",
+)
+PITCH_NOUNS = (
+    "A tilt up",
+    "An upward tilt",
+    "Tilt up",
+    "Pitch up",
+    "An upward pitch",
+    "A nod upward",
+    "Its aim rose",
+    "Its view tilted up",
+    "Its line of sight rose",
+    "Its nose went up",
+    "Its viewing direction rose",
+    "It now points higher",
+    "It ended up looking more upward",
+)
+
+ROLL_VERBS = (
+    "rolled",
+    "rotated",
+    "spun",
+    "twisted",
+    "canted",
+    "banked",
+    "turned",
+    "was rolled",
+    "was rotated",
+)
+ROLL_SENSES = {
+    "clockwise": ("clockwise", "CW"),
+    "counterclockwise": ("counterclockwise", "counter-clockwise", "anticlockwise", "anti-clockwise", "CCW"),
+}
+ROLL_AXES = (
+    "",
+    " about the lens axis",
+    " around the optical axis",
+    " about its viewing axis",
+    " around its line of sight",
+    " in the image plane",
+    " around the lens",
+)
+ROLL_NOUNS = (
+    "A {} roll",
+    "{} roll",
+    "A roll {}",
+    "A {} rotation about the optical axis",
+    "A {} twist",
+    "A {} cant",
+    "{}, about the lens axis",
+    "A {} in-plane rotation",
+    "A {} dutch tilt",
+    "A {} spin around the lens",
+)
+
+
+def _flip_left(text: str) -> str:
+    return text.replace("left", "right").replace("Left", "Right")
+
+
+def _yaw_rows() -> list[tuple[str, str]]:
+    rows = []
+    for verb, way in itertools.product(TURN_VERBS, YAW_WAYS):
+        rows.append((f"It {verb} {way}", "R yaw left"))
+        rows.append((f"The camera {_flip_left(verb)} {_flip_left(way)}", "R yaw right"))
+    for verb, way in itertools.product(LOOK_VERBS, LOOK_WAYS + YAW_WAYS[:2]):
+        rows.append((f"It {verb} {way}", "R yaw left"))
+        rows.append((f"It {verb} {_flip_left(way)}", "R yaw right"))
+    for noun in YAW_NOUNS:
+        rows += [(noun, "R yaw left"), (_flip_left(noun), "R yaw right")]
+    rows += [
+        ("It turned clockwise as seen from above", "R yaw right"),
+        ("Rotated counterclockwise, viewed from above", "R yaw left"),
+    ]
+    return rows
+
+
+def _pitch_rows() -> list[tuple[str, str]]:
+    rows = []
+    for verb, way in itertools.product(PITCH_VERBS, PITCH_WAYS):
+        rows.append((f"It {verb} {way}", "R pitch up"))
+        rows.append((f"The camera {verb} {_mirror(way, 'up')}", "R pitch down"))
+    for noun in PITCH_NOUNS:
+        rows.append((noun, "R pitch up"))
+    rows += [
+        ("A tilt down", "R pitch down"),
+        ("A downward tilt", "R pitch down"),
+        ("Tilt down", "R pitch down"),
+        ("Pitch down", "R pitch down"),
+        ("Its aim dropped", "R pitch down"),
+        ("Its view tilted down", "R pitch down"),
+        ("Its line of sight dropped", "R pitch down"),
+        ("Its nose went down", "R pitch down"),
+        ("It now points lower", "R pitch down"),
+        ("It ended up looking more downward", "R pitch down"),
+        ("It looked toward the floor", "R pitch down"),
+    ]
+    return rows
+
+
+def _roll_rows() -> list[tuple[str, str]]:
+    rows = []
+    for sense, words in ROLL_SENSES.items():
+        for verb, word, axis in itertools.product(ROLL_VERBS, words, ROLL_AXES):
+            if verb in ("turned", "rotated", "was rotated") and not axis and word in ("CW", "CCW"):
+                continue  # "turned CW" alone: kept to the spelled-out senses
+            rows.append((f"It {verb} {word}{axis}", f"R roll {sense}"))
+        for noun, word in itertools.product(ROLL_NOUNS, words[:3]):
+            text = noun.format(word)
+            rows.append((text[:1].upper() + text[1:], f"R roll {sense}"))
+    return rows
+
+
+# ---- the second camera's place -----------------------------------------------------------------
+
+POSITION_PHRASES: dict[str, tuple[str, ...]] = {
+    "left": (
+        "To the left of the first camera",
+        "To the left of the first one",
+        "Left of the first camera",
+        "On the left of the first camera",
+        "On the left side of the first camera",
+        "To the first camera's left",
+        "On its left",
+        "To its left",
+        "Left of it",
+        "On the left",
+        "The second camera is to the left of the first",
+        "The second camera sits to the left",
+        "The second camera was placed to the left",
+        "It was taken from further left",
+        "It was taken from a spot to the left",
+        "It was shot from a point further left",
+        "It stands to the left",
+        "The second shot was taken from further left",
+        "The later photo was taken from a position to the left",
+        "The camera for the second shot was to the left",
+        "Located to the left",
+        "Positioned to the left of the first camera",
+    ),
+    "up": (
+        "Above the first camera",
+        "Higher than the first camera",
+        "Above it",
+        "Higher up",
+        "At a greater height",
+        "The second camera is above the first",
+        "It was taken from higher up",
+        "It was shot from a higher spot",
+        "From a higher vantage point",
+        "The second shot was taken from a higher position",
+        "Located above",
+        "Positioned higher than the first camera",
+    ),
+    "forward": (
+        "In front of the first camera",
+        "Ahead of the first camera",
+        "In front of it",
+        "Ahead of it",
+        "Further forward",
+        "The second camera is in front of the first",
+        "It was taken from closer in",
+        "It was shot from a point further forward",
+        "The second shot was taken from closer to the scene",
+        "Located in front",
+        "Positioned ahead of the first camera",
+    ),
+    "backward": (
+        "Behind the first camera",
+        "Behind it",
+        "Further back",
+        "Farther back",
+        "The second camera is behind the first",
+        "It was taken from further back",
+        "It was shot from farther back",
+        "The second shot was taken from farther away",
+        "Located behind",
+        "Positioned behind the first camera",
+    ),
+}
+
+
+def _position_mirror(text: str, way: str) -> str:
+    if way == "left":
+        return text.replace("left", "right").replace("Left", "Right")
+    swaps = (("Above", "Below"), ("above", "below"), ("Higher up", "Lower down"), ("higher up", "lower down"))
+    swaps += (("Higher", "Lower"), ("higher", "lower"), ("greater height", "lesser height"))
+    for old, new in swaps:
+        text = text.replace(old, new)
+    return text
+
+
+POSITION_PHRASES["right"] = tuple(_position_mirror(t, "left") for t in POSITION_PHRASES["left"])
+POSITION_PHRASES["down"] = tuple(_position_mirror(t, "up") for t in POSITION_PHRASES["up"])
+
+
+def _position_rows() -> list[tuple[str, str]]:
+    return [(text, f"P {way}") for way, texts in POSITION_PHRASES.items() for text in texts]
+
+
+# ---- stillness -------------------------------------------------------------------------------
+
+STILL_PHRASES = (
+    "It stayed still",
+    "It did not move",
+    "It didn't move at all",
+    "No movement",
+    "No motion",
+    "It stayed put",
+    "Stayed in the same place",
+    "It remained stationary",
+    "It was not moved",
+    "It held still",
+    "Nothing changed",
+    "The camera stayed where it was",
+    "Same position, same direction",
+    "Unchanged",
+    "No change",
+    "It kept still",
+    "It didn't budge",
+    "It stood still",
+    "Both photos were taken from the same spot with the same aim",
+    "It neither moved nor rotated",
+    "No translation or rotation",
+    "Stationary",
+    "Motionless",
+    "It remained where it was",
+    "It stayed in one place",
+    "It never moved",
+    "It was kept in place",
+    "The camera did not move or turn",
+    "The camera held still between the two shots",
+    "No camera motion at all",
+)
+
+
+# ---- near-misses: no camera claim, or not one that can be read without a guess -------------------
+
+MUST_STAY_UNREAD = (
+    # something else moved
+    "The chair moved left",
+    "The person walked to the right",
+    "The car drove forward",
+    "The scene shifted left",
+    "Objects moved to the right in the frame",
+    "The building moved up in the frame",
+    "The background slid left",
+    "The scene rotated clockwise",
+    "The image turned clockwise",
+    "The horizon tilted clockwise",
+    "Everything in view shifted to the right",
+    # the focal length, not the camera
+    "It zoomed in",
+    "It zoomed out",
+    "The lens zoomed in",
+    "A zoom in",
+    # negated: what did not happen
+    "It did not turn left",
+    "It didn't move left",
+    "Not to the left",
+    "It did not tilt up",
+    "It was not raised",
+    # two ways at once, or none
+    "It moved left or right",
+    "Either up or down",
+    "It turned left or right",
+    "Back and forth",
+    "It moved",
+    "It turned",
+    "It looked around",
+    "It returned to where it started",
+    "It went back to its first position",
+)
+
+
+# The step rows are said with every subject (`_with_subject`); the others as written.
+OTHER_ROWS = (
+    _carrying_rows()
+    + [(noun, f"T {way}") for way, nouns in STEP_NOUNS.items() for noun in nouns]
+    + _hedged_rows()
+    + _yaw_rows()
+    + _pitch_rows()
+    + _roll_rows()
+    + _position_rows()
+    + [(text, "S") for text in STILL_PHRASES]
+)
+
+
+def _with_subject(rows: list[tuple[str, str]]) -> list[tuple[str, str]]:
+    """The step rows with every subject: the claim does not depend on who is said to move."""
+    out = []
+    for (text, claim), subject in itertools.product(rows, SUBJECTS):
+        phrase = f"{subject}{text}"
+        out.append((phrase[:1].upper() + phrase[1:], claim))
+    return out
+
+
+def _geometry(claim: str) -> str:
+    """A step and a place are one geometry (the second camera's centre in the first's frame)."""
+    return "T" + claim[1:] if claim.startswith("P ") else claim
+
+
+_POSITION_ASK = "Where was image 2 taken from, relative to image 1?\nA. "
+
+
+def _read(text: str, claim: str) -> str:
+    """The claim an option states; a place is read as an option of a position question, where a
+    bare direction ("To its left") takes the kind the stem asks."""
+    if claim.startswith("P "):
+        return short(read_question(f"{_POSITION_ASK}{text}\nB. Somewhere else", 2).options["A"])
+    return short(read_phrase(text))
+
+
+def test_every_development_option_reads_as_its_construction_says() -> None:
+    rows = _with_subject(_step_rows()) + OTHER_ROWS
+    wrong = [(text, want, _read(text, want)) for text, want in rows]
+    wrong = [(text, want, got) for text, want, got in wrong if _geometry(got) != _geometry(want)]
+    assert not wrong, f"{len(wrong)} of {len(rows)} misread:\n" + "\n".join(map(str, wrong[:40]))
+
+
+@pytest.mark.parametrize("text", MUST_STAY_UNREAD)
+def test_near_misses_stay_unread(text: str) -> None:
+    assert short(read_phrase(text)).startswith("U"), read_phrase(text)
+
+
+# ---- stems: each asks one quantity, whatever pair construction it is put with --------------------
+
+PAIR_SPANS = (
+    ("from image 1 to image 2", (1, 2), 2),
+    ("between the first and the second photo", (1, 2), 2),
+    ("going from picture 2 to picture 3", (2, 3), 3),
+    ("between shot 1 and shot 3", (1, 3), 3),
+    ("from the first view to the third", (1, 3), 3),
+)
+# "{p}": the pair's words in place; "{P}": the same opening the sentence.
+STEMS: dict[str, tuple[str, ...]] = {
+    "translation": (
+        "Where did the camera go {p}?",
+        "Which way did the camera move {p}?",
+        "In which direction did the photographer walk {p}?",
+        "How was the camera displaced {p}?",
+        "Which way did the camera's position shift {p}?",
+        "In what direction did the camera travel {p}?",
+        "Ignoring rotation, how did the camera move {p}?",
+        "Which way did the photographer step {p}?",
+        "What translation did the camera undergo {p}?",
+        "How did the camera's location change {p}?",
+        "Which way was the camera moved {p}?",
+        "Rotation aside, which way did the camera go {p}?",
+        "Disregarding any turning, in which direction was the camera translated {p}?",
+        "Which direction did the shooter move in {p}?",
+        "How did the camera's position change {p}?",
+        "Which way did the camera slide {p}?",
+        "What was the direction of the camera's movement {p}?",
+        "In which direction was the camera carried {p}?",
+        "Which way did the photographer walk {p}, ignoring where the camera pointed?",
+        "How did the viewpoint shift {p}?",
+        "Which best describes the camera's translation {p}?",
+        "Where did the photographer move to {p}?",
+        "Which way was the camera relocated {p}?",
+        "{P}, which way did the camera move?",
+        "{P}, how was the camera repositioned?",
+    ),
+    "rotation": (
+        "Which way did the camera turn {p}?",
+        "How did the camera rotate {p}?",
+        "How did the camera's orientation change {p}?",
+        "How did the photographer turn the camera {p}?",
+        "What rotation did the camera undergo {p}?",
+        "How did the camera's viewing direction change {p}?",
+        "In which direction did the camera pan, tilt or roll {p}?",
+        "Without counting any movement, how did the camera turn {p}?",
+        "Which way did the lens point {p}?",
+        "How did the direction the camera faces change {p}?",
+        "Which way was the camera rotated {p}?",
+        "How did the camera's aim change {p}?",
+        "Which way did the camera look {p}?",
+        "Ignoring translation, how did the camera's heading change {p}?",
+        "How was the camera reoriented {p}?",
+        "Where did the camera point {p}?",
+        "Which way did the camera swing {p}?",
+        "What happened to the camera's orientation {p}?",
+        "How did the camera's attitude change {p}?",
+        "{P}, which way did the camera turn?",
+        "{P}, how did the line of sight change?",
+        "Position aside, how did the camera rotate {p}?",
+        "How did the camera tilt or pan {p}?",
+    ),
+    "motion": (
+        "How did the camera move or turn {p}?",
+        "Did the camera move and rotate {p}, and how?",
+        "How did the camera's position and viewing direction change {p}?",
+        "How did the camera's pose change {p}?",
+    ),
+}
+POSITION_STEMS = (
+    "Where was {B} taken from, relative to {A}?",
+    "Relative to the camera of {A}, where was the camera for {B}?",
+    "Where is the camera of {B} relative to the camera of {A}?",
+    "Where was the photographer standing for {B}, compared with {A}?",
+    "Compared with {A}, from which side was {B} taken?",
+    "Where does the viewpoint of {B} lie relative to that of {A}?",
+    "In which direction from the camera of {A} is the camera of {B}?",
+    "What is the position of the camera of {B} relative to the camera of {A}?",
+    "Where was the camera placed for {B}, relative to {A}?",
+    "Where is {B}'s camera, as seen from {A}'s camera?",
+    "Taking {A} as the reference, where was {B} photographed from?",
+    "Where would you find the camera of {B}, from the camera of {A}?",
+    "Which direction is the camera position of {B} from that of {A}?",
+    "How is the camera of {B} positioned relative to the camera of {A}?",
+    "{B} was taken from where, relative to {A}?",
+    "Where did the photographer stand to take {B}, relative to {A}?",
+    "With the camera of {A} as origin, where was {B} captured?",
+    "Where is the shooting location of {B} compared with {A}?",
+    "Relative to {A}'s viewpoint, where is {B}'s viewpoint?",
+)
+POSITION_REFS = (("image 1", "image 2", (1, 2), 2), ("the first photo", "the second photo", (1, 2), 2))
+POSITION_REFS += (("picture 3", "picture 1", (3, 1), 3),)
+
+
+def _stem_cases() -> list[tuple[str, tuple[int, int], int, str]]:
+    cases = []
+    for quantity, stems in STEMS.items():
+        for stem, (span, views, count) in itertools.product(stems, PAIR_SPANS):
+            text = stem.format(p=span, P=span[:1].upper() + span[1:])
+            cases.append((text, views, count, quantity))
+    for stem, (a, b, views, count) in itertools.product(POSITION_STEMS, POSITION_REFS):
+        text = stem.format(A=a, B=b)
+        cases.append((text[:1].upper() + text[1:], views, count, "position"))
+    return cases
+
+
+def test_every_development_stem_asks_its_quantity_of_its_pair() -> None:
+    wrong = []
+    for text, views, count, quantity in _stem_cases():
+        reading = read_question(text, count)
+        if (reading.quantity, reading.views) != (quantity, views):
+            wrong.append((text, reading.quantity, reading.views))
+    assert not wrong, f"{len(wrong)} misread:\n" + "\n".join(map(str, wrong[:40]))
