@@ -47,6 +47,7 @@ from shared.questions.claims import (
     Translation,
     Unread,
     Way,
+    claim_kinds,
 )
 
 _V = r"(?:s|es|ed|d|ing|ion|ment)?"  # a verb's inflections
@@ -426,18 +427,20 @@ def tokens(text: str) -> list[Token]:
 
 def unknown_words(text: str, found: list[Token]) -> list[str]:
     """The words of a normalized text that no token covers and that are no filler."""
+    return [match.group() for match in _unknown_matches(text, found)]
+
+
+def _unknown_matches(text: str, found: list[Token]) -> list[re.Match[str]]:
     covered = [False] * len(text)
     for token in found:
         covered[token.start : token.end] = [True] * (token.end - token.start)
-    words = []
-    for match in re.finditer(r"[a-z]+", text):
-        if (
-            not covered[match.start()]
-            and match.group() not in _FILLER
-            and not _DEGREES.match(text, match.start())
-        ):
-            words.append(match.group())
-    return words
+    return [
+        match
+        for match in re.finditer(r"[a-z]+", text)
+        if not covered[match.start()]
+        and match.group() not in _FILLER
+        and not _DEGREES.match(text, match.start())
+    ]
 
 
 @dataclass
@@ -841,6 +844,46 @@ def read_phrase(text: str) -> Claim:
     return Compound(parts=tuple(claims), source=text)  # type: ignore[arg-type]
 
 
+_FAMILY = {
+    "step": "translation",
+    "place": "position",
+    "aim": "rotation",
+    "yaw": "rotation",
+    "pitch": "rotation",
+    "roll": "rotation",
+    "still": "still",
+}
+
+
+def kinds_named(text: str) -> frozenset[str]:
+    """The kinds of claim an option's verbs name, also when the option itself is not read (a word
+    outside the lexicon, a direction that does not fit its verb): "It rolled toward the clock's
+    hands" names a rotation though no sense is read. For the quantity a question asks only, never
+    for a claim. Empty when nothing names a kind that way: an everyday verb alone ("it moved"), a
+    negated one, a scene or a view as what moved, alternatives joined by "or", or a word not read
+    before the first verb (it may be the subject: "the tripod moved left")."""
+    words = normalized(text)
+    found = tokens(words)
+    verbs = [token for token in found if token.sense.kind in _VERBS]
+    if not verbs or _TARGET.match(words) or _no_claim(words, found):
+        return frozenset()
+    if any(m.start() < verbs[0].start for m in _unknown_matches(words, found)):
+        return frozenset()
+    meaningful = [token for token in found if token.sense.kind != "filler"]
+    if any(token.sense.kind == "or" for token in meaningful):
+        return frozenset()
+    kinds: set[str] = set()
+    for part in _kind_nouns_folded(_parts(meaningful)):
+        if part.negated or part.verb is None:
+            continue
+        claim = _part_claim(part, None, "")
+        if isinstance(claim, Translation | Position | Rotation | Still | Compound):
+            kinds |= claim_kinds(claim)
+        elif part.verb.kind in _FAMILY:
+            kinds.add(_FAMILY[part.verb.kind])
+    return frozenset(kinds)
+
+
 def _merged(claims: list[Claim], text: str) -> list[Claim] | Unread:
     """Parts of one kind said twice are one claim: "stepped backward, away from the scene" is one
     step back, "stepped back and moved left" one diagonal step; two senses about one axis ("turned
@@ -897,6 +940,7 @@ __all__ = [
     "LEXICON",
     "Sense",
     "Token",
+    "kinds_named",
     "normalized",
     "read_phrase",
     "stem_senses",

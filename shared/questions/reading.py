@@ -37,7 +37,7 @@ from shared.questions.claims import (
     is_read,
     resolve_bare,
 )
-from shared.questions.lexicon import normalized, read_phrase, stem_senses, views_named
+from shared.questions.lexicon import kinds_named, normalized, read_phrase, stem_senses, views_named
 from shared.questions.view_pair import PairReading, read_pair
 
 Quantity = Literal["translation", "rotation", "position", "motion", "still", "object_relation", "other"]
@@ -101,14 +101,17 @@ _WHERE = r"(?<!\bfrom )(?<!\bto )(?<!\bthan )(?<!\bwith )(?<!\bof )(?<!\bat )(?<
 _POSITION_ASK = re.compile(
     rf"{_WHERE}[^?]*\b(?:taken|shot|captured|photographed|snapped|located|positioned|placed|situated|stand|"
     r"stands|stood|standing|sit|sits|sat|was the camera|is the camera|were the cameras|camera|photographer|"
-    r"shooter|viewer|viewpoint|vantage point|standpoint)\b|"
+    r"shooter|viewer|viewpoint|vantage point|standpoint|spot)\b|"
     # "From where was image 2 shot?", "image 2 was taken from where?"
     r"^(?:from|out of) where\b|\b(?:taken|shot|captured|photographed|snapped) from where\b|"
     r"\blocate\b[^?]*\b(?:camera|photographer|shooter)\b|\b(?:from )?which side\b|"
     r"\bdirection from (?:the )?(?:camera|photographer|shooter|\w+ \w+ s camera|\w+ \w+ camera)\b|"
     r"\b(?:is|was|lies|lay|stands|stood|sits|sat) where\b|"
     r"\b(?:shooting|camera|capture|capturing|vantage|taking) (?:position|point|location|spot|place)\b|"
-    r"\bposition(?:al)? (?:of|relationship)\b|\brelative (?:position|location|placement)\b|"
+    r"\bposition(?:al)? (?:of|relationship)\b|\b(?:location|placement|whereabouts) of\b|"
+    # "taken from which position?", "what spot was it shot from?"
+    r"\b(?:which|what) (?:position|location|place|spot|vantage point|viewpoint|standpoint)\b|"
+    r"\brelative (?:position|location|placement)\b|"
     rf"{_WHERE} (?:is|was|are|were) (?:the )?{_NOUNS} \w+\b|"
     r"\bwhich side of\b|\bin which direction (?:is|was|lies|lay)\b|"
     r"\b(?:which|what) (?:direction|side|way) (?:is|was|are|were|lies|lay) (?:the )?"
@@ -122,6 +125,11 @@ _ABOUT_CAMERA = (
     r"(?:motion|movement|displacement|rotation|translation|turn|change|shift|heading|orientation|pose|relation|relationship)\b)"
     r"(?!\s+(?:the\s+)?direction of (?:the\s+)?(?:camera|motion|movement|travel|displacement|view)\b)"
     r"(?!\s+(?:true|correct|right|different|accurate)\b)"
+    # "what is the direction from image 1's camera to image 2's?", "the location of photo 2's camera"
+    r"(?!\s+(?:the\s+)?(?:direction|position|location|placement|place|spot|whereabouts)\s+(?:of|from)\s+"
+    r"(?:the\s+)?(?:(?:(?:image|photo|picture|view|shot|frame|snapshot)\s+\d+|(?:first|second|third|fourth|"
+    r"fifth|last|final|other|earlier|later|initial)(?:\s+(?:image|photo|picture|view|shot|frame|snapshot|"
+    r"one))?)\s+s\s+)?(?:camera|viewpoint|vantage point|shooting (?:position|point|location|spot))\b)"
 )
 _OBJECT_ASK = re.compile(
     rf"\b(?:what|which (?:object|item|thing))\s+(?:is|was|would be|will be|lies|appears)\b{_ABOUT_CAMERA}|"
@@ -208,6 +216,7 @@ _MOVE_OR_TURN = re.compile(
     r"((?:turn|rotat|pan|tilt|roll|pivot|swivel)\w*)\b"
 )
 _AUX_POINT = re.compile(r"\b((?:did|does|do|can|would|will) (?:the|its) cameras?) point\b")
+_GET_TAKEN = re.compile(r"\b(?:get|got|gets|getting|gotten) (taken|shot|captured|photographed|snapped)\b")
 _PLACE_POINT = re.compile(r"\b(?:capture|capturing|shooting|vantage|taking|camera|view|standing) point\b")
 # A look that shifts is a turn: "how did the camera's aim shift?" ("shift" alone is a step).
 _LOOK_SHIFTS = re.compile(
@@ -223,7 +232,8 @@ _CAMERA_PLACED = re.compile(
     r"(?!\s+still\b)"
 )
 _PLACE_NOUN = re.compile(
-    r"\b(?:location|position|spot|(?<!\btook )(?<!\btake )(?<!\btakes )(?<!\btaking )place|"
+    r"\b(?:location|position|placement|positioning|spot|"
+    r"(?<!\btook )(?<!\btake )(?<!\btakes )(?<!\btaking )place|"
     r"whereabouts|standpoint)\b"
 )
 
@@ -237,6 +247,7 @@ def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
     words = _PAIR_VERBS.sub(" ", words)  # "going from image 1 to image 2" asks no step
     words = _MOVE_OR_TURN.sub(r"translated \1", words)  # "move or turn": a step is asked as well
     words = _AUX_POINT.sub(r"\1 aim", words)  # "where did the camera point?" is a look, not a place
+    words = _GET_TAKEN.sub(r"was \1", words)  # "where did image 2 get taken?": a passive, no step
     words = _PLACE_POINT.sub(" spot", words)  # "its capture point" is a place, not a way it points
     words = re.sub(r"\bpoints? of view\b", "viewpoint", words)  # a place and a look: no turn alone
     # "Not counting rotation, where did it go?": what is set aside is not asked, so the rest is
@@ -299,8 +310,12 @@ def _compatible(stem: Quantity, options: set[str]) -> bool:
     return moving <= {"translation", "position"}  # a step and a place are the same geometry
 
 
-def _quantity(ask: str, options: dict[str, Claim]) -> tuple[Quantity, bool, str, str | None]:
-    """(quantity, certain, source, why it must abstain)."""
+def _quantity(
+    ask: str, options: dict[str, Claim], named: dict[str, frozenset[str]] | None = None
+) -> tuple[Quantity, bool, str, str | None]:
+    """(quantity, certain, source, why it must abstain). `named`: for unread options, the kinds
+    their verbs name (`kinds_named`): with the read options' kinds, what the options are known to
+    ask, when the stem does not say it with a word of one kind."""
     stem, strong, stem_words = _stem_quantity(asking_sentences(ask))
     kinds = _option_kinds(options)
     lead = bool(options) and all(is_read(c) for c in options.values())
@@ -317,23 +332,39 @@ def _quantity(ask: str, options: dict[str, Claim]) -> tuple[Quantity, bool, str,
         if stem == "position" and of_options == "translation":
             return "position", True, "the stem and the options", None
         return of_options, True, "the options", None
+    if stem is not None and moving and strong and not _compatible(stem, kinds):
+        return (
+            stem,
+            False,
+            stem_words,
+            f"the stem asks about {stem} but some options state {', '.join(sorted(moving))}",
+        )
+    # Options partly read: the kinds the read ones state, and those the unread ones' verbs name
+    # ("It rolled toward the clock's hands": a turn, its sense not read), are the quantity when the
+    # stem says none with a word of one kind; never certain while an option's kind is only named.
+    hinted = set().union(*(named or {}).values()) - kinds
+    known = (kinds | hinted) - {"still"}
+    if known and not (stem is not None and strong):
+        certain = not hinted and not _has_bare(options) and not _unread(options)
+        return _of_kinds(known, stem), certain, "the options", None
     if stem is not None:
-        if moving and strong and not _compatible(stem, kinds):
-            return (
-                stem,
-                False,
-                stem_words,
-                f"the stem asks about {stem} but some options state {', '.join(sorted(moving))}",
-            )
-        if moving and not strong:  # "what movement took place?" with turns read: the options say
-            of_read: Quantity = moving.pop() if len(moving) == 1 else "motion"  # type: ignore[assignment]
-            return of_read, not _has_bare(options), "the options", None
         return stem, strong or not _has_bare(options), stem_words, None
-    if moving:
-        return ("motion" if len(moving) > 1 else moving.pop()), True, "the options", None  # type: ignore[return-value]
     if kinds == {"still"}:
         return "still", True, "the options", None
     return "other", False, "", None
+
+
+def _of_kinds(kinds: set[str], stem: Quantity | None) -> Quantity:
+    """The quantity several options' kinds ask: a step and a place are one geometry (a place when
+    the stem asks where a camera is), a step and a turn are any motion."""
+    if kinds <= {"translation", "position"}:
+        place = "position" in kinds and (len(kinds) == 1 or stem == "position")
+        return "position" if place else "translation"
+    return "rotation" if kinds == {"rotation"} else "motion"
+
+
+def _unread(options: dict[str, Claim]) -> bool:
+    return any(isinstance(c, Unread) for c in options.values())
 
 
 def _has_bare(options: dict[str, Claim]) -> bool:
@@ -499,7 +530,10 @@ def read_question(text: str, image_count: int | None = None) -> QuestionReading:
     stem, option_texts = split_options((text or "").strip())
     ask = _ask(" ".join(stem.split()))
     options = {letter: read_phrase(words) for letter, words in option_texts.items()}
-    quantity, certain, source, doubt = _quantity(ask, options)
+    named = {
+        letter: kinds_named(option_texts[letter]) for letter, c in options.items() if isinstance(c, Unread)
+    }
+    quantity, certain, source, doubt = _quantity(ask, options, named)
     hypothetical = bool(_WHAT_IF.search(normalized(asking_sentences(ask))))
     if quantity not in CAMERA_QUANTITIES or hypothetical or (not _lead(options) and not _is_camera_ask(ask)):
         quantity = "object_relation" if _OBJECT_ASK.search(normalized(ask)) else "other"
@@ -559,7 +593,8 @@ _CAMERA_ASK = re.compile(
 # A move not yet made ("if you turn left", "imagine walking", "will you be closer"): a what-if about
 # the scene, not the motion between two photos.
 _WHAT_IF = re.compile(
-    r"\b(?:if (?:you|i|we|the camera)|suppose|supposing|imagine|were to|will (?:you|i|we) (?:be|get|see|end)|"
+    r"\b(?:if (?:you|i|we|the camera)\b|suppose|supposing|imagine|were to|"
+    r"will (?:you|i|we) (?:be|get|see|end)|"
     r"would (?:you|i|we)(?! (?:find|locate|place|put|say|describe|call|expect to find)\b)|"
     r"after (?:you|i|we) (?:turn|walk|move|step|rotate)|(?:^|"
     r", )(?:then )?(?:turn|walk|move) )"
