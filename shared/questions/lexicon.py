@@ -137,6 +137,16 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"no (?:change|difference) in (?:its |the )?(?:camera s |camera )?(?:pose|position|location)|"
      r"(?:its |the )?(?:camera s |camera )?pose (?:is|was|remained|stayed) (?:identical|the same|unchanged)|"
      r"nothing (?:changed|moved|happened)", Sense("still")),
+    # a negated "either": neither a step nor a turn ("did not change position or direction"), and
+    # stillness said with a grade or as a pose ("perfectly still", "fixed in place", "identical pose")
+    (r"(?:did not|didn t|never|was not|wasn t|has not|hasn t) (?:change (?:its |the )?(?:position|location|"
+     r"place)|move|moved|shift|shifted|translate|translated) (?:or|nor) (?:(?:change )?(?:its |the )?"
+     r"(?:direction|orientation|heading|aim|angle)|turn|turned|rotate|rotated)|"
+     r"no (?:change|difference) in (?:its |the )?(?:position|location|place|pose) (?:or|nor|and) "
+     r"(?:its |the )?(?:direction|orientation|heading|aim|angle)|"
+     r"(?:perfectly|completely|totally|entirely|absolutely|dead|stock|quite) still|"
+     r"fixed in (?:place|position)|identical (?:pose|position|place|spot|location|viewpoint)",
+     Sense("still")),
     (r"(?:did not|didn t|does not|doesn t|never)\s+(?:move|budge|change position|"
      r"shift)\b(?!\s+(?:left|right|up|down|forward|back))",
      Sense("still")),
@@ -166,8 +176,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"(?:further|farther)(?= (?:out |over |off )?(?:to |toward |towards |on )?(?:the |its |their )?"
      r"(?:left|right|up|upward|"
      r"down|downward|forward|ahead|in)\b)|"
-     r"point of view|perspective|(?:as )?(?:seen|viewed) from (?:the |its )?(?:\w+ )?(?:camera|image|photo|"
-     r"picture|view|shot|photographer|shooter|viewer)(?: s (?:side|position|place))?|"
+     r"point of view|perspective|(?:as )?(?:seen|viewed) (?:from|by) (?:the |its )?(?:\w+ )?"
+     r"(?:camera|image|photo|picture|view|shot|photographer|shooter|viewer)(?: s (?:side|position|place))?|"
      r"as (?:the |it )?(?:camera |photographer |shooter |viewer )?(?:sees|saw|see) (?:it|them)|"
      r"with respect to|next to|beside|alongside|steeply|"
      r"(?:when |as )?(?:seen|viewed|looking) from behind(?: the camera| the lens)?|"
@@ -208,6 +218,10 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"snapshot)|"
      # "from a point further left": a point is a place here, not a way of aiming
      r"(?:a|another|one|some|that|this) point(?! (?:at|toward|towards|up|down|left|right)\b)|"
+     r"(?:(?<=higher )|(?<=lower )|(?<=closer )|(?<=nearer )|(?<=further )|(?<=farther ))point|"
+     # "it stayed put and kept its aim": the aim kept adds no claim of its own
+     r"(?:and )?(?:kept|keeping|maintained|held) (?:its|the same|the) (?:aim|direction|heading|orientation|"
+     r"angle)(?= and|$)|"
      # "taken from the same spot with the same aim": the aim kept adds no claim
      r"(?:with|and|facing|keeping|while keeping) (?:the |its )?same "
      r"(?:aim|direction|orientation|heading|angle|way)", Sense("filler")),
@@ -238,7 +252,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      Sense("axis", "roll")),
     (r"(?:about|around|round|on) (?:its |the |a )?vertical axis", Sense("axis", "yaw")),
     (r"(?:about|around|round) (?:its |the )?(?:lens|optical center|optical centre)", Sense("axis", "roll")),
-    (r"(?:in|within) (?:the )?image plane|in plane|(?:about|around|round|on) (?:its |the )?depth axis",
+    (r"(?:in|within) (?:the )?(?:image|frame|picture|photo) plane|in plane|"
+     r"(?:about|around|round|on) (?:its |the )?depth axis",
      Sense("axis", "roll")),
     # ---- rotation about the optical axis (before the verbs that share words with it)
     (r"(?:rotat\w*|turn\w*|spun|spin\w*|twist\w*)\s+(?:about|around|round|on)\s+(?:its\s+|the\s+)?"
@@ -297,13 +312,13 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     # "pulled up" is stopping, "pushed up" unclear: pushing and pulling carry only the other ways
     ("(?:" + _verb("push", "pull") + r")(?! (?:up|down|over)\b)", Sense(_STEP)),
     (r"climb\w*|ascen\w*|rose|ris(?:e|en|es|ing)|rais\w*|lift\w*|elevat\w*|"
-     r"gain(?:ed|s|ing)? (?:(?:in|of) )?(?:height|altitude|elevation)|"
+     r"gain(?:ed|s|ing)? (?:(?:in|of) |some |a little |a bit of |a bit |more )?(?:height|altitude|elevation)|"
      r"(?:at|to) a (?:greater|higher|larger) (?:height|elevation|level|altitude)|"
      r"(?:from|at) a higher|higher up|"
      r"pedestal(?:l?ed|l?ing|s)? up|boom(?:ed|ing|s)? up|" + _verb("hoist"),
      Sense(_STEP, "up")),
     (r"descen\w*|sank|sink\w*|sunk|dropp?\w*|lower(?:ed|ing|s)|"
-     r"los(?:t|es|ing|s) (?:(?:in|of) )?(?:height|altitude|elevation)|"
+     r"los(?:t|es|ing|s) (?:(?:in|of) |some |a little |a bit of |a bit )?(?:height|altitude|elevation)|"
      r"(?:at|to) a (?:lower|lesser|smaller|reduced) (?:height|elevation|level|altitude)|"
      r"(?:from|at) a lower|lower down|pedestal(?:l?ed|l?ing|s)? down|"
      r"boom(?:ed|ing|s)? down|hunker(?:ed|s|ing)? down|"
@@ -318,7 +333,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      Sense(_STEP, "forward")),
     (r"fell back|fall(?:s|ing)? back|(?:increas|widen|grow|lengthen)\w* (?:its |the )?distance"
      r"(?: (?:to|from) (?:the )?(?:scene|subject))?|"
-     r"withdr\w*|retreat\w*|reced\w*|back(?:ed|s|ing)? (?:up|off|away|out)|step(?:ped|s|ping)? back|"
+     r"withdr\w*|retreat\w*|" + _verb("reverse") + "|"
+     r"reced\w*|back(?:ed|s|ing)? (?:up|off|away|out)|step(?:ped|s|ping)? back|"
      r"pull(?:ed|s|ing)? (?:back|out|away)|dolly(?:ing)? out|dollied out|"
      r"(?:farther|further)(?: away| back| off)?|away from|more distant",
      Sense(_STEP, "backward")),
@@ -383,7 +399,8 @@ _FILLER = frozenset(
     "considerable considerably substantial substantially aside "
     "executed performed through "
     "shots snapshots photos pictures images throughout our my operator cameraman camerawoman observer "
-    "real".split()
+    "real completely perfectly totally entirely absolutely fully utterly essentially basically virtually "
+    "practically almost".split()
 )
 
 
