@@ -89,9 +89,12 @@ _APART_FROM = re.compile(
     r"\b(?:apart from|aside from|besides|other than|except for|ignoring|setting aside|leaving aside|"
     r"putting aside|leaving out|not counting|regardless of|without counting|excluding|disregarding|"
     r"without (?:considering|regard to|taking into account|counting|looking at)|not considering|"
-    r"irrespective of|discounting|neglecting|never mind|no matter)\s+(?P<what>[^,?;.]+)|"
+    r"irrespective of|discounting|neglecting|never mind|no matter|forget(?:ting)?(?: about)?)\s+"
+    r"(?P<what>[^,?;.:]+)|"
     # the same set aside after its noun: "Rotation aside, where did it go?"
-    r"(?:^|[,;:.]\s*)(?P<before>[a-z' ]{3,40}?)\s+(?:aside|apart|notwithstanding)\s*(?=,)",
+    r"(?:^|[,;:.]\s*)(?P<before>[a-z' ]{3,40}?)\s+(?:aside|apart|notwithstanding)\s*(?=,)|"
+    # "leaving its orientation out of it"
+    r"\bleaving (?P<out>[a-z' ]{3,40}?) out(?: of (?:it|account|the question))?\b",
     re.IGNORECASE,
 )
 _NOUNS = r"(?:images?|photos?|pictures?|views?|frames?|shots?|snapshots?)"
@@ -241,6 +244,8 @@ _PLACE_NOUN = re.compile(
 def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
     """(quantity, strong, the words): strong when a word of one kind says it ("tilt"), weak for
     the everyday verbs ("move"), None when nothing does."""
+    if (only := _only_about(ask)) is not None:
+        return only
     plain = normalized(_APART_FROM.sub(" ", ask))
     look_shifts = bool(_LOOK_SHIFTS.search(plain))
     words = _LOOK_SHIFTS.sub(" turned ", plain)  # "its aim shifted"
@@ -251,7 +256,7 @@ def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
     words = _PLACE_POINT.sub(" spot", words)  # "its capture point" is a place, not a way it points
     words = re.sub(r"\bpoints? of view\b", "viewpoint", words)  # a place and a look: no turn alone
     # "Not counting rotation, where did it go?": what is set aside is not asked, so the rest is
-    set_aside = [m.group("what") or m.group("before") for m in _APART_FROM.finditer(ask)]
+    set_aside = [m.group("what") or m.group("before") or m.group("out") for m in _APART_FROM.finditer(ask)]
     excluded = {s.kind for what in set_aside for s in stem_senses(what)}
     if any(_LOOK_NOUNS.search(normalized(what)) for what in set_aside):
         excluded.add("aim")  # "leaving aside the change in viewing direction"
@@ -285,6 +290,36 @@ def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
     if "weak" in kinds or _DID_WHAT.search(words):
         return "motion", False, words  # "how did it change?", "what did the camera do?": any motion
     return None, False, ""
+
+
+# "Only considering where it stood, ...", "looking only at orientation, ...", "in terms of position
+# only": what the question restricts itself to is the quantity it asks.
+_ONLY_ABOUT = re.compile(
+    r"\b(?:(?:only|just|purely|solely|strictly) (?:considering|looking at|in terms of|regarding|counting|"
+    r"as to|as regards)|(?:considering|looking at|in terms of|regarding|as regards|taking|counting) "
+    r"(?:only|just|purely|solely)|looking (?:only|just|purely|solely) at)\s+(?P<what>[^,?;.:]+)|"
+    r"\b(?:in terms of|considering|looking at|regarding|as regards) (?P<alone>[^,?;.:]+?) (?:only|alone)\b",
+    re.IGNORECASE,
+)
+
+
+def _only_about(ask: str) -> tuple[Quantity, bool, str] | None:
+    """The quantity a restriction names ("only considering where it stood": a step), when it names one
+    kind, and the rest does not ask where one camera is; else None."""
+    named = [m.group("what") or m.group("alone") for m in _ONLY_ABOUT.finditer(ask)]
+    if not named:
+        return None
+    rest = normalized(_ONLY_ABOUT.sub(" ", ask))
+    if _POSITION_ASK.search(rest) or _CAMERA_PLACED.search(rest):
+        return None
+    words = normalized(" ".join(named))
+    kinds = {s.kind for s in stem_senses(words)}
+    turning = bool(kinds & set(_ROTATING)) or bool(_LOOK_NOUNS.search(words))
+    where = re.search(r"\bwhere\b", words) is not None  # "only considering where it stood"
+    placing = bool(kinds & {"step", "place", "placenoun"}) or where or bool(_PLACE_NOUN.search(words))
+    if turning != placing:
+        return ("rotation" if turning else "translation"), True, words
+    return None
 
 
 # "What did the camera do?", "the camera did what?": any motion.
