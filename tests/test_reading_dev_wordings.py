@@ -1357,3 +1357,13 @@ def test_second_sweep_reads_as_written(text: str, claim: str) -> None:
 @pytest.mark.parametrize("text", SECOND_SWEEP_UNREAD)
 def test_second_sweep_open_wordings_stay_unread(text: str) -> None:
     assert short(read_phrase(text)).startswith("U")
+
+
+def test_a_bare_direction_beside_turns_makes_the_options_ask_any_motion() -> None:
+    options = ["It panned left", "It tilted up", "Higher", "Further to the left"]
+    reading = read_question(_ask(_WEAK_STEM, options), 2)
+    assert reading.quantity == "motion" and not reading.quantity_certain
+    assert reading.abstain_reason is not None  # the bare ones read two ways: no answer
+    turning = read_question(_ask("Which way did the camera turn from image 1 to image 2?", options), 2)
+    assert turning.quantity == "rotation"  # a stem of one kind gives the bare ones theirs
+    assert short(turning.options["C"]) == "R pitch up"

@@ -379,6 +379,11 @@ def _quantity(
     # stem says none with a word of one kind; never certain while an option's kind is only named.
     hinted = set().union(*(named or {}).values()) - kinds
     known = (kinds | hinted) - {"still"}
+    if known and _bare_steps(options, known):
+        # a bare direction ("Higher", "Further back") is how people say a step, not a turn: beside
+        # turns, the options then ask about any motion
+        hinted.add("translation")
+        known.add("translation")
     if known and not (stem is not None and strong):
         certain = not hinted and not _has_bare(options) and not _unread(options)
         return _of_kinds(known, stem), certain, "the options", None
@@ -396,6 +401,12 @@ def _of_kinds(kinds: set[str], stem: Quantity | None) -> Quantity:
         place = "position" in kinds and (len(kinds) == 1 or stem == "position")
         return "position" if place else "translation"
     return "rotation" if kinds == {"rotation"} else "motion"
+
+
+def _bare_steps(options: dict[str, Claim], known: set[str]) -> bool:
+    """Whether a bare direction stands beside turns, with no step read among the options."""
+    bare = [c for c in options.values() if isinstance(c, Bare)]
+    return bool(bare) and "rotation" in known and not known & {"translation", "position"}
 
 
 def _unread(options: dict[str, Claim]) -> bool:
