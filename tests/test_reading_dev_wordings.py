@@ -1367,3 +1367,87 @@ def test_a_bare_direction_beside_turns_makes_the_options_ask_any_motion() -> Non
     turning = read_question(_ask("Which way did the camera turn from image 1 to image 2?", options), 2)
     assert turning.quantity == "rotation"  # a stem of one kind gives the bare ones theirs
     assert short(turning.options["C"]) == "R pitch up"
+
+
+# ---- a third sweep: operator jargon, comparatives, magnitudes, and notes on the frame -------------
+
+THIRD_SWEEP: list[tuple[str, str]] = [
+    ("Boom up", "T up"),
+    ("Pedestal down", "T down"),
+    ("Tilt up", "R pitch up"),
+    ("Pan right", "R yaw right"),
+    ("Truck left", "T left"),
+    ("Dolly in", "T forward"),
+    ("Dolly back", "T backward"),
+    ("Track right", "T right"),
+    ("Ped up", "T up"),
+    ("It's further left than before", "B left"),
+    ("It is more to the left than in image 1", "B left"),
+    ("Further right than in the first shot", "B right"),
+    ("Higher than in the first picture", "B up"),
+    ("Lower than it was", "B down"),
+    ("Closer than before", "T forward"),
+    ("Farther away than before", "T backward"),
+    ("It moved left (in the first image's frame)", "T left"),
+    ("It moved left, in image 1's coordinates", "T left"),
+    ("Left, from the shooter's side", "B left"),
+    ("Moved left from the photographer's standpoint", "T left"),
+    ("It moved to the photographer's left", "T left"),
+    ("It shifted to the viewer's right", "T right"),
+    ("It went left (as seen through the viewfinder)", "T left"),
+    ("It turned left, judged from behind the camera", "R yaw left"),
+    ("It rolled clockwise (seen from behind the camera)", "R roll clockwise"),
+    ("It rolled clockwise, as the photographer sees it", "R roll clockwise"),
+    ("It rotated clockwise from the shooter's view", "R roll clockwise"),
+    ("Clockwise, looking through the lens", "R roll clockwise"),
+    ("It moved left by about a metre", "T left"),
+    ("It moved 30 cm to the left", "T left"),
+    ("It turned about 15 degrees left", "R yaw left"),
+    ("A 10° pan to the right", "R yaw right"),
+    ("A slight leftward translation", "T left"),
+    ("A small step up", "T up"),
+    ("A big step back", "T backward"),
+    ("Moved a touch to the left", "T left"),
+    ("Nudged a bit to the left", "T left"),
+    ("A tad higher", "B up"),
+    ("A hair to the right", "B right"),
+    ("Just slightly lower", "B down"),
+    ("Marginally further forward", "B forward"),
+    ("Way off to the left", "B left"),
+    ("Considerably higher", "B up"),
+    ("It turned leftwards by a few degrees", "R yaw left"),
+    ("It tilted its gaze upward", "R pitch up"),
+    ("It raised its aim", "R pitch up"),
+    ("It lowered its aim", "R pitch down"),
+    ("It pointed its lens downward", "R pitch down"),
+    ("It angled the lens up", "R pitch up"),
+    ("It pitched the camera down", "R pitch down"),
+    ("It tipped clockwise", "R roll clockwise"),
+    ("It rotated the frame clockwise", "R roll clockwise"),
+    ("It spun the camera clockwise on its lens axis", "R roll clockwise"),
+]
+# Jargon of a combined or unclear move (an arc, a jib), compass and ship words, a view raised (a tilt
+# or a step), a lean or a head cocked (a roll with no sense), the frame or photo as what rotated.
+THIRD_SWEEP_UNREAD = [
+    "Arc left",
+    "Jib up",
+    "The camera yawed 20 degrees to port",
+    "It moved port side",
+    "It headed west",
+    "It raised its view",
+    "It dipped its view",
+    "It cocked its head to the left",
+    "It leaned to the left",
+    "The frame rotated clockwise",
+    "The photo is rotated clockwise",
+]
+
+
+@pytest.mark.parametrize(("text", "claim"), THIRD_SWEEP)
+def test_third_sweep_reads_as_written(text: str, claim: str) -> None:
+    assert short(read_phrase(text)) == claim
+
+
+@pytest.mark.parametrize("text", THIRD_SWEEP_UNREAD)
+def test_third_sweep_open_wordings_stay_unread(text: str) -> None:
+    assert short(read_phrase(text)).startswith("U")

@@ -182,6 +182,14 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"with respect to|next to|beside|alongside|steeply|"
      r"(?:when |as )?(?:seen|viewed|looking) from behind(?: the camera| the lens)?|"
      r"(?:when |while )?looking (?:through|along) the (?:lens|viewfinder|camera)|"
+     # notes on whose axes or from where the sense is judged: "in image 1's coordinates", "as seen
+     # through the viewfinder", "judged from behind the camera"
+     r"(?:as )?(?:seen|viewed|judged|observed|counted) (?:through|from|along|in) (?:the |its )?"
+     r"(?:viewfinder|lens|eyepiece|screen|back of the camera|behind(?: the camera| the lens)?)|"
+     r"(?:in|using|with respect to|relative to|according to) (?:the )?(?:(?:first|reference|original|initial|"
+     r"earlier|starting)(?: (?:image|photo|picture|view|shot|frame|camera|snapshot))?|(?:image|photo|picture|"
+     r"view|shot|frame|camera|snapshot) \d+|camera|photographer|shooter)(?: s)? (?:own )?(?:coordinates|"
+     r"coordinate (?:frame|system)|axes|frame of reference|reference frame)|"
      r"in (?:terms of|the direction of)(?= (?:the |its )?(?:left|right))|"
      r"(?:end|ends|ended|ending) up|wound up|came to rest|"
      r"(?:end|finish|land|settl|arriv)(?:ed|es|s|ing)?(?= (?:up |out )?(?:on|at|to|in|further|farther|more|"
@@ -315,12 +323,12 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"gain(?:ed|s|ing)? (?:(?:in|of) |some |a little |a bit of |a bit |more )?(?:height|altitude|elevation)|"
      r"(?:at|to) a (?:greater|higher|larger) (?:height|elevation|level|altitude)|"
      r"(?:from|at) a higher|higher up|"
-     r"pedestal(?:l?ed|l?ing|s)? up|boom(?:ed|ing|s)? up|" + _verb("hoist"),
+     r"(?:pedestal(?:l?ed|l?ing|s)?|ped(?:ded|ding|s)?) up|boom(?:ed|ing|s)? up|" + _verb("hoist"),
      Sense(_STEP, "up")),
     (r"descen\w*|sank|sink\w*|sunk|dropp?\w*|lower(?:ed|ing|s)|"
      r"los(?:t|es|ing|s) (?:(?:in|of) |some |a little |a bit of |a bit )?(?:height|altitude|elevation)|"
      r"(?:at|to) a (?:lower|lesser|smaller|reduced) (?:height|elevation|level|altitude)|"
-     r"(?:from|at) a lower|lower down|pedestal(?:l?ed|l?ing|s)? down|"
+     r"(?:from|at) a lower|lower down|(?:pedestal(?:l?ed|l?ing|s)?|ped(?:ded|ding|s)?) down|"
      r"boom(?:ed|ing|s)? down|hunker(?:ed|s|ing)? down|"
      + _verb("fall", "crouch", "stoop", "squat", "kneel") + "|knelt",
      Sense(_STEP, "down")),
@@ -400,7 +408,7 @@ _FILLER = frozenset(
     "executed performed through "
     "shots snapshots photos pictures images throughout our my operator cameraman camerawoman observer "
     "real completely perfectly totally entirely absolutely fully utterly essentially basically virtually "
-    "practically almost".split()
+    "practically almost marginally tad touch hair smidge smidgen notch trifle fraction".split()
 )
 
 
