@@ -727,6 +727,15 @@ MUST_STAY_UNREAD = (
     "The image turned clockwise",
     "The horizon tilted clockwise",
     "Everything in view shifted to the right",
+    # ... also under a hedge, which opens a clause with its own subject
+    "It looks like the scene moved left",
+    "It seems the scene moved left",
+    "The scene appears to have shifted left",
+    "It panned left and the scene appears to have shifted right",
+    "It panned left and the scene apparently slid right",
+    "It looks as if the objects shifted right",
+    "Apparently the background slid left",
+    "It looks like the view shifted left",
     # the focal length, not the camera
     "It zoomed in",
     "It zoomed out",

@@ -209,12 +209,6 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"(?:the )?(?:person|one|someone) (?:holding|carrying|with) the camera|"
      r"at all|than (?:before|previously|earlier|"
      r"originally|it was|at first)|vantage point|view ?point|standpoint|"
-     # hedges: "it seems to have", "it looks as if", "apparently"
-     r"(?:it |the camera )?(?:seem|appear)(?:s|ed)?"
-     r"(?: to(?: have)?(?: been)?| as if| as though| that| like)?|"
-     r"(?:it |the camera )?look(?:s|ed)? (?:like|as if|as though)|"
-     r"(?:most |very |quite )?(?:probably|likely|apparently|perhaps|maybe|possibly|presumably|evidently|"
-     r"seemingly|clearly|obviously)|(?:i|we) (?:think|guess|believe|would say)|"
      # notes on which photos are compared: "between the two shots", "from where it started"
      r"between (?:the |these |those )?(?:two |both )?(?:shots|photos|pictures|images|views|frames|snapshots)|"
      r"from one (?:shot|photo|picture|image|view|frame|snapshot) to the (?:next|other|second)|"
@@ -233,6 +227,13 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      # "taken from the same spot with the same aim": the aim kept adds no claim
      r"(?:with|and|facing|keeping|while keeping) (?:the |its )?same "
      r"(?:aim|direction|orientation|heading|angle|way)", Sense("filler")),
+    # ---- hedges ("it seems to have", "it looks as if", "apparently"): no meaning of their own, but what
+    # follows "it looks like" is a clause with its own subject ("it looks like the scene moved left")
+    (r"(?:it |the camera )?(?:seem|appear)(?:s|ed)?"
+     r"(?: to(?: have)?(?: been)?| as if| as though| that| like)?|"
+     r"(?:it |the camera )?look(?:s|ed)? (?:like|as if|as though)|"
+     r"(?:most |very |quite )?(?:probably|likely|apparently|perhaps|maybe|possibly|presumably|evidently|"
+     r"seemingly|clearly|obviously)|(?:i|we) (?:think|guess|believe|would say)", Sense("hedge")),
     # ---- negation of the next verb
     (r"did not|didn t|does not|doesn t|not|without|no|never|neither|nor|zero", Sense("not")),
     # ---- two claims offered as one ("backward or to the left"): the option says two things
@@ -480,6 +481,7 @@ class _Part:
 
 
 _AXES = ("yaw", "pitch", "roll")
+_IGNORED = ("filler", "hedge")  # words with no meaning of their own in a claim
 _VERBS = ("step", "weak", "aim", "yaw", "pitch", "roll", "place", "still")
 _STEPPING = ("step", "weak", "place")
 _TURNING = ("aim", "yaw", "pitch", "roll")
@@ -749,7 +751,7 @@ _CONTENT_CLAUSE = re.compile(
     r"\b(?:the |its |all |some |everything |the whole )?(?P<noun>scene|scenery|objects?|contents?|things|"
     r"everything|world|background|foreground|surroundings|room|furniture|subject|image|picture|photo|"
     r"frame|horizon)(?: in (?:the )?(?:frame|view|image|picture|photo))?(?: (?:appears?|appeared|seems?|"
-    r"seemed) to)? $"
+    r"seemed) to(?: have)?(?: been)?| (?:probably|apparently|seemingly|evidently|clearly|obviously))* $"
 )
 
 
@@ -761,7 +763,8 @@ def _later_content_subject(words: str, found: list[Token]) -> str | None:
             clause = _CONTENT_CLAUSE.search(words[previous_end : token.start])
             if clause:
                 return clause.group("noun")
-        previous_end = token.end
+        if token.sense.kind not in _IGNORED:  # "the scene then appears to have shifted": one clause
+            previous_end = token.end
     return None
 
 
@@ -784,13 +787,8 @@ def _content_is_the_subject(subject: str) -> bool:
     return thing.start() < camera.start() or owned is not None
 
 
-def _no_claim(words: str, found: list[Token]) -> str | None:
-    """Why words that look like motion state no claim about the camera, else None."""
-    for token in found:
-        if token.sense.kind in _NO_CLAIM:
-            return _NO_CLAIM[token.sense.kind]
-    verb = next((t for t in found if t.sense.kind in _VERBS), None)
-    subject = words[: verb.start] if verb is not None else ""
+def _content_moved(subject: str, verb: Token | None) -> str | None:
+    """Why a subject that is the picture's content ("the scene", "objects") states no camera claim."""
     content = _CONTENT.search(subject)
     # "the photos were taken from the same spot" is a stillness, "the scene stayed still" not ours
     moving = verb is not None and verb.sense.kind not in ("place", "still")
@@ -801,6 +799,21 @@ def _no_claim(words: str, found: list[Token]) -> str | None:
             f"it says the {content.group()} moved: content shifts in the frame opposite to the camera, "
             "which is not read"
         )
+    return None
+
+
+def _no_claim(words: str, found: list[Token]) -> str | None:
+    """Why words that look like motion state no claim about the camera, else None."""
+    for token in found:
+        if token.sense.kind in _NO_CLAIM:
+            return _NO_CLAIM[token.sense.kind]
+    verb = next((t for t in found if t.sense.kind in _VERBS), None)
+    subject = words[: verb.start] if verb is not None else ""
+    # after a hedge that opens a clause ("it looks like the scene moved"), the clause has its own subject
+    hedges = [t.end for t in found if t.sense.kind == "hedge" and verb is not None and t.end <= verb.start]
+    for said in (subject, words[hedges[-1] : verb.start] if hedges and verb is not None else ""):
+        if refusal := _content_moved(said, verb):
+            return refusal
     stepping = verb is not None and verb.sense.kind in ("step", "weak")
     if stepping and _VIEW_SUBJECT.search(subject):
         return "it says the view moved, which a step and a turn both do"
@@ -832,7 +845,7 @@ def read_phrase(text: str) -> Claim:
         return Unread(source=text)
     if refusal := _no_claim(words, found):
         return Unread(source=text, why=refusal)
-    found = [token for token in found if token.sense.kind != "filler"]
+    found = [token for token in found if token.sense.kind not in _IGNORED]
     if not found:
         return Unread(source=text, why="it states no direction, kind of motion or stillness")
     if any(token.sense.kind == "or" for token in found):
@@ -894,7 +907,7 @@ def kinds_named(text: str) -> frozenset[str]:
         return frozenset()
     if any(m.start() < verbs[0].start for m in _unknown_matches(words, found)):
         return frozenset()
-    meaningful = [token for token in found if token.sense.kind != "filler"]
+    meaningful = [token for token in found if token.sense.kind not in _IGNORED]
     if any(token.sense.kind == "or" for token in meaningful):
         return frozenset()
     kinds: set[str] = set()

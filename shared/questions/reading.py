@@ -211,8 +211,12 @@ _LOOK_NOUNS = re.compile(
     r"(?:direction|angle|axis|orientation|heading|bearing)|line of sight|direction of (?:view|gaze|sight)|"
     r"orientation|heading|bearing|attitude|(?:re)?orient(?:ed|ing|s)?)\b"
 )
-# The verbs that build the pair, not the quantity: "going from image 1 to image 2", "on the way to".
-_PAIR_VERBS = re.compile(r"\b(?:going|coming|moving|on (?:the|its) way)(?= (?:back )?(?:from|to) )")
+# The verbs that build the pair, not the quantity: "what did it do going from image 1 to image 2?",
+# "on the way to"; not the main verb ("where was the camera going from image 1 to image 2?").
+_PAIR_VERBS = re.compile(
+    r"(?<!\bcamera )(?<!\bit )(?<!\bthey )(?<!\byou )(?<!\bwe )(?<!\bi )(?<!\bphotographer )(?<!\bshooter )"
+    r"\b(?:going|coming|on (?:the|its) way)(?= (?:back )?(?:from|to) )"
+)
 # A step verb set beside a turn ("did it move or turn?", "moving and rotating"): both are asked.
 _MOVE_OR_TURN = re.compile(
     r"\b(?:mov(?:e|ed|es|ing)|go|went|shift(?:ed|s|ing)?) (?:or|and|and or|and/or) "
