@@ -38,7 +38,7 @@ from shared.questions.claims import (
     resolve_bare,
 )
 from shared.questions.lexicon import kinds_named, normalized, read_phrase, stem_senses, views_named
-from shared.questions.view_pair import PairReading, read_pair
+from shared.questions.view_pair import PairReading, read_pair, views_mentioned
 
 Quantity = Literal["translation", "rotation", "position", "motion", "still", "object_relation", "other"]
 CAMERA_QUANTITIES: tuple[Quantity, ...] = ("translation", "rotation", "position", "motion", "still")
@@ -448,6 +448,20 @@ _FRAME_WORDS = re.compile(
     r"directions of|s (?:own )?directions)\b"
 )
 _SHOOTER = re.compile(r"\b(?:shooter|photographer|camera operator|camera person|viewer|camera)\b")
+# "the camera that took image 2", "the photographer of the second photo": the shooter of one photo
+_TOOK = re.compile(
+    r"(?:the )?(?:shooter|photographer|camera operator|camera person|viewer|camera)\s+"
+    r"(?:(?:that|which|who)\s+)?(?:took|taking|shot|captured|photographed|of|for|behind)\s+(?P<photo>(?:the\s+)?\w+(?:\s+\w+)?)"
+)
+
+
+def _photo_taken(words: str, start: int, image_count: int | None) -> tuple[int, str] | None:
+    """(the photo, the words) when the shooter named at `start` is said to be that of one photo."""
+    took = _TOOK.match(words, start)
+    named = views_mentioned(took.group("photo"), image_count) if took else ()
+    return (named[0], took.group()) if took and len(named) == 1 else None
+
+
 _OBJECT_FRAME = re.compile(
     r"\b(?:facing|from|at) the (?P<object>(?!camera|photographer|shooter|"
     r"viewer)\w+)\s+(?:s\s+)?(?:perspective|point of view|position)\b"
@@ -464,6 +478,8 @@ def _frame(
         named = read_pair(of.group("view"), image_count).view_set
         if named:
             return FrameReading(kind="view_axes", view=named[0]), of.group(), True
+        if _SHOOTER.search(of.group("view")) and (took := _photo_taken(words, of.start("view"), image_count)):
+            return FrameReading(kind="view_axes", view=took[0]), took[1], True
         if _SHOOTER.search(of.group("view")) and views is not None:
             return FrameReading(kind="view_axes", view=views[0]), of.group(), True
         return FrameReading(kind="object", object=of.group("view").split()[0]), of.group(), True
@@ -475,12 +491,47 @@ def _frame(
             return FrameReading(kind="view_axes", view=views[0]), axes.group(), True
     if obj := _OBJECT_FRAME.search(words):
         return FrameReading(kind="object", object=obj.group("object")), obj.group(), True
+    note_view, note = _axes_note(ask, image_count)
+    if note_view is not None:
+        return FrameReading(kind="view_axes", view=note_view), note, True
     if views is None:
         return None, "", False
     # The first photo's, unless said; words that name axes but were not read above keep it uncertain
     # with their source, so that the answer is refused rather than given in a frame not asked.
     unread = _FRAME_WORDS.search(words)
-    return FrameReading(kind="view_axes", view=views[0]), unread.group() if unread else "", False
+    return FrameReading(kind="view_axes", view=views[0]), note or (unread.group() if unread else ""), False
+
+
+# A note on whose directions are meant, said as a sentence of its own ("Directions are relative to
+# image 1's camera.", "Left and right are as the photographer of photo 2 saw them."): the one photo it
+# names is the one whose axes are meant. A note that names several photos, or says whose axes are not
+# meant ("not those of image 2"), is not read: the frame is then left unread, and the answer refused.
+_AXES_NOTE = re.compile(
+    r"\b(?:directions?|axes|left and right|up and down|left right up and down|coordinates?|"
+    r"coordinate (?:frame|system)|frame of reference|reference frame|orientation as (?:the )?reference|"
+    r"point of view|perspective)\b"
+)
+_NOT_THESE = re.compile(r"\b(?:not|never|instead of|rather than|unlike|except|other than|but not)\b")
+
+
+def _axes_note(ask: str, image_count: int | None) -> tuple[int | None, str]:
+    """(the photo a note on directions names, the note) for the first such note; (None, note) when
+    it is not read; (None, "") when there is none. Questions are not notes (their words are read
+    above)."""
+    notes = [s for s in _SENTENCE.split(ask) if "?" not in s] + [
+        m.group()[1:-1] for m in _PARENTHESES.finditer(ask)
+    ]
+    for note in notes:
+        words = normalized(note)
+        if not _AXES_NOTE.search(words):
+            continue
+        named = views_mentioned(note, image_count)
+        if not named:
+            continue  # "Clockwise is as seen from behind the camera": a sense, no photo
+        if len(named) == 1 and not _NOT_THESE.search(words):
+            return named[0], words
+        return None, words
+    return None, ""
 
 
 # ---- the whole reading ----------------------------------------------------------------------
