@@ -28,7 +28,10 @@ that does not fit its verb's axis ("tilted left"), a negated direction ("did not
 scene or picture as the subject ("the scene slid left": content moves opposite to the camera), a
 view moved by a step verb ("the view shifted left": a pan does that too), and the first camera as
 the subject (its place relative to the second is the reverse). `views_named` gives the photos an
-option names by number, for the reading to check against the pair.
+option names by number, for the reading to check against the pair. Hedges ("it seems to have",
+"apparently") mean nothing of their own, but one that opens a clause ("it looks like the scene
+moved") gives it its own subject, checked as above. `kinds_named` gives the kinds an unread option's
+verbs name, for the quantity a question asks (never for a claim).
 """
 
 from __future__ import annotations

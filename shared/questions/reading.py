@@ -18,7 +18,11 @@
 Options lead: when every option reads as a camera claim, the question is a camera question whatever
 its stem says, and the claims' kinds are the quantity asked; the stem then only gives the pair. A
 bare direction ("Left") means what the stem asks ("turn" makes it a yaw). Everyday verbs ("move",
-"go") fix no quantity: people move a camera by turning it too.
+"go") fix no quantity: people move a camera by turning it too. When the options read only in part and
+the stem says no quantity with a word of one kind, what the options are known to state is the
+quantity, never certainly: the read ones' kinds, the kinds the unread ones' verbs name ("It rolled
+toward the clock's hands" is a turn, its sense unread), and a step for a bare direction beside turns.
+A note on directions that names one photo ("Directions are those of image 2.") names the frame.
 """
 
 from __future__ import annotations
