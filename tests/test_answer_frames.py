@@ -177,10 +177,16 @@ def test_over_focal_hypotheses_keep_the_same_rules() -> None:
 
 def test_axes_named_in_words_the_reading_does_not_read_are_refused_not_defaulted() -> None:
     cameras = pair(step_in_camera=FORWARD, rotation_in_camera=_axis_rotation("y", 90.0))
-    stem = "Which way did the camera move from image 1 to image 2? Answer with the axes set by image 2."
+    stem = (
+        "Which way did the camera move from image 1 to image 2? Answer with the axes set by the later photo."
+    )
     reading = read_question(f"{stem} {STEPS}", 2)
     assert not reading.frame_certain and "axes" in reading.frame_source
     result = _ask(stem, STEPS, clue(cameras))
     assert result.answer is None and "axes" in (result.reason or ""), result
+    # a note that names one photo is read: image 2's axes, where the step is stated too
+    named = "Which way did the camera move from image 1 to image 2? Answer with the axes set by image 2."
+    assert read_question(f"{named} {STEPS}", 2).frame.view == 2  # type: ignore[union-attr]
+    assert _ask(named, STEPS, clue(cameras)).answer == LETTER_OF_STEP[true_step(cameras, 2)]
     read = "Use the directions of image 2 itself. Which way did the camera move from image 1 to image 2?"
     assert _ask(read, STEPS, clue(cameras)).answer == LETTER_OF_STEP[true_step(cameras, 2)]

@@ -28,7 +28,10 @@ that does not fit its verb's axis ("tilted left"), a negated direction ("did not
 scene or picture as the subject ("the scene slid left": content moves opposite to the camera), a
 view moved by a step verb ("the view shifted left": a pan does that too), and the first camera as
 the subject (its place relative to the second is the reverse). `views_named` gives the photos an
-option names by number, for the reading to check against the pair.
+option names by number, for the reading to check against the pair. Hedges ("it seems to have",
+"apparently") mean nothing of their own, but one that opens a clause ("it looks like the scene
+moved") gives it its own subject, checked as above. `kinds_named` gives the kinds an unread option's
+verbs name, for the quantity a question asks (never for a claim).
 """
 
 from __future__ import annotations
@@ -47,6 +50,7 @@ from shared.questions.claims import (
     Translation,
     Unread,
     Way,
+    claim_kinds,
 )
 
 _V = r"(?:s|es|ed|d|ing|ion|ment)?"  # a verb's inflections
@@ -79,7 +83,7 @@ _IRREGULAR = {
 }
 # A final consonant after one short vowel may double: step/stepped, pan/panned, sidestep/sidestepping
 # (both spellings are kept: pivoted, travelled/traveled).
-_DOUBLED = re.compile(r"(?<![aeiou])[aeiou][bdglmnprt]$")
+_DOUBLED = re.compile(r"(?:(?<![aeiou])|(?<=qu))[aeiou][bdglmnprt]$")
 
 
 def _verb(*bases: str) -> str:
@@ -122,7 +126,7 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"(?:(?:completely|perfectly|exactly|precisely|right|roughly|approximately|basically|essentially|"
      r"more or less|almost|nearly|virtually|practically)\s+)?"
      r"(?:still|put|stationary|motionless|fixed|steady|in place|where it (?:was|stood|had been)|at rest|"
-     r"as it was|its ground|"
+     r"as it was|its ground|in one (?:spot|place|position|location)|"
      r"(?:at|in) (?:the same|its|its original|the original|its initial|the initial|its previous|"
      r"the previous|its starting|the starting) (?:spot|place|position|point|location))", Sense("still")),
     (r"(?:its |the )?(?:pose|position|place|location|viewpoint)(?: and (?:its )?(?:orientation|heading|"
@@ -136,6 +140,16 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"no (?:change|difference) in (?:its |the )?(?:camera s |camera )?(?:pose|position|location)|"
      r"(?:its |the )?(?:camera s |camera )?pose (?:is|was|remained|stayed) (?:identical|the same|unchanged)|"
      r"nothing (?:changed|moved|happened)", Sense("still")),
+    # a negated "either": neither a step nor a turn ("did not change position or direction"), and
+    # stillness said with a grade or as a pose ("perfectly still", "fixed in place", "identical pose")
+    (r"(?:did not|didn t|never|was not|wasn t|has not|hasn t) (?:change (?:its |the )?(?:position|location|"
+     r"place)|move|moved|shift|shifted|translate|translated) (?:or|nor) (?:(?:change )?(?:its |the )?"
+     r"(?:direction|orientation|heading|aim|angle)|turn|turned|rotate|rotated)|"
+     r"no (?:change|difference) in (?:its |the )?(?:position|location|place|pose) (?:or|nor|and) "
+     r"(?:its |the )?(?:direction|orientation|heading|aim|angle)|"
+     r"(?:perfectly|completely|totally|entirely|absolutely|dead|stock|quite) still|"
+     r"fixed in (?:place|position)|identical (?:pose|position|place|spot|location|viewpoint)",
+     Sense("still")),
     (r"(?:did not|didn t|does not|doesn t|never)\s+(?:move|budge|change position|"
      r"shift)\b(?!\s+(?:left|right|up|down|forward|back))",
      Sense("still")),
@@ -165,20 +179,28 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"(?:further|farther)(?= (?:out |over |off )?(?:to |toward |towards |on )?(?:the |its |their )?"
      r"(?:left|right|up|upward|"
      r"down|downward|forward|ahead|in)\b)|"
-     r"point of view|perspective|(?:as )?(?:seen|viewed) from (?:the |its )?(?:\w+ )?(?:camera|image|photo|"
-     r"picture|view|shot|photographer|shooter|viewer)(?: s (?:side|position|place))?|"
+     r"point of view|perspective|(?:as )?(?:seen|viewed) (?:from|by) (?:the |its )?(?:\w+ )?"
+     r"(?:camera|image|photo|picture|view|shot|photographer|shooter|viewer)(?: s (?:side|position|place))?|"
      r"as (?:the |it )?(?:camera |photographer |shooter |viewer )?(?:sees|saw|see) (?:it|them)|"
      r"with respect to|next to|beside|alongside|steeply|"
      r"(?:when |as )?(?:seen|viewed|looking) from behind(?: the camera| the lens)?|"
      r"(?:when |while )?looking (?:through|along) the (?:lens|viewfinder|camera)|"
+     # notes on whose axes or from where the sense is judged: "in image 1's coordinates", "as seen
+     # through the viewfinder", "judged from behind the camera"
+     r"(?:as )?(?:seen|viewed|judged|observed|counted) (?:through|from|along|in) (?:the |its )?"
+     r"(?:viewfinder|lens|eyepiece|screen|back of the camera|behind(?: the camera| the lens)?)|"
+     r"(?:in|using|with respect to|relative to|according to) (?:the )?(?:(?:first|reference|original|initial|"
+     r"earlier|starting)(?: (?:image|photo|picture|view|shot|frame|camera|snapshot))?|(?:image|photo|picture|"
+     r"view|shot|frame|camera|snapshot) \d+|camera|photographer|shooter)(?: s)? (?:own )?(?:coordinates|"
+     r"coordinate (?:frame|system)|axes|frame of reference|reference frame)|"
      r"in (?:terms of|the direction of)(?= (?:the |its )?(?:left|right))|"
      r"(?:end|ends|ended|ending) up|wound up|came to rest|"
      r"(?:end|finish|land|settl|arriv)(?:ed|es|s|ing)?(?= (?:up |out )?(?:on|at|to|in|further|farther|more|"
      r"higher|lower|slightly|a|somewhat|just|above|below|behind|ahead)\b)|"
      r"dead(?= ahead)|well(?= (?:to|above|below|behind|in front|ahead|back|over|under|off)\b)|"
      r"(?:by|through) (?:a |an )?(?:\w+ )?angle(?: of)?|"
-     r"(?:its|the camera s|his|her|their) head(?= (?:to|toward|towards|left|right|"
-     r"up|down)\b)|over(?= to\b)|(?:a)?round(?= to (?:the |its )?(?:left|right)\b)|"
+     r"(?:its|the camera s|his|her|their|the photographer s|the shooter s) head|"
+     r"over(?= to\b)|(?:a)?round(?= to (?:the |its )?(?:left|right)\b)|"
      r"lateral(?:ly)?|vertical(?:ly)?|horizontal(?:ly)?|"
      r"where (?:the )?(?:first |earlier |other |previous |reference )?(?:image|photo|picture|view|shot|frame|"
      r"camera|snapshot)(?: \w+)? (?:was|is|had been) (?:taken|shot|captured|located|positioned)|"
@@ -189,7 +211,32 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"(?:position|place|spot|location|point|pose|viewpoint)|"
      r"(?:the )?(?:person|one|someone) (?:holding|carrying|with) the camera|"
      r"at all|than (?:before|previously|earlier|"
-     r"originally|it was|at first)|vantage point|view ?point|standpoint", Sense("filler")),
+     r"originally|it was|at first)|vantage point|view ?point|standpoint|"
+     # notes on which photos are compared: "between the two shots", "from where it started"
+     r"between (?:the |these |those )?(?:two |both )?(?:shots|photos|pictures|images|views|frames|snapshots)|"
+     r"from one (?:shot|photo|picture|image|view|frame|snapshot) to the (?:next|other|second)|"
+     r"judging (?:by|from) (?:the )?(?:two |both )?(?:shots|photos|pictures|images|views|frames)|"
+     r"since the (?:first|earlier|previous|last) (?:shot|photo|picture|image|view|frame|snapshot)|"
+     r"(?:relative to |compared (?:with |to )|from )?where (?:it|the camera|the photographer|we|i|they) "
+     r"(?:started|was|had been|stood|began|were|first stood)(?: before)?|"
+     r"for the (?:second|later|latter|last|final|new|next|other) (?:image|photo|picture|view|shot|frame|"
+     r"snapshot)|"
+     # "from a point further left": a point is a place here, not a way of aiming
+     r"(?:a|another|one|some|that|this) point(?! (?:at|toward|towards|up|down|left|right)\b)|"
+     r"(?:(?<=higher )|(?<=lower )|(?<=closer )|(?<=nearer )|(?<=further )|(?<=farther ))point|"
+     # "it stayed put and kept its aim": the aim kept adds no claim of its own
+     r"(?:and )?(?:kept|keeping|maintained|held) (?:its|the same|the) (?:aim|direction|heading|orientation|"
+     r"angle)(?= and|$)|"
+     # "taken from the same spot with the same aim": the aim kept adds no claim
+     r"(?:with|and|facing|keeping|while keeping) (?:the |its )?same "
+     r"(?:aim|direction|orientation|heading|angle|way)", Sense("filler")),
+    # ---- hedges ("it seems to have", "it looks as if", "apparently"): no meaning of their own, but what
+    # follows "it looks like" is a clause with its own subject ("it looks like the scene moved left")
+    (r"(?:it |the camera )?(?:seem|appear)(?:s|ed)?"
+     r"(?: to(?: have)?(?: been)?| as if| as though| that| like)?|"
+     r"(?:it |the camera )?look(?:s|ed)? (?:like|as if|as though)|"
+     r"(?:most |very |quite )?(?:probably|likely|apparently|perhaps|maybe|possibly|presumably|evidently|"
+     r"seemingly|clearly|obviously)|(?:i|we) (?:think|guess|believe|would say)", Sense("hedge")),
     # ---- negation of the next verb
     (r"did not|didn t|does not|doesn t|not|without|no|never|neither|nor|zero", Sense("not")),
     # ---- two claims offered as one ("backward or to the left"): the option says two things
@@ -217,7 +264,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      Sense("axis", "roll")),
     (r"(?:about|around|round|on) (?:its |the |a )?vertical axis", Sense("axis", "yaw")),
     (r"(?:about|around|round) (?:its |the )?(?:lens|optical center|optical centre)", Sense("axis", "roll")),
-    (r"(?:in|within) (?:the )?image plane|in plane|(?:about|around|round|on) (?:its |the )?depth axis",
+    (r"(?:in|within) (?:the )?(?:image|frame|picture|photo) plane|in plane|"
+     r"(?:about|around|round|on) (?:its |the )?depth axis",
      Sense("axis", "roll")),
     # ---- rotation about the optical axis (before the verbs that share words with it)
     (r"(?:rotat\w*|turn\w*|spun|spin\w*|twist\w*)\s+(?:about|around|round|on)\s+(?:its\s+|the\s+)?"
@@ -233,7 +281,9 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     (r"(?:its |the |camera s |the camera s |camera )?(?:position|location|height|elevation|altitude)",
      Sense("placenoun")),
     (r"(?:its |the |camera s |the camera s )?nose|"
-     r"(?:its|the|camera s|the camera s) (?:viewing |camera |tilt )?angle|(?:the )?direction of the camera|"
+     r"(?:its|the|camera s|the camera s) (?:viewing |camera |tilt )?angle|"
+     r"(?:the )?direction of the camera(?! s (?:movement|motion|travel|displacement|translation|step|shift|"
+     r"walk|path|position|location)\b)|"
      r"(?:the )?camera (?:direction|heading|orientation)", Sense("aimnoun")),
     (r"(?:tilt\w*|pitch\w*|nod\w*|cran\w*|tip(?:s|ped|ping)?|angl(?:e|ed|es|ing)(?: the (?:view|camera|"
      r"shot|lens))?)" + _KIND_NOUN,
@@ -274,14 +324,15 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
     # "pulled up" is stopping, "pushed up" unclear: pushing and pulling carry only the other ways
     ("(?:" + _verb("push", "pull") + r")(?! (?:up|down|over)\b)", Sense(_STEP)),
     (r"climb\w*|ascen\w*|rose|ris(?:e|en|es|ing)|rais\w*|lift\w*|elevat\w*|"
-     r"gain(?:ed|s|ing)? (?:height|altitude|elevation)|"
+     r"gain(?:ed|s|ing)? (?:(?:in|of) |some |a little |a bit of |a bit |more )?(?:height|altitude|elevation)|"
      r"(?:at|to) a (?:greater|higher|larger) (?:height|elevation|level|altitude)|"
      r"(?:from|at) a higher|higher up|"
-     r"pedestal(?:l?ed|l?ing|s)? up|boom(?:ed|ing|s)? up|" + _verb("hoist"),
+     r"(?:pedestal(?:l?ed|l?ing|s)?|ped(?:ded|ding|s)?) up|boom(?:ed|ing|s)? up|" + _verb("hoist"),
      Sense(_STEP, "up")),
-    (r"descen\w*|sank|sink\w*|sunk|dropp?\w*|lower(?:ed|ing|s)|los(?:t|es|ing) (?:height|altitude|elevation)|"
+    (r"descen\w*|sank|sink\w*|sunk|dropp?\w*|lower(?:ed|ing|s)|"
+     r"los(?:t|es|ing|s) (?:(?:in|of) |some |a little |a bit of |a bit )?(?:height|altitude|elevation)|"
      r"(?:at|to) a (?:lower|lesser|smaller|reduced) (?:height|elevation|level|altitude)|"
-     r"(?:from|at) a lower|lower down|pedestal(?:l?ed|l?ing|s)? down|"
+     r"(?:from|at) a lower|lower down|(?:pedestal(?:l?ed|l?ing|s)?|ped(?:ded|ding|s)?) down|"
      r"boom(?:ed|ing|s)? down|hunker(?:ed|s|ing)? down|"
      + _verb("fall", "crouch", "stoop", "squat", "kneel") + "|knelt",
      Sense(_STEP, "down")),
@@ -294,7 +345,8 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      Sense(_STEP, "forward")),
     (r"fell back|fall(?:s|ing)? back|(?:increas|widen|grow|lengthen)\w* (?:its |the )?distance"
      r"(?: (?:to|from) (?:the )?(?:scene|subject))?|"
-     r"withdr\w*|retreat\w*|reced\w*|back(?:ed|s|ing)? (?:up|off|away|out)|step(?:ped|s|ping)? back|"
+     r"withdr\w*|retreat\w*|" + _verb("reverse") + "|"
+     r"reced\w*|back(?:ed|s|ing)? (?:up|off|away|out)|step(?:ped|s|ping)? back|"
      r"pull(?:ed|s|ing)? (?:back|out|away)|dolly(?:ing)? out|dollied out|"
      r"(?:farther|further)(?: away| back| off)?|away from|more distant",
      Sense(_STEP, "backward")),
@@ -305,7 +357,7 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      + _verb("decrease", "shrink", "reduce") + r"|shrank|shrunk)", Sense(_STEP, "down")),
     (r"sideways|sidewise|laterally|shift\w*|slid\w*|translat\w*|displac\w*|relocat\w*|reposition\w*|"
      r"glid\w*|drift\w*|step\w*|walk\w*|"
-     r"dolly|dollied|carr(?:y|ied)|travel\w*|head(?:ed|ing)? (?=left|right|up|down|forward|back)|"
+     r"dolly|dollied|carr(?:y|ied)|travel\w*|head(?:ed|ing|s)|head (?=left|right|up|down|forward|back)|"
      + _verb("track", "scoot", "nudge")
      + r"|edg(?:ed|es|ing)|inch(?:ed|es|ing)|"
      + rf"(?:{_verb('take')}) (?:a |one |two |three |several |a few |some )?"
@@ -328,6 +380,7 @@ _ROWS: tuple[tuple[str, Sense], ...] = (
      r"(?:toward|towards|to|at|face|faces|faced|facing) the (?:floor|ground)",
      Sense("way", "down")),
     (r"forwards?|forth|ahead|in front|front|frontward|onward|towards? the (?:scene|subject)|"
+     r"(?:further|farther|deeper|closer|nearer) in|"
      r"into the scene|inward",
      Sense("way", "forward")),
     (r"backwards?|back|behind|rear(?:ward)?|reverse|away|outward", Sense("way", "backward")),
@@ -358,7 +411,8 @@ _FILLER = frozenset(
     "considerable considerably substantial substantially aside "
     "executed performed through "
     "shots snapshots photos pictures images throughout our my operator cameraman camerawoman observer "
-    "real".split()
+    "real completely perfectly totally entirely absolutely fully utterly essentially basically virtually "
+    "practically almost marginally tad touch hair smidge smidgen notch trifle fraction".split()
 )
 
 
@@ -402,18 +456,20 @@ def tokens(text: str) -> list[Token]:
 
 def unknown_words(text: str, found: list[Token]) -> list[str]:
     """The words of a normalized text that no token covers and that are no filler."""
+    return [match.group() for match in _unknown_matches(text, found)]
+
+
+def _unknown_matches(text: str, found: list[Token]) -> list[re.Match[str]]:
     covered = [False] * len(text)
     for token in found:
         covered[token.start : token.end] = [True] * (token.end - token.start)
-    words = []
-    for match in re.finditer(r"[a-z]+", text):
-        if (
-            not covered[match.start()]
-            and match.group() not in _FILLER
-            and not _DEGREES.match(text, match.start())
-        ):
-            words.append(match.group())
-    return words
+    return [
+        match
+        for match in re.finditer(r"[a-z]+", text)
+        if not covered[match.start()]
+        and match.group() not in _FILLER
+        and not _DEGREES.match(text, match.start())
+    ]
 
 
 @dataclass
@@ -428,6 +484,7 @@ class _Part:
 
 
 _AXES = ("yaw", "pitch", "roll")
+_IGNORED = ("filler", "hedge")  # words with no meaning of their own in a claim
 _VERBS = ("step", "weak", "aim", "yaw", "pitch", "roll", "place", "still")
 _STEPPING = ("step", "weak", "place")
 _TURNING = ("aim", "yaw", "pitch", "roll")
@@ -697,7 +754,7 @@ _CONTENT_CLAUSE = re.compile(
     r"\b(?:the |its |all |some |everything |the whole )?(?P<noun>scene|scenery|objects?|contents?|things|"
     r"everything|world|background|foreground|surroundings|room|furniture|subject|image|picture|photo|"
     r"frame|horizon)(?: in (?:the )?(?:frame|view|image|picture|photo))?(?: (?:appears?|appeared|seems?|"
-    r"seemed) to)? $"
+    r"seemed) to(?: have)?(?: been)?| (?:probably|apparently|seemingly|evidently|clearly|obviously))* $"
 )
 
 
@@ -709,7 +766,8 @@ def _later_content_subject(words: str, found: list[Token]) -> str | None:
             clause = _CONTENT_CLAUSE.search(words[previous_end : token.start])
             if clause:
                 return clause.group("noun")
-        previous_end = token.end
+        if token.sense.kind not in _IGNORED:  # "the scene then appears to have shifted": one clause
+            previous_end = token.end
     return None
 
 
@@ -732,15 +790,11 @@ def _content_is_the_subject(subject: str) -> bool:
     return thing.start() < camera.start() or owned is not None
 
 
-def _no_claim(words: str, found: list[Token]) -> str | None:
-    """Why words that look like motion state no claim about the camera, else None."""
-    for token in found:
-        if token.sense.kind in _NO_CLAIM:
-            return _NO_CLAIM[token.sense.kind]
-    verb = next((t for t in found if t.sense.kind in _VERBS), None)
-    subject = words[: verb.start] if verb is not None else ""
+def _content_moved(subject: str, verb: Token | None) -> str | None:
+    """Why a subject that is the picture's content ("the scene", "objects") states no camera claim."""
     content = _CONTENT.search(subject)
-    moving = verb is not None and verb.sense.kind != "place"
+    # "the photos were taken from the same spot" is a stillness, "the scene stayed still" not ours
+    moving = verb is not None and verb.sense.kind not in ("place", "still")
     # "the subject sat to the left" is the subject's place; "image 2 sits above" is the camera's
     thing_placed = verb is not None and _SCENE_THING.search(subject) is not None
     if content and (moving or thing_placed) and _content_is_the_subject(subject):
@@ -748,6 +802,21 @@ def _no_claim(words: str, found: list[Token]) -> str | None:
             f"it says the {content.group()} moved: content shifts in the frame opposite to the camera, "
             "which is not read"
         )
+    return None
+
+
+def _no_claim(words: str, found: list[Token]) -> str | None:
+    """Why words that look like motion state no claim about the camera, else None."""
+    for token in found:
+        if token.sense.kind in _NO_CLAIM:
+            return _NO_CLAIM[token.sense.kind]
+    verb = next((t for t in found if t.sense.kind in _VERBS), None)
+    subject = words[: verb.start] if verb is not None else ""
+    # after a hedge that opens a clause ("it looks like the scene moved"), the clause has its own subject
+    hedges = [t.end for t in found if t.sense.kind == "hedge" and verb is not None and t.end <= verb.start]
+    for said in (subject, words[hedges[-1] : verb.start] if hedges and verb is not None else ""):
+        if refusal := _content_moved(said, verb):
+            return refusal
     stepping = verb is not None and verb.sense.kind in ("step", "weak")
     if stepping and _VIEW_SUBJECT.search(subject):
         return "it says the view moved, which a step and a turn both do"
@@ -779,7 +848,7 @@ def read_phrase(text: str) -> Claim:
         return Unread(source=text)
     if refusal := _no_claim(words, found):
         return Unread(source=text, why=refusal)
-    found = [token for token in found if token.sense.kind != "filler"]
+    found = [token for token in found if token.sense.kind not in _IGNORED]
     if not found:
         return Unread(source=text, why="it states no direction, kind of motion or stillness")
     if any(token.sense.kind == "or" for token in found):
@@ -814,6 +883,46 @@ def read_phrase(text: str) -> Claim:
     if any(isinstance(c, Bare) for c in claims):
         return Unread(source=text, why="directions that belong to no verb next to a verb")
     return Compound(parts=tuple(claims), source=text)  # type: ignore[arg-type]
+
+
+_FAMILY = {
+    "step": "translation",
+    "place": "position",
+    "aim": "rotation",
+    "yaw": "rotation",
+    "pitch": "rotation",
+    "roll": "rotation",
+    "still": "still",
+}
+
+
+def kinds_named(text: str) -> frozenset[str]:
+    """The kinds of claim an option's verbs name, also when the option itself is not read (a word
+    outside the lexicon, a direction that does not fit its verb): "It rolled toward the clock's
+    hands" names a rotation though no sense is read. For the quantity a question asks only, never
+    for a claim. Empty when nothing names a kind that way: an everyday verb alone ("it moved"), a
+    negated one, a scene or a view as what moved, alternatives joined by "or", or a word not read
+    before the first verb (it may be the subject: "the tripod moved left")."""
+    words = normalized(text)
+    found = tokens(words)
+    verbs = [token for token in found if token.sense.kind in _VERBS]
+    if not verbs or _TARGET.match(words) or _no_claim(words, found):
+        return frozenset()
+    if any(m.start() < verbs[0].start for m in _unknown_matches(words, found)):
+        return frozenset()
+    meaningful = [token for token in found if token.sense.kind not in _IGNORED]
+    if any(token.sense.kind == "or" for token in meaningful):
+        return frozenset()
+    kinds: set[str] = set()
+    for part in _kind_nouns_folded(_parts(meaningful)):
+        if part.negated or part.verb is None:
+            continue
+        claim = _part_claim(part, None, "")
+        if isinstance(claim, Translation | Position | Rotation | Still | Compound):
+            kinds |= claim_kinds(claim)
+        elif part.verb.kind in _FAMILY:
+            kinds.add(_FAMILY[part.verb.kind])
+    return frozenset(kinds)
 
 
 def _merged(claims: list[Claim], text: str) -> list[Claim] | Unread:
@@ -872,6 +981,7 @@ __all__ = [
     "LEXICON",
     "Sense",
     "Token",
+    "kinds_named",
     "normalized",
     "read_phrase",
     "stem_senses",

@@ -18,7 +18,11 @@
 Options lead: when every option reads as a camera claim, the question is a camera question whatever
 its stem says, and the claims' kinds are the quantity asked; the stem then only gives the pair. A
 bare direction ("Left") means what the stem asks ("turn" makes it a yaw). Everyday verbs ("move",
-"go") fix no quantity: people move a camera by turning it too.
+"go") fix no quantity: people move a camera by turning it too. When the options read only in part and
+the stem says no quantity with a word of one kind, what the options are known to state is the
+quantity, never certainly: the read ones' kinds, the kinds the unread ones' verbs name ("It rolled
+toward the clock's hands" is a turn, its sense unread), and a step for a bare direction beside turns.
+A note on directions that names one photo ("Directions are those of image 2.") names the frame.
 """
 
 from __future__ import annotations
@@ -37,8 +41,8 @@ from shared.questions.claims import (
     is_read,
     resolve_bare,
 )
-from shared.questions.lexicon import normalized, read_phrase, stem_senses, views_named
-from shared.questions.view_pair import PairReading, read_pair
+from shared.questions.lexicon import kinds_named, normalized, read_phrase, stem_senses, views_named
+from shared.questions.view_pair import PairReading, read_pair, views_mentioned
 
 Quantity = Literal["translation", "rotation", "position", "motion", "still", "object_relation", "other"]
 CAMERA_QUANTITIES: tuple[Quantity, ...] = ("translation", "rotation", "position", "motion", "still")
@@ -89,9 +93,12 @@ _APART_FROM = re.compile(
     r"\b(?:apart from|aside from|besides|other than|except for|ignoring|setting aside|leaving aside|"
     r"putting aside|leaving out|not counting|regardless of|without counting|excluding|disregarding|"
     r"without (?:considering|regard to|taking into account|counting|looking at)|not considering|"
-    r"irrespective of|discounting|neglecting|never mind|no matter)\s+(?P<what>[^,?;.]+)|"
+    r"irrespective of|discounting|neglecting|never mind|no matter|forget(?:ting)?(?: about)?)\s+"
+    r"(?P<what>[^,?;.:]+)|"
     # the same set aside after its noun: "Rotation aside, where did it go?"
-    r"(?:^|[,;:.]\s*)(?P<before>[a-z' ]{3,40}?)\s+(?:aside|apart|notwithstanding)\s*(?=,)",
+    r"(?:^|[,;:.]\s*)(?P<before>[a-z' ]{3,40}?)\s+(?:aside|apart|notwithstanding)\s*(?=,)|"
+    # "leaving its orientation out of it"
+    r"\bleaving (?P<out>[a-z' ]{3,40}?) out(?: of (?:it|account|the question))?\b",
     re.IGNORECASE,
 )
 _NOUNS = r"(?:images?|photos?|pictures?|views?|frames?|shots?|snapshots?)"
@@ -99,13 +106,19 @@ _NOUNS = r"(?:images?|photos?|pictures?|views?|frames?|shots?|snapshots?)"
 # was taken to where photo 2 was taken").
 _WHERE = r"(?<!\bfrom )(?<!\bto )(?<!\bthan )(?<!\bwith )(?<!\bof )(?<!\bat )(?<!\band )\bwhere\b"
 _POSITION_ASK = re.compile(
-    rf"{_WHERE}[^?]*\b(?:taken|shot|captured|located|positioned|placed|situated|stand|stands|stood|standing|"
-    r"sit|sits|sat|was the camera|is the camera|were the cameras|camera|photographer|shooter|viewer)\b|"
+    rf"{_WHERE}[^?]*\b(?:taken|shot|captured|photographed|snapped|located|positioned|placed|situated|stand|"
+    r"stands|stood|standing|sit|sits|sat|was the camera|is the camera|were the cameras|camera|photographer|"
+    r"shooter|viewer|viewpoint|vantage point|standpoint|spot)\b|"
+    # "From where was image 2 shot?", "image 2 was taken from where?"
+    r"^(?:from|out of) where\b|\b(?:taken|shot|captured|photographed|snapped) from where\b|"
     r"\blocate\b[^?]*\b(?:camera|photographer|shooter)\b|\b(?:from )?which side\b|"
     r"\bdirection from (?:the )?(?:camera|photographer|shooter|\w+ \w+ s camera|\w+ \w+ camera)\b|"
     r"\b(?:is|was|lies|lay|stands|stood|sits|sat) where\b|"
     r"\b(?:shooting|camera|capture|capturing|vantage|taking) (?:position|point|location|spot|place)\b|"
-    r"\bposition(?:al)? (?:of|relationship)\b|\brelative (?:position|location|placement)\b|"
+    r"\bposition(?:al)? (?:of|relationship)\b|\b(?:location|placement|whereabouts) of\b|"
+    # "taken from which position?", "what spot was it shot from?"
+    r"\b(?:which|what) (?:position|location|place|spot|vantage point|viewpoint|standpoint)\b|"
+    r"\brelative (?:position|location|placement)\b|"
     rf"{_WHERE} (?:is|was|are|were) (?:the )?{_NOUNS} \w+\b|"
     r"\bwhich side of\b|\bin which direction (?:is|was|lies|lay)\b|"
     r"\b(?:which|what) (?:direction|side|way) (?:is|was|are|were|lies|lay) (?:the )?"
@@ -119,6 +132,11 @@ _ABOUT_CAMERA = (
     r"(?:motion|movement|displacement|rotation|translation|turn|change|shift|heading|orientation|pose|relation|relationship)\b)"
     r"(?!\s+(?:the\s+)?direction of (?:the\s+)?(?:camera|motion|movement|travel|displacement|view)\b)"
     r"(?!\s+(?:true|correct|right|different|accurate)\b)"
+    # "what is the direction from image 1's camera to image 2's?", "the location of photo 2's camera"
+    r"(?!\s+(?:the\s+)?(?:direction|position|location|placement|place|spot|whereabouts)\s+(?:of|from)\s+"
+    r"(?:the\s+)?(?:(?:(?:image|photo|picture|view|shot|frame|snapshot)\s+\d+|(?:first|second|third|fourth|"
+    r"fifth|last|final|other|earlier|later|initial)(?:\s+(?:image|photo|picture|view|shot|frame|snapshot|"
+    r"one))?)\s+s\s+)?(?:camera|viewpoint|vantage point|shooting (?:position|point|location|spot))\b)"
 )
 _OBJECT_ASK = re.compile(
     rf"\b(?:what|which (?:object|item|thing))\s+(?:is|was|would be|will be|lies|appears)\b{_ABOUT_CAMERA}|"
@@ -197,6 +215,19 @@ _LOOK_NOUNS = re.compile(
     r"(?:direction|angle|axis|orientation|heading|bearing)|line of sight|direction of (?:view|gaze|sight)|"
     r"orientation|heading|bearing|attitude|(?:re)?orient(?:ed|ing|s)?)\b"
 )
+# The verbs that build the pair, not the quantity: "what did it do going from image 1 to image 2?",
+# "on the way to"; not the main verb ("where was the camera going from image 1 to image 2?").
+_PAIR_VERBS = re.compile(
+    r"(?<!\bcamera )(?<!\bit )(?<!\bthey )(?<!\byou )(?<!\bwe )(?<!\bi )(?<!\bphotographer )(?<!\bshooter )"
+    r"\b(?:going|coming|on (?:the|its) way)(?= (?:back )?(?:from|to) )"
+)
+# A step verb set beside a turn ("did it move or turn?", "moving and rotating"): both are asked.
+_MOVE_OR_TURN = re.compile(
+    r"\b(?:mov(?:e|ed|es|ing)|go|went|shift(?:ed|s|ing)?) (?:or|and|and or|and/or) "
+    r"((?:turn|rotat|pan|tilt|roll|pivot|swivel)\w*)\b"
+)
+_AUX_POINT = re.compile(r"\b((?:did|does|do|can|would|will) (?:the|its) cameras?) point\b")
+_GET_TAKEN = re.compile(r"\b(?:get|got|gets|getting|gotten) (taken|shot|captured|photographed|snapped)\b")
 _PLACE_POINT = re.compile(r"\b(?:capture|capturing|shooting|vantage|taking|camera|view|standing) point\b")
 # A look that shifts is a turn: "how did the camera's aim shift?" ("shift" alone is a step).
 _LOOK_SHIFTS = re.compile(
@@ -212,7 +243,8 @@ _CAMERA_PLACED = re.compile(
     r"(?!\s+still\b)"
 )
 _PLACE_NOUN = re.compile(
-    r"\b(?:location|position|spot|(?<!\btook )(?<!\btake )(?<!\btakes )(?<!\btaking )place|"
+    r"\b(?:location|position|placement|positioning|spot|"
+    r"(?<!\btook )(?<!\btake )(?<!\btakes )(?<!\btaking )place|"
     r"whereabouts|standpoint)\b"
 )
 
@@ -220,11 +252,19 @@ _PLACE_NOUN = re.compile(
 def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
     """(quantity, strong, the words): strong when a word of one kind says it ("tilt"), weak for
     the everyday verbs ("move"), None when nothing does."""
-    words = _LOOK_SHIFTS.sub(" turned ", normalized(_APART_FROM.sub(" ", ask)))  # "its aim shifted"
+    if (only := _only_about(ask)) is not None:
+        return only
+    plain = normalized(_APART_FROM.sub(" ", ask))
+    look_shifts = bool(_LOOK_SHIFTS.search(plain))
+    words = _LOOK_SHIFTS.sub(" turned ", plain)  # "its aim shifted"
+    words = _PAIR_VERBS.sub(" ", words)  # "going from image 1 to image 2" asks no step
+    words = _MOVE_OR_TURN.sub(r"translated \1", words)  # "move or turn": a step is asked as well
+    words = _AUX_POINT.sub(r"\1 aim", words)  # "where did the camera point?" is a look, not a place
+    words = _GET_TAKEN.sub(r"was \1", words)  # "where did image 2 get taken?": a passive, no step
     words = _PLACE_POINT.sub(" spot", words)  # "its capture point" is a place, not a way it points
     words = re.sub(r"\bpoints? of view\b", "viewpoint", words)  # a place and a look: no turn alone
     # "Not counting rotation, where did it go?": what is set aside is not asked, so the rest is
-    set_aside = [m.group("what") or m.group("before") for m in _APART_FROM.finditer(ask)]
+    set_aside = [m.group("what") or m.group("before") or m.group("out") for m in _APART_FROM.finditer(ask)]
     excluded = {s.kind for what in set_aside for s in stem_senses(what)}
     if any(_LOOK_NOUNS.search(normalized(what)) for what in set_aside):
         excluded.add("aim")  # "leaving aside the change in viewing direction"
@@ -234,7 +274,7 @@ def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
     if not any(k in ("step", "weak") for k in kinds) and excluded & {"step", "weak", "place", "placenoun"}:
         return "rotation", True, words
     stepping = any(s.kind in ("step", "weak") for s in stem_senses(words))  # "shift", "go", "change"
-    looking = bool(_LOOK_NOUNS.search(words)) and not any(k == "step" for k in kinds)
+    looking = (look_shifts or bool(_LOOK_NOUNS.search(words))) and not any(k == "step" for k in kinds)
     if looking and _PLACE_NOUN.search(words):
         return "motion", True, words  # "how did its viewing direction and position change?"
     if _DESTINATION.search(words) and not looking and not any(k in _ROTATING for k in kinds):
@@ -260,6 +300,36 @@ def _stem_quantity(ask: str) -> tuple[Quantity | None, bool, str]:
     return None, False, ""
 
 
+# "Only considering where it stood, ...", "looking only at orientation, ...", "in terms of position
+# only": what the question restricts itself to is the quantity it asks.
+_ONLY_ABOUT = re.compile(
+    r"\b(?:(?:only|just|purely|solely|strictly) (?:considering|looking at|in terms of|regarding|counting|"
+    r"as to|as regards)|(?:considering|looking at|in terms of|regarding|as regards|taking|counting) "
+    r"(?:only|just|purely|solely)|looking (?:only|just|purely|solely) at)\s+(?P<what>[^,?;.:]+)|"
+    r"\b(?:in terms of|considering|looking at|regarding|as regards) (?P<alone>[^,?;.:]+?) (?:only|alone)\b",
+    re.IGNORECASE,
+)
+
+
+def _only_about(ask: str) -> tuple[Quantity, bool, str] | None:
+    """The quantity a restriction names ("only considering where it stood": a step), when it names one
+    kind, and the rest does not ask where one camera is; else None."""
+    named = [m.group("what") or m.group("alone") for m in _ONLY_ABOUT.finditer(ask)]
+    if not named:
+        return None
+    rest = normalized(_ONLY_ABOUT.sub(" ", ask))
+    if _POSITION_ASK.search(rest) or _CAMERA_PLACED.search(rest):
+        return None
+    words = normalized(" ".join(named))
+    kinds = {s.kind for s in stem_senses(words)}
+    turning = bool(kinds & set(_ROTATING)) or bool(_LOOK_NOUNS.search(words))
+    where = re.search(r"\bwhere\b", words) is not None  # "only considering where it stood"
+    placing = bool(kinds & {"step", "place", "placenoun"}) or where or bool(_PLACE_NOUN.search(words))
+    if turning != placing:
+        return ("rotation" if turning else "translation"), True, words
+    return None
+
+
 # "What did the camera do?", "the camera did what?": any motion.
 _DID_WHAT = re.compile(
     r"\b(?:what did|what has|what had) (?:the )?(?:camera|photographer|shooter|viewer|observer|it|you|we|i) "
@@ -283,8 +353,12 @@ def _compatible(stem: Quantity, options: set[str]) -> bool:
     return moving <= {"translation", "position"}  # a step and a place are the same geometry
 
 
-def _quantity(ask: str, options: dict[str, Claim]) -> tuple[Quantity, bool, str, str | None]:
-    """(quantity, certain, source, why it must abstain)."""
+def _quantity(
+    ask: str, options: dict[str, Claim], named: dict[str, frozenset[str]] | None = None
+) -> tuple[Quantity, bool, str, str | None]:
+    """(quantity, certain, source, why it must abstain). `named`: for unread options, the kinds
+    their verbs name (`kinds_named`): with the read options' kinds, what the options are known to
+    ask, when the stem does not say it with a word of one kind."""
     stem, strong, stem_words = _stem_quantity(asking_sentences(ask))
     kinds = _option_kinds(options)
     lead = bool(options) and all(is_read(c) for c in options.values())
@@ -301,23 +375,50 @@ def _quantity(ask: str, options: dict[str, Claim]) -> tuple[Quantity, bool, str,
         if stem == "position" and of_options == "translation":
             return "position", True, "the stem and the options", None
         return of_options, True, "the options", None
+    if stem is not None and moving and strong and not _compatible(stem, kinds):
+        return (
+            stem,
+            False,
+            stem_words,
+            f"the stem asks about {stem} but some options state {', '.join(sorted(moving))}",
+        )
+    # Options partly read: the kinds the read ones state, and those the unread ones' verbs name
+    # ("It rolled toward the clock's hands": a turn, its sense not read), are the quantity when the
+    # stem says none with a word of one kind; never certain while an option's kind is only named.
+    hinted = set().union(*(named or {}).values()) - kinds
+    known = (kinds | hinted) - {"still"}
+    if known and _bare_steps(options, known):
+        # a bare direction ("Higher", "Further back") is how people say a step, not a turn: beside
+        # turns, the options then ask about any motion
+        hinted.add("translation")
+        known.add("translation")
+    if known and not (stem is not None and strong):
+        certain = not hinted and not _has_bare(options) and not _unread(options)
+        return _of_kinds(known, stem), certain, "the options", None
     if stem is not None:
-        if moving and strong and not _compatible(stem, kinds):
-            return (
-                stem,
-                False,
-                stem_words,
-                f"the stem asks about {stem} but some options state {', '.join(sorted(moving))}",
-            )
-        if moving and not strong:  # "what movement took place?" with turns read: the options say
-            of_read: Quantity = moving.pop() if len(moving) == 1 else "motion"  # type: ignore[assignment]
-            return of_read, not _has_bare(options), "the options", None
         return stem, strong or not _has_bare(options), stem_words, None
-    if moving:
-        return ("motion" if len(moving) > 1 else moving.pop()), True, "the options", None  # type: ignore[return-value]
     if kinds == {"still"}:
         return "still", True, "the options", None
     return "other", False, "", None
+
+
+def _of_kinds(kinds: set[str], stem: Quantity | None) -> Quantity:
+    """The quantity several options' kinds ask: a step and a place are one geometry (a place when
+    the stem asks where a camera is), a step and a turn are any motion."""
+    if kinds <= {"translation", "position"}:
+        place = "position" in kinds and (len(kinds) == 1 or stem == "position")
+        return "position" if place else "translation"
+    return "rotation" if kinds == {"rotation"} else "motion"
+
+
+def _bare_steps(options: dict[str, Claim], known: set[str]) -> bool:
+    """Whether a bare direction stands beside turns, with no step read among the options."""
+    bare = [c for c in options.values() if isinstance(c, Bare)]
+    return bool(bare) and "rotation" in known and not known & {"translation", "position"}
+
+
+def _unread(options: dict[str, Claim]) -> bool:
+    return any(isinstance(c, Unread) for c in options.values())
 
 
 def _has_bare(options: dict[str, Claim]) -> bool:
@@ -351,6 +452,20 @@ _FRAME_WORDS = re.compile(
     r"directions of|s (?:own )?directions)\b"
 )
 _SHOOTER = re.compile(r"\b(?:shooter|photographer|camera operator|camera person|viewer|camera)\b")
+# "the camera that took image 2", "the photographer of the second photo": the shooter of one photo
+_TOOK = re.compile(
+    r"(?:the )?(?:shooter|photographer|camera operator|camera person|viewer|camera)\s+"
+    r"(?:(?:that|which|who)\s+)?(?:took|taking|shot|captured|photographed|of|for|behind)\s+(?P<photo>(?:the\s+)?\w+(?:\s+\w+)?)"
+)
+
+
+def _photo_taken(words: str, start: int, image_count: int | None) -> tuple[int, str] | None:
+    """(the photo, the words) when the shooter named at `start` is said to be that of one photo."""
+    took = _TOOK.match(words, start)
+    named = views_mentioned(took.group("photo"), image_count) if took else ()
+    return (named[0], took.group()) if took and len(named) == 1 else None
+
+
 _OBJECT_FRAME = re.compile(
     r"\b(?:facing|from|at) the (?P<object>(?!camera|photographer|shooter|"
     r"viewer)\w+)\s+(?:s\s+)?(?:perspective|point of view|position)\b"
@@ -367,6 +482,8 @@ def _frame(
         named = read_pair(of.group("view"), image_count).view_set
         if named:
             return FrameReading(kind="view_axes", view=named[0]), of.group(), True
+        if _SHOOTER.search(of.group("view")) and (took := _photo_taken(words, of.start("view"), image_count)):
+            return FrameReading(kind="view_axes", view=took[0]), took[1], True
         if _SHOOTER.search(of.group("view")) and views is not None:
             return FrameReading(kind="view_axes", view=views[0]), of.group(), True
         return FrameReading(kind="object", object=of.group("view").split()[0]), of.group(), True
@@ -378,12 +495,47 @@ def _frame(
             return FrameReading(kind="view_axes", view=views[0]), axes.group(), True
     if obj := _OBJECT_FRAME.search(words):
         return FrameReading(kind="object", object=obj.group("object")), obj.group(), True
+    note_view, note = _axes_note(ask, image_count)
+    if note_view is not None:
+        return FrameReading(kind="view_axes", view=note_view), note, True
     if views is None:
         return None, "", False
     # The first photo's, unless said; words that name axes but were not read above keep it uncertain
     # with their source, so that the answer is refused rather than given in a frame not asked.
     unread = _FRAME_WORDS.search(words)
-    return FrameReading(kind="view_axes", view=views[0]), unread.group() if unread else "", False
+    return FrameReading(kind="view_axes", view=views[0]), note or (unread.group() if unread else ""), False
+
+
+# A note on whose directions are meant, said as a sentence of its own ("Directions are relative to
+# image 1's camera.", "Left and right are as the photographer of photo 2 saw them."): the one photo it
+# names is the one whose axes are meant. A note that names several photos, or says whose axes are not
+# meant ("not those of image 2"), is not read: the frame is then left unread, and the answer refused.
+_AXES_NOTE = re.compile(
+    r"\b(?:directions?|axes|left and right|up and down|left right up and down|coordinates?|"
+    r"coordinate (?:frame|system)|frame of reference|reference frame|orientation as (?:the )?reference|"
+    r"point of view|perspective)\b"
+)
+_NOT_THESE = re.compile(r"\b(?:not|never|instead of|rather than|unlike|except|other than|but not)\b")
+
+
+def _axes_note(ask: str, image_count: int | None) -> tuple[int | None, str]:
+    """(the photo a note on directions names, the note) for the first such note; (None, note) when
+    it is not read; (None, "") when there is none. Questions are not notes (their words are read
+    above)."""
+    notes = [s for s in _SENTENCE.split(ask) if "?" not in s] + [
+        m.group()[1:-1] for m in _PARENTHESES.finditer(ask)
+    ]
+    for note in notes:
+        words = normalized(note)
+        if not _AXES_NOTE.search(words):
+            continue
+        named = views_mentioned(note, image_count)
+        if not named:
+            continue  # "Clockwise is as seen from behind the camera": a sense, no photo
+        if len(named) == 1 and not _NOT_THESE.search(words):
+            return named[0], words
+        return None, words
+    return None, ""
 
 
 # ---- the whole reading ----------------------------------------------------------------------
@@ -483,7 +635,10 @@ def read_question(text: str, image_count: int | None = None) -> QuestionReading:
     stem, option_texts = split_options((text or "").strip())
     ask = _ask(" ".join(stem.split()))
     options = {letter: read_phrase(words) for letter, words in option_texts.items()}
-    quantity, certain, source, doubt = _quantity(ask, options)
+    named = {
+        letter: kinds_named(option_texts[letter]) for letter, c in options.items() if isinstance(c, Unread)
+    }
+    quantity, certain, source, doubt = _quantity(ask, options, named)
     hypothetical = bool(_WHAT_IF.search(normalized(asking_sentences(ask))))
     if quantity not in CAMERA_QUANTITIES or hypothetical or (not _lead(options) and not _is_camera_ask(ask)):
         quantity = "object_relation" if _OBJECT_ASK.search(normalized(ask)) else "other"
@@ -543,8 +698,10 @@ _CAMERA_ASK = re.compile(
 # A move not yet made ("if you turn left", "imagine walking", "will you be closer"): a what-if about
 # the scene, not the motion between two photos.
 _WHAT_IF = re.compile(
-    r"\b(?:if (?:you|i|we|the camera)|suppose|supposing|imagine|were to|will (?:you|i|we) (?:be|get|see|end)|"
-    r"would (?:you|i|we)|after (?:you|i|we) (?:turn|walk|move|step|rotate)|(?:^|"
+    r"\b(?:if (?:you|i|we|the camera)\b|suppose|supposing|imagine|were to|"
+    r"will (?:you|i|we) (?:be|get|see|end)|"
+    r"would (?:you|i|we)(?! (?:find|locate|place|put|say|describe|call|expect to find)\b)|"
+    r"after (?:you|i|we) (?:turn|walk|move|step|rotate)|(?:^|"
     r", )(?:then )?(?:turn|walk|move) )"
 )
 

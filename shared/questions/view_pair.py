@@ -149,6 +149,13 @@ def _mentions(text: str, image_count: int | None) -> list[tuple[int, int, int]]:
     return sorted(found)
 
 
+def views_mentioned(text: str, image_count: int | None = None) -> tuple[int, ...]:
+    """Every photo a text names by number or ordinal, in order of mention, whatever its role ("in the
+    frame of image 1" names image 1, though as a frame it names no pair)."""
+    mentions = _mentions(_words(text), image_count)
+    return tuple(dict.fromkeys(view for _, _, view in mentions if view > 0))
+
+
 def read_pair(text: str, image_count: int | None = None, default_two: bool = False) -> PairReading:
     """The ordered pair a text names (see the module docstring)."""
     words = _words(text)
@@ -416,4 +423,4 @@ def _one_named(
     )
 
 
-__all__ = ["ORDER_WORDS", "PairReading", "read_pair"]
+__all__ = ["ORDER_WORDS", "PairReading", "read_pair", "views_mentioned"]
