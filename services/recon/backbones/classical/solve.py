@@ -383,55 +383,54 @@ def _prior_fits_as_well(
     """Whether the prior focal explains the matches within MAX_PRIOR_COST_RISE of the estimate.
 
     `model` is adjusted with the `calibrated` focal, so its cost is the minimum. The prior's cost
-    is the better of re-adjusting that model and the model first built with the prior."""
+    is the better of re-adjusting that model and the model first built with the prior. Each is
+    adjusted coarse to fine, and its coarse stage may settle the question (_evidently_dearer)."""
     by_view = {view: calibrated[view] for view in model.extrinsics}
-    best = robust_cost(keypoints, by_view, model.extrinsics, model.points, model.tracks)
-    # The model built with the prior first: it is the cheaper adjustment (already near its minimum),
-    # and when it fits, the other one need not be adjusted at all. The calibrated model has far to
-    # go to the prior focal: coarse to fine, and the coarse stage may settle the question already.
+    calibrated_costs = track_costs(keypoints, by_view, model.extrinsics, model.points, model.tracks)
+    best = float(np.sum(calibrated_costs))
+    per_observation = best / max(_observation_count(model), 1)
+    # The model built with the prior first: it is the nearer start (built at the prior focal), and
+    # when it fits, the other one need not be adjusted at all. Compare like with like: the two
+    # models may hold different points, so the prior's own model is held to the calibrated cost
+    # per observation, the calibrated model track by track.
     for start in (prior_model, model):
-        far = start is model
-        stage = (
-            coarse_stage(keypoints, image_sizes, prior, free, start, False)
-            if far
-            else CoarseStage(start, prior, None, None)
-        )
-        if far and _evidently_dearer(keypoints, calibrated, model, stage):
-            return False
+        if start is model:
+            bound = MAX_PRIOR_COST_RISE * calibrated_costs
+        else:
+            bound = MAX_PRIOR_COST_RISE * per_observation * _observations_per_track(start)
+        stage = coarse_stage(keypoints, image_sizes, prior, free, start, False)
+        if _evidently_dearer(keypoints, stage, bound):
+            continue
         adjusted = fine_stage(keypoints, image_sizes, free, stage, False)
         cost = robust_cost(keypoints, adjusted.intrinsics, adjusted.extrinsics, adjusted.points, start.tracks)
-        # Compare like with like: cost per observation (the two models may hold different points).
-        if cost / max(_observation_count(start), 1) * _observation_count(model) <= MAX_PRIOR_COST_RISE * max(
-            best, 1e-9
-        ):
+        if cost <= float(np.sum(bound)) or cost <= MAX_PRIOR_COST_RISE * 1e-9:
             return True
     return False
 
 
-def _evidently_dearer(
-    keypoints: list[np.ndarray], calibrated: list[np.ndarray], model: SparseModel, stage: CoarseStage
-) -> bool:
-    """Whether the coarse stage of moving `model` to the prior focal already shows that the prior
-    costs more than MAX_PRIOR_COST_RISE times the calibrated cost, beyond sampling noise.
+def _evidently_dearer(keypoints: list[np.ndarray], stage: CoarseStage, bound: np.ndarray) -> bool:
+    """Whether the coarse stage of moving a model to the prior focal already shows that the prior
+    costs more than `bound` (per track of the model: what it may cost there), beyond sampling noise.
 
-    The test the fine stage would settle is sum over the sample's tracks of (prior cost -
-    MAX_PRIOR_COST_RISE x calibrated cost) <= 0. The coarse tracks are a spread subsample of those
-    tracks, and their prior cost there is at most what the fine stage leaves them (the coarse stage
-    minimized their cost alone), so their mean excess estimates the sample's from below; the
-    question is settled when it is EVIDENT_EXCESS_SE standard errors above zero (per track, the
-    observations of one point are not independent). On the tuning rings and templeRing the prior
-    costs 1.2-7x the estimate; where the focal is not observable it is within 1% (both kept)."""
+    The test the fine stage would settle is sum over the tracks of (prior cost - bound) <= 0. The
+    coarse tracks are a spread subsample of them, and their prior cost there is at most what the
+    fine stage leaves them (the coarse stage minimized their cost alone), so their mean excess
+    estimates the whole's from below; the question is settled when it is EVIDENT_EXCESS_SE standard
+    errors above zero (per track: the observations of one point are not independent). On the
+    tuning rings and templeRing the prior costs 1.2-7x the estimate; where the focal is not
+    observable it is within 1%, and the fine stage runs."""
     if stage.tracks is None or stage.adjusted is None or len(stage.tracks) < 2:
         return False
-    tracks = [model.tracks[index] for index in stage.tracks]
+    tracks = [stage.model.tracks[index] for index in stage.tracks]
     adjusted = stage.adjusted
     prior_costs = track_costs(keypoints, adjusted.intrinsics, adjusted.extrinsics, adjusted.points, tracks)
-    by_view = {view: calibrated[view] for view in model.extrinsics}
-    points = np.asarray(model.points)[stage.tracks]
-    calibrated_costs = track_costs(keypoints, by_view, model.extrinsics, points, tracks)
-    excess = prior_costs - MAX_PRIOR_COST_RISE * calibrated_costs
+    excess = prior_costs - bound[stage.tracks]
     error = float(np.std(excess, ddof=1)) / math.sqrt(len(excess))
     return float(np.mean(excess)) > EVIDENT_EXCESS_SE * error
+
+
+def _observations_per_track(model: SparseModel) -> np.ndarray:
+    return np.array([sum(view in model.extrinsics for view in track) for track in model.tracks], dtype=float)
 
 
 def _observation_count(model: SparseModel) -> int:
