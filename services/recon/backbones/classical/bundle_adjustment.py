@@ -155,14 +155,49 @@ def robust_cost(
     total = 0.0
     for view, extrinsic in extrinsics.items():
         ids = [point for point, track in enumerate(tracks) if view in track]
-        if not ids:
-            continue
-        observed = keypoints[view][[tracks[point][view] for point in ids]]
-        camera = points[ids] @ extrinsic[:, :3].T + extrinsic[:, 3]
-        depth = np.where(np.abs(camera[:, 2]) < 1e-12, 1e-12, camera[:, 2])
-        intrinsic = intrinsics[view]
-        predicted = camera[:, :2] / depth[:, None] * np.array([intrinsic[0, 0], intrinsic[1, 1]])
-        predicted += np.array([intrinsic[0, 2], intrinsic[1, 2]])
-        squared = np.sum((predicted - observed) ** 2, axis=1) / LOSS_SCALE_PX**2
-        total += float(np.sum(np.log1p(squared)))
+        if ids:
+            total += float(
+                np.sum(
+                    _observation_costs(
+                        keypoints[view], intrinsics[view], extrinsic, points, tracks, ids, view
+                    )
+                )
+            )
     return total
+
+
+def track_costs(
+    keypoints: list[np.ndarray],
+    intrinsics: dict[int, np.ndarray],
+    extrinsics: dict[int, np.ndarray],
+    points: np.ndarray,
+    tracks: list[dict[int, int]],
+) -> np.ndarray:
+    """robust_cost per track: (T,), each track's observations in the placed views summed."""
+    costs = np.zeros(len(tracks))
+    for view, extrinsic in extrinsics.items():
+        ids = [point for point, track in enumerate(tracks) if view in track]
+        if ids:
+            costs[ids] += _observation_costs(
+                keypoints[view], intrinsics[view], extrinsic, points, tracks, ids, view
+            )
+    return costs
+
+
+def _observation_costs(
+    view_keypoints: np.ndarray,
+    intrinsic: np.ndarray,
+    extrinsic: np.ndarray,
+    points: np.ndarray,
+    tracks: list[dict[int, int]],
+    ids: list[int],
+    view: int,
+) -> np.ndarray:
+    """Cauchy cost of each listed point's observation in `view` (3x4 camera-from-world extrinsic)."""
+    observed = view_keypoints[[tracks[point][view] for point in ids]]
+    camera = points[ids] @ extrinsic[:, :3].T + extrinsic[:, 3]
+    depth = np.where(np.abs(camera[:, 2]) < 1e-12, 1e-12, camera[:, 2])
+    predicted = camera[:, :2] / depth[:, None] * np.array([intrinsic[0, 0], intrinsic[1, 1]])
+    predicted += np.array([intrinsic[0, 2], intrinsic[1, 2]])
+    squared = np.sum((predicted - observed) ** 2, axis=1) / LOSS_SCALE_PX**2
+    return np.log1p(squared)

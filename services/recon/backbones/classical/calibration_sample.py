@@ -22,7 +22,7 @@ bins are taken from in turn, so the sample covers every view and the whole image
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -92,6 +92,74 @@ def with_sample_adjusted(
     return replace(model, extrinsics=dict(adjusted.extrinsics), points=points, tracks=list(model.tracks))
 
 
+@dataclass(frozen=True)
+class CoarseStage:
+    """The first stage of a coarse-to-fine adjustment: where the fine stage starts from."""
+
+    model: SparseModel  # all the tracks, the coarse ones adjusted and the others re-triangulated
+    intrinsics: list[np.ndarray]  # with the coarse stage's focal where it was refined
+    tracks: list[int] | None  # indices of the coarse tracks in `model`; None: no coarse stage ran
+    adjusted: AdjustedModel | None  # the coarse tracks' adjustment, in `tracks`' order
+
+
+def coarse_stage(
+    keypoints: list[np.ndarray],
+    image_sizes: list[tuple[int, int]],
+    intrinsics: list[np.ndarray],
+    free: list[bool],
+    model: SparseModel,
+    refine_focal: bool,
+    max_iterations: int = MAX_ITERATIONS,
+) -> CoarseStage:
+    """A spread COARSE_TRACKS of `model`'s tracks adjusted, the others re-triangulated on the poses
+    (and focal) that gave; no stage (the model as it is) when it has no more tracks than that."""
+    coarse = calibration_sample(model, keypoints, image_sizes, COARSE_TRACKS)
+    if coarse is None:
+        return CoarseStage(model, intrinsics, None, None)
+    few = sampled(model, coarse)
+    adjusted = bundle_adjust(
+        keypoints,
+        image_sizes,
+        intrinsics,
+        free,
+        few.extrinsics,
+        few.points,
+        few.tracks,
+        refine_focal,
+        max_iterations,
+    )
+    if not adjusted.usable:
+        return CoarseStage(model, intrinsics, None, None)
+    if refine_focal:
+        focal = {view: adjusted.intrinsics[view][0, 0] for view in adjusted.intrinsics if free[view]}
+        intrinsics = with_focal(intrinsics, free, focal, image_sizes)
+    model = with_sample_adjusted(model, coarse, adjusted_model(few, adjusted), keypoints, intrinsics)
+    return CoarseStage(model, intrinsics, coarse, adjusted)
+
+
+def fine_stage(
+    keypoints: list[np.ndarray],
+    image_sizes: list[tuple[int, int]],
+    free: list[bool],
+    stage: CoarseStage,
+    refine_focal: bool,
+    max_iterations: int = MAX_ITERATIONS,
+) -> AdjustedModel:
+    """Every track adjusted from where the coarse stage left them."""
+    model = stage.model
+    return bundle_adjust(
+        keypoints,
+        image_sizes,
+        stage.intrinsics,
+        free,
+        model.extrinsics,
+        model.points,
+        model.tracks,
+        refine_focal,
+        max_iterations,
+    )
+
+
 def adjusted_coarse_to_fine(
     keypoints: list[np.ndarray],
     image_sizes: list[tuple[int, int]],
@@ -106,29 +174,11 @@ def adjusted_coarse_to_fine(
     its tracks, then all of them from the poses (and focal) that gave, the other points
     re-triangulated on those. The result is for `model`'s tracks, in their order; `converged` is
     the final stage's. Not `staged`: one adjustment of all of them."""
-
-    def adjust(part: SparseModel, intrinsics: list[np.ndarray]) -> AdjustedModel:
-        return bundle_adjust(
-            keypoints,
-            image_sizes,
-            intrinsics,
-            free,
-            part.extrinsics,
-            part.points,
-            part.tracks,
-            refine_focal,
-            max_iterations,
-        )
-
-    coarse = calibration_sample(model, keypoints, image_sizes, COARSE_TRACKS) if staged else None
-    if coarse is not None:
-        few = sampled(model, coarse)
-        adjusted = adjust(few, intrinsics)
-        if adjusted.usable:
-            focal = {view: adjusted.intrinsics[view][0, 0] for view in adjusted.intrinsics if free[view]}
-            intrinsics = with_focal(intrinsics, free, focal, image_sizes) if refine_focal else intrinsics
-            model = with_sample_adjusted(model, coarse, adjusted_model(few, adjusted), keypoints, intrinsics)
-    return adjust(model, intrinsics)
+    if staged:
+        stage = coarse_stage(keypoints, image_sizes, intrinsics, free, model, refine_focal, max_iterations)
+    else:
+        stage = CoarseStage(model, intrinsics, None, None)
+    return fine_stage(keypoints, image_sizes, free, stage, refine_focal, max_iterations)
 
 
 def adjusted_model(model: SparseModel, adjusted: AdjustedModel) -> SparseModel:

@@ -6,6 +6,10 @@ model is fitted too (homography on normalized coordinates, R = K^-1 H K made ort
 refined on the inlier rays). When the rotation explains nearly every match the essential matrix
 explains, the pair has no usable parallax and is reported as a pure rotation with zero
 translation.
+
+The homography's RANSAC fit does not depend on the intrinsics (see HomographyFit), so a rebuild
+of the pairs at another focal (self-calibration) passes the first fits back in and re-runs only
+what the focal changes: the essential matrix and the rotation's refinement on the rays.
 """
 
 from __future__ import annotations
@@ -40,6 +44,42 @@ class Rivals:
 
 
 @dataclass(frozen=True)
+class HomographyFit:
+    """A pair's RANSAC homography in pixels (first view -> second) and its inlier mask per match.
+
+    The same at any focal: normalizing pixels with a pinhole K (fx = fy) only shifts and scales
+    them, the threshold scales with the focal (it is ROTATION_THRESHOLD_PX in pixels), and the
+    fit normalizes its points itself, so the same matches give the same inliers (all 138 pairs of
+    the tuning rings and templeRing subsets, fitted at the prior and at 1420 px)."""
+
+    pixels: np.ndarray | None  # None: no homography fits the matches
+    inliers: np.ndarray  # (M,) bool
+
+    def normalized(self, first_intrinsic: np.ndarray, second_intrinsic: np.ndarray) -> np.ndarray:
+        """The homography between the two views' normalized coordinates, scaled to H[2, 2] = 1."""
+        assert self.pixels is not None
+        homography = np.linalg.inv(second_intrinsic) @ self.pixels @ first_intrinsic
+        return homography / homography[2, 2] if abs(homography[2, 2]) > 1e-12 else homography
+
+
+def fit_homography(
+    first_pixels: np.ndarray,
+    second_pixels: np.ndarray,
+    first_intrinsic: np.ndarray,
+    second_intrinsic: np.ndarray,
+    matches: np.ndarray,
+) -> HomographyFit:
+    """RANSAC homography of the matches (fitted on normalized coordinates, returned in pixels)."""
+    n1 = normalized_coordinates(first_pixels[matches[:, 0]], first_intrinsic)
+    n2 = normalized_coordinates(second_pixels[matches[:, 1]], second_intrinsic)
+    focal = float(second_intrinsic[0, 0])
+    homography, mask = cv2.findHomography(n1, n2, cv2.RANSAC, ROTATION_THRESHOLD_PX / focal, maxIters=4000)
+    if homography is None or mask is None:
+        return HomographyFit(None, np.zeros(len(matches), dtype=bool))
+    return HomographyFit(second_intrinsic @ homography @ np.linalg.inv(first_intrinsic), mask.ravel() > 0)
+
+
+@dataclass(frozen=True)
 class TwoViewGeometry:
     """x_second = rotation @ x_first + translation (camera axes); translation is unit or zero."""
 
@@ -64,8 +104,11 @@ def estimate_two_view(
     first_intrinsic: np.ndarray,
     second_intrinsic: np.ndarray,
     matches: np.ndarray,
+    homography: HomographyFit | None = None,
 ) -> TwoViewGeometry | None:
-    """Pose of the second camera relative to the first, or None when the matches do not agree."""
+    """Pose of the second camera relative to the first, or None when the matches do not agree.
+
+    `homography`: the matches' fit_homography when already fitted (at any focal), else fitted here."""
     if len(matches) < MIN_INLIERS:
         return None
     p1, p2 = first_pixels[matches[:, 0]], second_pixels[matches[:, 1]]
@@ -73,8 +116,10 @@ def estimate_two_view(
     focal = float(np.mean([first_intrinsic[0, 0], second_intrinsic[0, 0]]))
 
     essential = _fit_essential(n1, n2, ESSENTIAL_THRESHOLD_PX / focal)
+    if homography is None:
+        homography = fit_homography(first_pixels, second_pixels, first_intrinsic, second_intrinsic, matches)
     rotation_fit = _fit_rotation(
-        n1, n2, first_pixels, second_pixels, matches, first_intrinsic, second_intrinsic
+        homography, n1, first_pixels, second_pixels, matches, first_intrinsic, second_intrinsic
     )
     essential_count = 0 if essential is None else int(essential[2].sum())
     rotation_count = 0 if rotation_fit is None else int(rotation_fit[1].sum())
@@ -124,21 +169,21 @@ def _fit_essential(
 
 
 def _fit_rotation(
+    fit: HomographyFit,
     n1: np.ndarray,
-    n2: np.ndarray,
     first_pixels: np.ndarray,
     second_pixels: np.ndarray,
     matches: np.ndarray,
     first_intrinsic: np.ndarray,
     second_intrinsic: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, int, np.ndarray] | None:
-    """Rotation-only model: RANSAC homography in normalized coordinates, made a rotation.
+    """Rotation-only model: the RANSAC homography `fit`, made a rotation.
 
-    Also returns how many matches the general homography itself explains, and that homography."""
-    focal = float(second_intrinsic[0, 0])
-    homography, mask = cv2.findHomography(n1, n2, cv2.RANSAC, ROTATION_THRESHOLD_PX / focal, maxIters=4000)
-    if homography is None or mask is None:
+    Also returns how many matches the general homography itself explains, and that homography
+    (normalized coordinates)."""
+    if fit.pixels is None:
         return None
+    homography = fit.normalized(first_intrinsic, second_intrinsic)
     determinant = np.linalg.det(homography)
     if abs(determinant) < 1e-12:
         return None
@@ -146,14 +191,14 @@ def _fit_rotation(
     rays2 = bearings(second_pixels[matches[:, 1]], second_intrinsic)
     # The nearest rotation to a noisy homography can be a degree off, pixels beyond the
     # threshold everywhere: fit the rotation to the rays the homography explains instead.
-    inliers = mask.ravel() > 0
+    inliers = fit.inliers
     rotation = np.eye(3)
     for _ in range(3):  # fit on the rays taken as inliers, then re-select them
         if inliers.sum() < 3:
             return None
         rotation = rotation_between_bearings(rays1[inliers], rays2[inliers])
         inliers = _rotation_inliers(rotation, n1, second_pixels[matches[:, 1]], second_intrinsic)
-    return rotation, inliers, int((mask.ravel() > 0).sum()), homography
+    return rotation, inliers, int(fit.inliers.sum()), homography
 
 
 def _rotation_inliers(
