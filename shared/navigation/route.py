@@ -18,7 +18,9 @@ Unseen floor comes in two grades. Floor some view looked over (a line of sight p
 is crossed freely at ``unseen_cost``. Space no line of sight reached at all (behind a wall's edge,
 a doorway no view looked through) is crossed only when no route exists without it, at
 ``UNLOOKED_COST_FACTOR`` times that cost, never across the line of a seen wall that runs into it
-(``walls.continued_walls``), and the plan warns that a wall or furniture may stand there.
+(``walls.continued_walls``) nor through the ``SHADOW_M`` behind a seen face at body height (the
+unseen part of the thing seen there, ``shadow.shadows``), and the plan warns that a wall or
+furniture may stand there.
 """
 
 from __future__ import annotations
@@ -33,9 +35,10 @@ from shared.navigation.grid import Grid, build_grid, dilate
 from shared.navigation.passage import narrowest_passage
 from shared.navigation.scale import ASSUMED_CAMERA_HEIGHT_M, Scale, plan_scale  # noqa: F401 (re-exported)
 from shared.navigation.search import astar, reachable_from, shorten
+from shared.navigation.shadow import shadows
 from shared.navigation.sight import looked_into
 from shared.navigation.steps import steps_and_sentences
-from shared.navigation.walls import continued_walls
+from shared.navigation.walls import continued_walls, wall_cells
 
 TURN_CONVENTION = "left-positive"
 DEFAULT_UNSEEN_COST = 1.5  # a metre over unseen floor costs as much as this many over seen floor
@@ -46,6 +49,9 @@ _FLOOR_TOLERANCE_M = 0.03
 _CLOSE_HOLES_M = 0.15
 WALL_HEIGHT_M = 0.8  # surfaces seen this high are walls or tall furniture, never driven past under
 UNLOOKED_COST_FACTOR = 2.0  # space no view looked into costs this many times unseen floor
+# Behind a seen face at body height, unlooked space this deep is taken as the object's unseen body
+# (furniture is 0.4-0.9 m deep; 0.4 left two tuning routes through the hidden half of a box).
+SHADOW_M = 0.7
 
 
 @dataclass(frozen=True)
@@ -468,12 +474,18 @@ def _describe(plan: RoutePlan, setting: _Setting, corners: np.ndarray, pose: np.
         )
 
 
-def _open_unlooked_space(setting: _Setting, robot: Robot, unseen_cost: float) -> None:
-    """Let the search cross space no view looked into, except on the lines of seen walls."""
+def _open_unlooked_space(setting: _Setting, robot: Robot, unseen_cost: float, recon: Reconstruction) -> None:
+    """Let the search cross space no view looked into, except on the lines of seen walls and
+    behind seen faces (the unseen body of what was seen there)."""
     grid = setting.grid
+    per_metre = setting.per_metre
     tall = grid.tall if grid.tall is not None else grid.occupied
-    walls = continued_walls(grid, tall, setting.per_metre, 2 * robot.radius * setting.per_metre)
+    walls = continued_walls(grid, tall, per_metre, 2 * robot.radius * per_metre)
     closed = grid.occupied | walls
+    band = (robot.floor_clearance * per_metre, robot.height * per_metre)
+    # a wall's face casts none: a ray grazing it beside a doorway would carry it into the doorway
+    wall_faces = dilate(wall_cells(grid, tall, per_metre), 2.0)
+    closed |= shadows(recon, setting.floor, grid, band, SHADOW_M * per_metre, wall_faces)
     closed[[0, -1], :] = True
     closed[:, [0, -1]] = True
     setting.closed_with_unlooked_open = closed
@@ -526,7 +538,7 @@ def plan_route(
         return _refusal(setting, kind, reason, goal_plane)
     cells = astar(setting.passable, start_cell, goal_cell, setting.cost)
     if cells is None and setting.grid.hidden.any():
-        _open_unlooked_space(setting, robot, unseen_cost)
+        _open_unlooked_space(setting, robot, unseen_cost, recon)
         cells = astar(setting.passable, start_cell, goal_cell, setting.cost)
     if cells is None:
         kind, reason, width = _why_unreachable(setting, start_cell, goal_cell, robot)
