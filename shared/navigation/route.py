@@ -52,6 +52,7 @@ UNLOOKED_COST_FACTOR = 2.0  # space no view looked into costs this many times un
 # Behind a seen face at body height, unlooked space this deep is taken as the object's unseen body
 # (furniture is 0.4-0.9 m deep; 0.4 left two tuning routes through the hidden half of a box).
 SHADOW_M = 0.7
+WALL_THICKNESS_M = 0.2  # a wall's end face lies within this of its face's line
 
 
 @dataclass(frozen=True)
@@ -483,8 +484,12 @@ def _open_unlooked_space(setting: _Setting, robot: Robot, unseen_cost: float, re
     walls = continued_walls(grid, tall, per_metre, 2 * robot.radius * per_metre)
     closed = grid.occupied | walls
     band = (robot.floor_clearance * per_metre, robot.height * per_metre)
-    # a wall's face casts none: a ray grazing it beside a doorway would carry it into the doorway
-    wall_faces = dilate(wall_cells(grid, tall, per_metre), 2.0)
+    # a wall casts none: a ray grazing its face or its end beside a doorway would carry it into the
+    # doorway (the end face is a wall's thickness off the line the wall's cells lie on)
+    # (a wall's last metres may be seen only low: its straight run is sought among all that stands)
+    wall_faces = dilate(
+        wall_cells(grid, tall | grid.occupied, per_metre), WALL_THICKNESS_M * per_metre / grid.cell
+    )
     closed |= shadows(recon, setting.floor, grid, band, SHADOW_M * per_metre, wall_faces)
     closed[[0, -1], :] = True
     closed[:, [0, -1]] = True
