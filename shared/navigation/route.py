@@ -217,6 +217,7 @@ class _Setting:
     scale: Scale
     # What closes the way once unlooked space is opened: seen obstacles, seen walls continued, the edge.
     closed_with_unlooked_open: np.ndarray | None = None
+    walls_continued: np.ndarray | None = None  # of those, the seen walls' lines run on where no view looked
 
     @property
     def per_metre(self) -> float:
@@ -364,6 +365,17 @@ def _joined_through_hidden(grid: Grid, start: tuple[int, int], goal: tuple[int, 
     return bool(reachable_from(open_, start)[goal])
 
 
+def _closed_without_walls_continued(
+    setting: _Setting, start: tuple[int, int], goal: tuple[int, int], radius_cells: float
+) -> bool:
+    """Whether, with unlooked space opened, what keeps the robot out is seen obstacles (and the
+    unseen part behind their faces), not the lines of seen walls run on where no view looked."""
+    if setting.closed_with_unlooked_open is None or setting.walls_continued is None:
+        return False
+    passable = ~dilate(setting.closed_with_unlooked_open & ~setting.walls_continued, radius_cells)
+    return not (passable[start] and passable[goal] and bool(reachable_from(passable, start)[goal]))
+
+
 def _why_unreachable(
     setting: _Setting, start: tuple[int, int], goal: tuple[int, int], robot: Robot
 ) -> tuple[str, str, float | None]:
@@ -379,6 +391,16 @@ def _why_unreachable(
         opened = narrowest_passage(setting.grid, start, goal, radius_cells, blocked=closed)
         if opened is not None and opened.sides is not None:
             passage, off_the_map = opened, False
+    if (off_the_map or passage is None) and _closed_without_walls_continued(
+        setting, start, goal, radius_cells
+    ):
+        return (
+            "enclosed",
+            "the goal is enclosed: seen obstacles close every way from the start to it, some of them "
+            "where they go on behind their seen faces into space no view looked into (taken as the "
+            "unseen part of what was seen there); add a photo of that side to be sure",
+            None,
+        )
     if off_the_map or (passage is None and _joined_through_hidden(setting.grid, start, goal)):
         return (
             "unseen_space",
@@ -494,6 +516,7 @@ def _open_unlooked_space(setting: _Setting, robot: Robot, unseen_cost: float, re
     closed[[0, -1], :] = True
     closed[:, [0, -1]] = True
     setting.closed_with_unlooked_open = closed
+    setting.walls_continued = walls
     setting.passable = ~dilate(closed, (robot.radius + SAFETY_MARGIN_M) * setting.per_metre / grid.cell)
     setting.cost = np.where(grid.hidden, UNLOOKED_COST_FACTOR * float(unseen_cost), setting.cost)
 
