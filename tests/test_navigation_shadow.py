@@ -101,3 +101,17 @@ def test_a_pen_with_a_side_no_view_saw_is_refused_as_enclosed_and_says_what_was_
     plan = plan_route(recon, 0, two.goal, robot_radius=RADIUS)
     assert not plan.reachable and plan.refusal == "enclosed", plan.reason
     assert "behind their seen faces" in plan.reason
+
+
+def test_a_narrow_doorway_past_unlooked_floor_is_measured_on_what_was_seen_not_on_a_shadow():
+    # bench.route seed 23 scene 64 (beyond the 60 of the figures): a narrow doorway between seen
+    # jambs, reached only across unlooked floor; the presumed unseen part behind a seen face (a
+    # shadow) also narrows the way there, but the refusal names the doorway's width
+    two = generate_two_rooms(23 * 1000 + 64, "narrow_door", radius=RADIUS, band=BAND, varied=True)
+    views = two.render()
+    recon = reconstruction_from_rgbd(
+        [v.rgb for v in views], [v.depth for v in views], two.extrinsics, [two.intrinsic] * len(views)
+    )
+    plan = plan_route(recon, 0, two.goal, robot_radius=RADIUS)
+    assert not plan.reachable and plan.refusal == "narrow_gap", plan.reason
+    assert plan.narrowest_passage_m == pytest.approx(two.door[1] - two.door[0], abs=0.1)

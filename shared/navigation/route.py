@@ -217,7 +217,8 @@ class _Setting:
     scale: Scale
     # What closes the way once unlooked space is opened: seen obstacles, seen walls continued, the edge.
     closed_with_unlooked_open: np.ndarray | None = None
-    walls_continued: np.ndarray | None = None  # of those, the seen walls' lines run on where no view looked
+    # of those, the unseen part presumed behind seen faces (``shadow.shadows``)
+    shadows: np.ndarray | None = None
 
     @property
     def per_metre(self) -> float:
@@ -365,15 +366,10 @@ def _joined_through_hidden(grid: Grid, start: tuple[int, int], goal: tuple[int, 
     return bool(reachable_from(open_, start)[goal])
 
 
-def _closed_without_walls_continued(
-    setting: _Setting, start: tuple[int, int], goal: tuple[int, int], radius_cells: float
-) -> bool:
-    """Whether, with unlooked space opened, what keeps the robot out is seen obstacles (and the
-    unseen part behind their faces), not the lines of seen walls run on where no view looked."""
-    if setting.closed_with_unlooked_open is None or setting.walls_continued is None:
-        return False
-    passable = ~dilate(setting.closed_with_unlooked_open & ~setting.walls_continued, radius_cells)
-    return not (passable[start] and passable[goal] and bool(reachable_from(passable, start)[goal]))
+def _fits(closed: np.ndarray, start: tuple[int, int], goal: tuple[int, int], radius_cells: float) -> bool:
+    """Whether the robot (``radius_cells``) gets from start to goal around ``closed``."""
+    passable = ~dilate(closed, radius_cells)
+    return bool(passable[start] and passable[goal] and reachable_from(passable, start)[goal])
 
 
 def _why_unreachable(
@@ -386,21 +382,22 @@ def _why_unreachable(
     off_the_map = passage is not None and passage.sides is None
     closed = setting.closed_with_unlooked_open
     if (off_the_map or passage is None) and closed is not None:
-        # Unlooked space was opened and the way still fails: what closes it there may be seen
-        # obstacles (a narrow doorway reached only across unlooked floor), measured the same way.
-        opened = narrowest_passage(setting.grid, start, goal, radius_cells, blocked=closed)
-        if opened is not None and opened.sides is not None:
-            passage, off_the_map = opened, False
-    if (off_the_map or passage is None) and _closed_without_walls_continued(
-        setting, start, goal, radius_cells
-    ):
-        return (
-            "enclosed",
-            "the goal is enclosed: seen obstacles close every way from the start to it, some of them "
-            "where they go on behind their seen faces into space no view looked into (taken as the "
-            "unseen part of what was seen there); add a photo of that side to be sure",
-            None,
-        )
+        # Unlooked space was opened and the way still fails. A refusal tells what was seen: the
+        # seen obstacles and the seen walls' lines, without the unseen part presumed behind faces.
+        seen = closed & ~setting.shadows
+        if not _fits(seen, start, goal, radius_cells):
+            # they close it (a narrow doorway reached only across unlooked floor): measured the same way
+            opened = narrowest_passage(setting.grid, start, goal, radius_cells, blocked=seen)
+            if opened is not None and opened.sides is not None:
+                passage, off_the_map = opened, False
+        else:  # only the presumed unseen parts of seen things close it (a pen's side no view saw)
+            return (
+                "enclosed",
+                "the goal is enclosed: seen obstacles close every way from the start to it, some of them "
+                "where they go on behind their seen faces into space no view looked into (taken as the "
+                "unseen part of what was seen there); add a photo of that side to be sure",
+                None,
+            )
     if off_the_map or (passage is None and _joined_through_hidden(setting.grid, start, goal)):
         return (
             "unseen_space",
@@ -512,11 +509,12 @@ def _open_unlooked_space(setting: _Setting, robot: Robot, unseen_cost: float, re
     wall_faces = dilate(
         wall_cells(grid, tall | grid.occupied, per_metre), WALL_THICKNESS_M * per_metre / grid.cell
     )
-    closed |= shadows(recon, setting.floor, grid, band, SHADOW_M * per_metre, wall_faces)
+    behind = shadows(recon, setting.floor, grid, band, SHADOW_M * per_metre, wall_faces)
+    closed |= behind
     closed[[0, -1], :] = True
     closed[:, [0, -1]] = True
     setting.closed_with_unlooked_open = closed
-    setting.walls_continued = walls
+    setting.shadows = behind
     setting.passable = ~dilate(closed, (robot.radius + SAFETY_MARGIN_M) * setting.per_metre / grid.cell)
     setting.cost = np.where(grid.hidden, UNLOOKED_COST_FACTOR * float(unseen_cost), setting.cost)
 
