@@ -372,6 +372,21 @@ def _fits(closed: np.ndarray, start: tuple[int, int], goal: tuple[int, int], rad
     return bool(passable[start] and passable[goal] and reachable_from(passable, start)[goal])
 
 
+def _limits(
+    setting: _Setting,
+    closed: np.ndarray,
+    passage,
+    start: tuple[int, int],
+    goal: tuple[int, int],
+    radius_cells: float,
+) -> bool:
+    """Whether the passage is what keeps the robot out: with it widened (what stands within the
+    robot's width of it cleared) the robot gets through; else something else closes the way too."""
+    grid = setting.grid
+    widened = closed & ~_cells_within(grid, passage.where, 2 * radius_cells * grid.cell)
+    return _fits(widened, start, goal, radius_cells)
+
+
 def _why_unreachable(
     setting: _Setting, start: tuple[int, int], goal: tuple[int, int], robot: Robot
 ) -> tuple[str, str, float | None]:
@@ -388,7 +403,11 @@ def _why_unreachable(
         if not _fits(seen, start, goal, radius_cells):
             # they close it (a narrow doorway reached only across unlooked floor): measured the same way
             opened = narrowest_passage(setting.grid, start, goal, radius_cells, blocked=seen)
-            if opened is not None and opened.sides is not None:
+            if (
+                opened is not None
+                and opened.sides is not None
+                and _limits(setting, seen, opened, start, goal, radius_cells)
+            ):
                 passage, off_the_map = opened, False
         else:  # only the presumed unseen parts of seen things close it (a pen's side no view saw)
             return (
