@@ -1,6 +1,6 @@
 """Route plans on two-room scenes: success, length against the true shortest route, refusals.
 
-    .venv/bin/python -m bench.route [--scenes 60] [--seed 23] [--photo-scenes 8] [--json PATH]
+    .venv/bin/python -m bench.route [--scenes 60] [--seed 23] [--photo-scenes 8] [--json PATH] [--only 2,13]
 
 Scene i is kind ``reachable`` for i % 6 in 0..3, ``narrow_door`` for 4 and ``ring`` for 5
 (``shared/synthetic/two_rooms.py``, ``varied=True``: 3-7 views, camera heights 1.0-1.8 m, doorway
@@ -477,7 +477,15 @@ def main(args: list[str] | None = None) -> None:
     parser.add_argument("--seed", type=int, default=23)
     parser.add_argument("--photo-scenes", type=int, default=8, help="the first N scenes also from photos")
     parser.add_argument("--json", default=None, help="write the figures here")
+    parser.add_argument(
+        "--only", default=None, help="comma-separated scene indices to run (of the first --scenes)"
+    )
     options = parser.parse_args(args)
+    chosen = (
+        range(options.scenes)
+        if options.only is None
+        else [int(i) for i in options.only.split(",") if int(i) < options.scenes]
+    )
     tallies: dict = {}
     groups: dict[str, CoverageTally] = {}
     backbone = None
@@ -486,9 +494,9 @@ def main(args: list[str] | None = None) -> None:
 
         backbone = ClassicalBackbone()
     started = time.perf_counter()
-    for index in range(options.scenes):
+    for index in chosen:
         print(_scene(options, index, tallies, backbone, groups), flush=True)
-    print(f"\n{options.scenes} scenes in {time.perf_counter() - started:.0f} s (seed {options.seed})\n")
+    print(f"\n{len(chosen)} scenes in {time.perf_counter() - started:.0f} s (seed {options.seed})\n")
     print(_table(tallies))
     for (setting, method), tally in sorted(tallies.items()):
         if method == "plan_route":

@@ -18,7 +18,9 @@ Unseen floor comes in two grades. Floor some view looked over (a line of sight p
 is crossed freely at ``unseen_cost``. Space no line of sight reached at all (behind a wall's edge,
 a doorway no view looked through) is crossed only when no route exists without it, at
 ``UNLOOKED_COST_FACTOR`` times that cost, never across the line of a seen wall that runs into it
-(``walls.continued_walls``), and the plan warns that a wall or furniture may stand there.
+(``walls.continued_walls``) nor through the ``SHADOW_M`` behind a seen face at body height (the
+unseen part of the thing seen there, ``shadow.shadows``), and the plan warns that a wall or
+furniture may stand there.
 """
 
 from __future__ import annotations
@@ -33,9 +35,10 @@ from shared.navigation.grid import Grid, build_grid, dilate
 from shared.navigation.passage import narrowest_passage
 from shared.navigation.scale import ASSUMED_CAMERA_HEIGHT_M, Scale, plan_scale  # noqa: F401 (re-exported)
 from shared.navigation.search import astar, reachable_from, shorten
+from shared.navigation.shadow import shadows
 from shared.navigation.sight import looked_into
 from shared.navigation.steps import steps_and_sentences
-from shared.navigation.walls import continued_walls
+from shared.navigation.walls import continued_walls, wall_cells
 
 TURN_CONVENTION = "left-positive"
 DEFAULT_UNSEEN_COST = 1.5  # a metre over unseen floor costs as much as this many over seen floor
@@ -46,6 +49,10 @@ _FLOOR_TOLERANCE_M = 0.03
 _CLOSE_HOLES_M = 0.15
 WALL_HEIGHT_M = 0.8  # surfaces seen this high are walls or tall furniture, never driven past under
 UNLOOKED_COST_FACTOR = 2.0  # space no view looked into costs this many times unseen floor
+# Behind a seen face at body height, unlooked space this deep is taken as the object's unseen body
+# (furniture is 0.4-0.9 m deep; 0.4 left two tuning routes through the hidden half of a box).
+SHADOW_M = 0.7
+WALL_THICKNESS_M = 0.2  # a wall's end face lies within this of its face's line
 
 
 @dataclass(frozen=True)
@@ -210,6 +217,8 @@ class _Setting:
     scale: Scale
     # What closes the way once unlooked space is opened: seen obstacles, seen walls continued, the edge.
     closed_with_unlooked_open: np.ndarray | None = None
+    # of those, the unseen part presumed behind seen faces (``shadow.shadows``)
+    shadows: np.ndarray | None = None
 
     @property
     def per_metre(self) -> float:
@@ -357,6 +366,27 @@ def _joined_through_hidden(grid: Grid, start: tuple[int, int], goal: tuple[int, 
     return bool(reachable_from(open_, start)[goal])
 
 
+def _fits(closed: np.ndarray, start: tuple[int, int], goal: tuple[int, int], radius_cells: float) -> bool:
+    """Whether the robot (``radius_cells``) gets from start to goal around ``closed``."""
+    passable = ~dilate(closed, radius_cells)
+    return bool(passable[start] and passable[goal] and reachable_from(passable, start)[goal])
+
+
+def _limits(
+    setting: _Setting,
+    closed: np.ndarray,
+    passage,
+    start: tuple[int, int],
+    goal: tuple[int, int],
+    radius_cells: float,
+) -> bool:
+    """Whether the passage is what keeps the robot out: with it widened (what stands within the
+    robot's width of it cleared) the robot gets through; else something else closes the way too."""
+    grid = setting.grid
+    widened = closed & ~_cells_within(grid, passage.where, 2 * radius_cells * grid.cell)
+    return _fits(widened, start, goal, radius_cells)
+
+
 def _why_unreachable(
     setting: _Setting, start: tuple[int, int], goal: tuple[int, int], robot: Robot
 ) -> tuple[str, str, float | None]:
@@ -367,11 +397,26 @@ def _why_unreachable(
     off_the_map = passage is not None and passage.sides is None
     closed = setting.closed_with_unlooked_open
     if (off_the_map or passage is None) and closed is not None:
-        # Unlooked space was opened and the way still fails: what closes it there may be seen
-        # obstacles (a narrow doorway reached only across unlooked floor), measured the same way.
-        opened = narrowest_passage(setting.grid, start, goal, radius_cells, blocked=closed)
-        if opened is not None and opened.sides is not None:
-            passage, off_the_map = opened, False
+        # Unlooked space was opened and the way still fails. A refusal tells what was seen: the
+        # seen obstacles and the seen walls' lines, without the unseen part presumed behind faces.
+        seen = closed & ~setting.shadows
+        if not _fits(seen, start, goal, radius_cells):
+            # they close it (a narrow doorway reached only across unlooked floor): measured the same way
+            opened = narrowest_passage(setting.grid, start, goal, radius_cells, blocked=seen)
+            if (
+                opened is not None
+                and opened.sides is not None
+                and _limits(setting, seen, opened, start, goal, radius_cells)
+            ):
+                passage, off_the_map = opened, False
+        else:  # only the presumed unseen parts of seen things close it (a pen's side no view saw)
+            return (
+                "enclosed",
+                "the goal is enclosed: seen obstacles close every way from the start to it, some of them "
+                "where they go on behind their seen faces into space no view looked into (taken as the "
+                "unseen part of what was seen there); add a photo of that side to be sure",
+                None,
+            )
     if off_the_map or (passage is None and _joined_through_hidden(setting.grid, start, goal)):
         return (
             "unseen_space",
@@ -468,15 +513,27 @@ def _describe(plan: RoutePlan, setting: _Setting, corners: np.ndarray, pose: np.
         )
 
 
-def _open_unlooked_space(setting: _Setting, robot: Robot, unseen_cost: float) -> None:
-    """Let the search cross space no view looked into, except on the lines of seen walls."""
+def _open_unlooked_space(setting: _Setting, robot: Robot, unseen_cost: float, recon: Reconstruction) -> None:
+    """Let the search cross space no view looked into, except on the lines of seen walls and
+    behind seen faces (the unseen body of what was seen there)."""
     grid = setting.grid
+    per_metre = setting.per_metre
     tall = grid.tall if grid.tall is not None else grid.occupied
-    walls = continued_walls(grid, tall, setting.per_metre, 2 * robot.radius * setting.per_metre)
+    walls = continued_walls(grid, tall, per_metre, 2 * robot.radius * per_metre)
     closed = grid.occupied | walls
+    band = (robot.floor_clearance * per_metre, robot.height * per_metre)
+    # a wall casts none: a ray grazing its face or its end beside a doorway would carry it into the
+    # doorway (the end face is a wall's thickness off the line the wall's cells lie on)
+    # (a wall's last metres may be seen only low: its straight run is sought among all that stands)
+    wall_faces = dilate(
+        wall_cells(grid, tall | grid.occupied, per_metre), WALL_THICKNESS_M * per_metre / grid.cell
+    )
+    behind = shadows(recon, setting.floor, grid, band, SHADOW_M * per_metre, wall_faces)
+    closed |= behind
     closed[[0, -1], :] = True
     closed[:, [0, -1]] = True
     setting.closed_with_unlooked_open = closed
+    setting.shadows = behind
     setting.passable = ~dilate(closed, (robot.radius + SAFETY_MARGIN_M) * setting.per_metre / grid.cell)
     setting.cost = np.where(grid.hidden, UNLOOKED_COST_FACTOR * float(unseen_cost), setting.cost)
 
@@ -526,7 +583,7 @@ def plan_route(
         return _refusal(setting, kind, reason, goal_plane)
     cells = astar(setting.passable, start_cell, goal_cell, setting.cost)
     if cells is None and setting.grid.hidden.any():
-        _open_unlooked_space(setting, robot, unseen_cost)
+        _open_unlooked_space(setting, robot, unseen_cost, recon)
         cells = astar(setting.passable, start_cell, goal_cell, setting.cost)
     if cells is None:
         kind, reason, width = _why_unreachable(setting, start_cell, goal_cell, robot)

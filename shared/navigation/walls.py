@@ -139,3 +139,29 @@ def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
     padded = np.concatenate([[False], flags, [False]]).astype(np.int8)
     edges = np.flatnonzero(np.diff(padded))
     return [(int(a), int(b) - 1) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+
+
+def wall_cells(grid: Grid, tall: np.ndarray, per_metre: float) -> np.ndarray:
+    """(H, W) bool: the tall cells that lie on a straight run of at least ``_MIN_RUN_M`` (walls).
+
+    A run's cells are the ones whose tall neighbours within ``_NEIGHBOURHOOD_M`` make a straight
+    line through them (a box's corner, a bookshelf's metre of front, a plant are not walls).
+    """
+    out = np.zeros(grid.shape, bool)
+    cells = np.argwhere(tall)
+    if len(cells) < 4:
+        return out
+    reach = _NEIGHBOURHOOD_M * per_metre / grid.cell
+    min_run = _MIN_RUN_M * per_metre / grid.cell
+    for start in range(0, len(cells), 512):
+        chunk = cells[start : start + 512]
+        near_all = np.linalg.norm(chunk[:, None, :] - cells[None], axis=2) <= reach
+        for cell, near_mask in zip(chunk, near_all, strict=True):
+            near = cells[near_mask]
+            direction = _line_direction(near, min_run)
+            if direction is None:
+                continue
+            offset = cell - near.mean(axis=0)
+            if abs(offset[0] * direction[1] - offset[1] * direction[0]) <= _ON_LINE_CELLS:
+                out[cell[0], cell[1]] = True
+    return out
