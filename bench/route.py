@@ -1,6 +1,7 @@
 """Route plans on two-room scenes: success, length against the true shortest route, refusals.
 
     .venv/bin/python -m bench.route [--scenes 60] [--seed 23] [--photo-scenes 8] [--json PATH] [--only 2,13]
+        [--looks 4]
 
 Scene i is kind ``reachable`` for i % 6 in 0..3, ``narrow_door`` for 4 and ``ring`` for 5
 (``shared/synthetic/two_rooms.py``, ``varied=True``: 3-7 views, camera heights 1.0-1.8 m, doorway
@@ -19,6 +20,12 @@ Posed plan_route outcomes are also given per doorway coverage and split by wheth
 depth shows both jambs of the doorway (``doorway_in_photo``): where no photo shows the doorway,
 which stretch of an unseen wall is a doorway is not determined by the photos, so those captures are
 reported apart, with their refusal reasons.
+
+Beside the single-shot figures (each plan driven once), posed plans are also executed in a closed
+loop (``bench/route_loop.py``): the robot stops where the plan says the floor ahead is unseen, takes
+a posed RGB-D look from its own camera there, facing along the leg, and replans from where it
+stands, at most ``--looks`` times (0: no closed loop); collisions are checked on the whole driven
+path. Both are tabled per coverage and by the doorway-in-photo split.
 
 Methods on the same reconstruction:
 - ``plan_route``: the planner (``shared/navigation``);
@@ -43,6 +50,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from bench.route_loop import DEFAULT_LOOKS, LoopTally, closed_loop, side_by_side
 from shared.geometry.backprojection import reconstruction_from_rgbd
 from shared.geometry.reconstruction import Reconstruction
 from shared.navigation import Robot, locate, plan_route
@@ -448,7 +456,27 @@ def _table(tallies: dict) -> str:
 IN_PHOTO, IN_NO_PHOTO = "doorway in some photo", "doorway in no photo"
 
 
-def _scene(options, index: int, tallies: dict, backbone, groups: dict) -> str:
+SINGLE_SHOT, CLOSED_LOOP = "single-shot", "closed loop"
+
+
+def _executions(options, case: _Case, plan, groups: list[str], loops: dict) -> str:
+    """Posed plan_route executed once and in the closed loop, counted per group; the loop's verdict."""
+    robot = Robot(radius=RADIUS)
+    words = ""
+    for execution, looks in ((SINGLE_SHOT, 0), (CLOSED_LOOP, options.looks)):
+        run = closed_loop(case.two, case.views, plan, robot, case.two.goal, max_looks=looks, band=BAND)
+        true_reason = run.refused and _true_reason(case.two, run.last_plan)[0]
+        for group in groups:
+            tally = loops.setdefault(group, {}).setdefault(execution, LoopTally())
+            outcome = tally.add(case.two.kind, run, case.two.goal, case.shortest, TOLERANCE_M, true_reason)
+        if execution == CLOSED_LOOP:
+            last = run.last_plan
+            refusal = f" ({last.refusal})" if run.refused else ""
+            words = f"  loop: {outcome}{refusal} after {len(run.looks)} looks, {run.length:.2f} m"
+    return words
+
+
+def _scene(options, index: int, tallies: dict, backbone, groups: dict, loops: dict) -> str:
     kind = _KIND_CYCLE[index % len(_KIND_CYCLE)]
     two = generate_two_rooms(options.seed * 1000 + index, kind, radius=RADIUS, band=BAND, varied=True)
     views = two.render()
@@ -458,13 +486,15 @@ def _scene(options, index: int, tallies: dict, backbone, groups: dict) -> str:
     verdict, plan, reached = _evaluate_plan(tallies, POSED, case, recon, two.goal, Robot(radius=RADIUS))
     _evaluate_baselines(tallies, POSED, case, recon, two.goal)
     in_photo = doorway_in_photo(two, views)
-    for group in (two.coverage, IN_PHOTO if in_photo else IN_NO_PHOTO):
+    named = [two.coverage, IN_PHOTO if in_photo else IN_NO_PHOTO, "all"]
+    for group in named[:2]:
         groups.setdefault(group, CoverageTally()).add(two, plan, reached)
+    looped = _executions(options, case, plan, named, loops) if options.looks else ""
     line = (
         f"scene {index:2d} {kind:11s} {len(views)} views h {two.camera_height:.2f} {two.coverage:7s} "
         f"doorway {'in' if in_photo else 'in no'} photo, "
         f"floor past it seen {doorway_coverage(two, views):4.0%}  "
-        f"shortest {case.shortest or 0:5.2f}  posed: {verdict}"
+        f"shortest {case.shortest or 0:5.2f}  posed: {verdict}{looped}"
     )
     if index < options.photo_scenes:
         line += _photo_modes(tallies, case, backbone)
@@ -480,6 +510,12 @@ def main(args: list[str] | None = None) -> None:
     parser.add_argument(
         "--only", default=None, help="comma-separated scene indices to run (of the first --scenes)"
     )
+    parser.add_argument(
+        "--looks",
+        type=int,
+        default=DEFAULT_LOOKS,
+        help="closed loop: at most this many new looks per run (0: single-shot only)",
+    )
     options = parser.parse_args(args)
     chosen = (
         range(options.scenes)
@@ -488,6 +524,7 @@ def main(args: list[str] | None = None) -> None:
     )
     tallies: dict = {}
     groups: dict[str, CoverageTally] = {}
+    loops: dict[str, dict[str, LoopTally]] = {}
     backbone = None
     if options.photo_scenes:
         from services.recon.backbones.classical import ClassicalBackbone
@@ -495,7 +532,7 @@ def main(args: list[str] | None = None) -> None:
         backbone = ClassicalBackbone()
     started = time.perf_counter()
     for index in chosen:
-        print(_scene(options, index, tallies, backbone, groups), flush=True)
+        print(_scene(options, index, tallies, backbone, groups, loops), flush=True)
     print(f"\n{len(chosen)} scenes in {time.perf_counter() - started:.0f} s (seed {options.seed})\n")
     print(_table(tallies))
     for (setting, method), tally in sorted(tallies.items()):
@@ -517,12 +554,24 @@ def main(args: list[str] | None = None) -> None:
             f"  ({IN_NO_PHOTO}: which stretch of an unseen wall is a doorway, the photos do not determine; "
             "reported apart, not a planner failure)"
         )
+    if loops:
+        print(f"\n{POSED}, plan_route, single-shot and closed loop (at most {options.looks} looks):")
+        print(side_by_side(loops, ["all", *COVERAGES, IN_PHOTO, IN_NO_PHOTO]))
     if options.json:
         rows = [{"input": s, "method": m, **t.row()} for (s, m), t in tallies.items()]
         by_group = {group: vars(tally) for group, tally in groups.items()}
         with open(options.json, "w") as handle:
             json.dump(
-                {"seed": options.seed, "scenes": options.scenes, "rows": rows, "groups": by_group},
+                {
+                    "seed": options.seed,
+                    "scenes": options.scenes,
+                    "rows": rows,
+                    "groups": by_group,
+                    "executions": {
+                        group: {execution: vars(tally) for execution, tally in by_execution.items()}
+                        for group, by_execution in loops.items()
+                    },
+                },
                 handle,
                 indent=2,
             )

@@ -100,3 +100,22 @@ def narrowest_passage(
         return min(passages, key=lambda passage: passage.width)
     tightest = int(np.argmin(distance))  # no seen points on both sides (the map's edge): the cells' gap
     return Passage(plane[tightest], max(2 * distance[tightest] - grid.cell, 0.0), None)
+
+
+def looked_through(grid: Grid, passage: Passage) -> bool:
+    """Whether some line of sight passed between the passage's two sides.
+
+    A gap between two seen points whose floor between them (a cell in from each side) no view looked
+    into at all is not a measured passage: the points may be one surface's two seen parts around an
+    occluded corner (a wall meeting another), and what lies between is unknown, not a slot.
+    """
+    if passage.sides is None or grid.looked is None:
+        return True
+    a, b = passage.sides
+    length = float(np.linalg.norm(b - a))
+    if length < 3 * grid.cell:  # no cells between the sides' own to judge by
+        return True
+    along = np.arange(grid.cell, length - grid.cell + 1e-9, 0.5 * grid.cell) / length
+    cells = grid.to_cell(a + along[:, None] * (b - a))
+    cells = cells[grid.inside(cells)]
+    return bool(len(cells) == 0 or (~grid.hidden[cells[:, 0], cells[:, 1]]).any())

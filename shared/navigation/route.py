@@ -32,7 +32,7 @@ import numpy as np
 from shared.geometry.reconstruction import Reconstruction
 from shared.navigation.floor import Floor, estimate_floor
 from shared.navigation.grid import Grid, build_grid, dilate
-from shared.navigation.passage import narrowest_passage
+from shared.navigation.passage import looked_through, narrowest_passage
 from shared.navigation.scale import ASSUMED_CAMERA_HEIGHT_M, Scale, plan_scale  # noqa: F401 (re-exported)
 from shared.navigation.search import astar, reachable_from, shorten
 from shared.navigation.shadow import shadows
@@ -417,6 +417,8 @@ def _why_unreachable(
                 "unseen part of what was seen there); add a photo of that side to be sure",
                 None,
             )
+    # a gap between seen points that no view looked into is unknown, not a measured slot
+    off_the_map = off_the_map or (passage is not None and not looked_through(setting.grid, passage))
     if off_the_map or (passage is None and _joined_through_hidden(setting.grid, start, goal)):
         return (
             "unseen_space",

@@ -230,6 +230,13 @@ def _view(eye_xy, look_xy, height: float = EYE_HEIGHT) -> np.ndarray:
     return look_at(eye, eye + np.append(horizontal, -drop))
 
 
+def robot_view(two: TwoRoomScene, xy: np.ndarray, heading: float) -> np.ndarray:
+    """3x4 camera-from-world (OpenCV axes) of the scene's camera above floor point ``xy``, facing
+    ``heading`` (radians about +z from +x), pitched down as the generator's views are."""
+    xy = np.asarray(xy, np.float64)
+    return _view(xy, xy + np.array([np.cos(heading), np.sin(heading)]), two.camera_height)
+
+
 @dataclass
 class _Layout:
     length: float
