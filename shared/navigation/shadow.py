@@ -20,6 +20,7 @@ import numpy as np
 from shared.geometry.reconstruction import Reconstruction
 from shared.navigation.floor import Floor
 from shared.navigation.grid import Grid
+from shared.navigation.sight import depth_points
 
 _PIXEL_STRIDE = 2  # every 2nd pixel each way
 _SAMPLES_PER_CELL = 2  # march samples per cell width behind a face
@@ -54,25 +55,10 @@ def _body_hits(
     recon: Reconstruction, view: int, depth: np.ndarray, floor: Floor, band: tuple[float, float]
 ) -> tuple[np.ndarray, np.ndarray]:
     """Floor coordinates of the view's depth points at body height, and of its camera."""
-    width, height = recon.image_sizes[view]
-    rows, columns = np.mgrid[0 : depth.shape[0] : _PIXEL_STRIDE, 0 : depth.shape[1] : _PIXEL_STRIDE]
-    z = depth[rows, columns].astype(np.float64)
-    valid = np.isfinite(z) & (z > 0)
-    u = (columns[valid] + 0.5) * width / depth.shape[1] - 0.5
-    v = (rows[valid] + 0.5) * height / depth.shape[0] - 0.5
-    intrinsic, pose = recon.intrinsics[view], recon.extrinsics[view]
-    in_camera = np.stack(
-        [
-            (u - intrinsic[0, 2]) / intrinsic[0, 0] * z[valid],
-            (v - intrinsic[1, 2]) / intrinsic[1, 1] * z[valid],
-            z[valid],
-        ],
-        axis=1,
-    )
-    world = (in_camera - pose[:, 3]) @ pose[:, :3]
+    world, camera = depth_points(recon, view, depth, _PIXEL_STRIDE)
     heights = floor.height(world)
     body = (heights >= band[0]) & (heights <= band[1])
-    return floor.to_plane(world[body]), floor.to_plane(-pose[:, :3].T @ pose[:, 3])[0]
+    return floor.to_plane(world[body]), floor.to_plane(camera)[0]
 
 
 def behind_faces(

@@ -32,13 +32,16 @@ def looked_into(recon: Reconstruction, floor: Floor, grid: Grid) -> np.ndarray |
     return looked
 
 
-def _mark_view(recon: Reconstruction, view: int, depth: np.ndarray, floor: Floor, grid: Grid, looked) -> None:
+def depth_points(
+    recon: Reconstruction, view: int, depth: np.ndarray, stride: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """(world points of every `stride`-th pixel of `depth` that has a depth, the view's camera
+    centre). The depth map may be smaller than the photo: its pixel centres are scaled to the
+    photo's. Cameras are camera-from-world [R|t], OpenCV axes, intrinsics in the photo's pixels."""
     width, height = recon.image_sizes[view]
-    rows, columns = np.mgrid[0 : depth.shape[0] : _PIXEL_STRIDE, 0 : depth.shape[1] : _PIXEL_STRIDE]
+    rows, columns = np.mgrid[0 : depth.shape[0] : stride, 0 : depth.shape[1] : stride]
     z = depth[rows, columns].astype(np.float64)
     valid = np.isfinite(z) & (z > 0)
-    if not valid.any():
-        return
     u = (columns[valid] + 0.5) * width / depth.shape[1] - 0.5
     v = (rows[valid] + 0.5) * height / depth.shape[0] - 0.5
     intrinsic, pose = recon.intrinsics[view], recon.extrinsics[view]
@@ -50,8 +53,15 @@ def _mark_view(recon: Reconstruction, view: int, depth: np.ndarray, floor: Floor
         ],
         axis=1,
     )
-    ends = floor.to_plane((in_camera - pose[:, 3]) @ pose[:, :3])
-    centre = floor.to_plane(-pose[:, :3].T @ pose[:, 3])[0]
+    return (in_camera - pose[:, 3]) @ pose[:, :3], -pose[:, :3].T @ pose[:, 3]
+
+
+def _mark_view(recon: Reconstruction, view: int, depth: np.ndarray, floor: Floor, grid: Grid, looked) -> None:
+    world, camera = depth_points(recon, view, depth, _PIXEL_STRIDE)
+    if not len(world):
+        return
+    ends = floor.to_plane(world)
+    centre = floor.to_plane(camera)[0]
     longest = float(np.max(np.linalg.norm(ends - centre, axis=1)))
     count = max(int(np.ceil(longest / grid.cell * _SAMPLES_PER_CELL)), 2)
     for t in np.linspace(0.0, 1.0, count):
