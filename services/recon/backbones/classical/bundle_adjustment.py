@@ -152,18 +152,7 @@ def robust_cost(
     tracks: list[dict[int, int]],
 ) -> float:
     """The Cauchy cost adjustment minimizes, summed over every observation of a placed view."""
-    total = 0.0
-    for view, extrinsic in extrinsics.items():
-        ids = [point for point, track in enumerate(tracks) if view in track]
-        if ids:
-            total += float(
-                np.sum(
-                    _observation_costs(
-                        keypoints[view], intrinsics[view], extrinsic, points, tracks, ids, view
-                    )
-                )
-            )
-    return total
+    return float(np.sum(track_costs(keypoints, intrinsics, extrinsics, points, tracks)))
 
 
 def track_costs(
