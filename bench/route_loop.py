@@ -25,7 +25,7 @@ import numpy as np
 from shared.geometry.backprojection import reconstruction_from_rgbd
 from shared.navigation import Robot, plan_route
 from shared.synthetic.render import render_view
-from shared.synthetic.two_rooms import TwoRoomScene, disc_collides, footprints, robot_view
+from shared.synthetic.two_rooms import TwoRoomScene, disc_collides, drive, footprints, robot_view
 
 _AT_HAND_M = 0.05  # a stretch beginning this close to the robot begins where it stands
 LOOK_AGAIN_AFTER_M = 1.0  # a stretch that begins at the robot is entered this far before the next look
@@ -44,23 +44,6 @@ class LoopRun:
     looks: list[np.ndarray] = field(default_factory=list)  # (2,) where each new look was taken
     last_plan: object = None  # the last RoutePlan (a refusal when the run ended refused)
     refused: bool = False
-
-
-def drive(
-    position: np.ndarray, heading: float, moves: list[tuple[float, float]], step_m: float
-) -> tuple[np.ndarray, np.ndarray, float, float]:
-    """Samples of the robot's centre along (turn_degrees, metres) moves, after the start point;
-    the end position, heading and the metres driven."""
-    samples, length = [np.zeros((0, 2))], 0.0
-    position = np.asarray(position, np.float64)
-    for turn, move in moves:
-        heading += np.radians(turn)
-        direction = np.array([np.cos(heading), np.sin(heading)])
-        count = max(int(np.ceil(abs(move) / step_m)), 1)
-        samples.append(position + np.linspace(0.0, move, count + 1)[1:, None] * direction)
-        position = position + move * direction
-        length += abs(move)
-    return np.concatenate(samples), position, heading, length
 
 
 def _stretch_arcs(plan, position: np.ndarray, heading: float) -> list[tuple[float, float]]:

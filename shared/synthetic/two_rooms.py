@@ -640,6 +640,24 @@ class Execution:
     length: float
 
 
+def drive(
+    position: np.ndarray, heading: float, moves: list[tuple[float, float]], step_m: float
+) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """Samples of the robot's centre on the floor every ``step_m`` along (turn_degrees, metres)
+    moves (left-positive turns about +z, heading in radians from +x), after the start point; the
+    end position, heading and the metres driven."""
+    samples, length = [np.zeros((0, 2))], 0.0
+    position = np.asarray(position, np.float64)
+    for turn, move in moves:
+        heading += np.radians(turn)
+        direction = np.array([np.cos(heading), np.sin(heading)])
+        count = max(int(np.ceil(abs(move) / step_m)), 1)
+        samples.append(position + np.linspace(0.0, move, count + 1)[1:, None] * direction)
+        position = position + move * direction
+        length += abs(move)
+    return np.concatenate(samples), position, heading, length
+
+
 def execute_steps(
     two: TwoRoomScene,
     steps: list[dict],
@@ -655,17 +673,10 @@ def execute_steps(
     polygons = footprints(two.solids, band)
     forward = two.extrinsics[0][2, :2]
     heading = float(np.arctan2(forward[1], forward[0]))
-    position = two.start_floor()[:2].astype(np.float64)
-    samples, length = [position[None]], 0.0
-    for step in steps:
-        heading += np.radians(float(step["turn_degrees"]))
-        move = float(step["move"])
-        direction = np.array([np.cos(heading), np.sin(heading)])
-        count = max(int(np.ceil(abs(move) / step_m)), 1)
-        samples.append(position + np.linspace(0, move, count + 1)[1:, None] * direction)
-        position = position + move * direction
-        length += abs(move)
-    trace = np.concatenate(samples)
+    position_at_start = two.start_floor()[:2].astype(np.float64)
+    moves = [(float(step["turn_degrees"]), float(step["move"])) for step in steps]
+    after_start, position, _heading, length = drive(position_at_start, heading, moves, step_m)
+    trace = np.concatenate([position_at_start[None], after_start])
     hits = disc_collides(trace, polygons, radius)
     first = trace[int(np.argmax(hits))] if hits.any() else None
     return Execution(end=position, collided=bool(hits.any()), first_collision=first, length=length)
