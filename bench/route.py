@@ -24,8 +24,10 @@ reported apart, with their refusal reasons.
 Beside the single-shot figures (each plan driven once), posed plans are also executed in a closed
 loop (``bench/route_loop.py``): the robot stops where the plan says the floor ahead is unseen, takes
 a posed RGB-D look from its own camera there, facing along the leg, and replans from where it
-stands, at most ``--looks`` times (0: no closed loop); collisions are checked on the whole driven
-path. Both are tabled per coverage and by the doorway-in-photo split.
+stands, at most ``--looks`` times (0: no closed loop); a refusal for want of a look
+(``unseen_space`` with ``look_next``) is followed too: the robot drives to the pose it names, looks
+toward the unlooked space and replans; collisions are checked on the whole driven path. Both are
+tabled per coverage and by the doorway-in-photo split.
 
 Methods on the same reconstruction:
 - ``plan_route``: the planner (``shared/navigation``);

@@ -9,7 +9,10 @@ rendered from the true scene), adds it to the views it has and replans from wher
 new look being the start view (index 0: ``plan_route`` starts below the start view's camera and
 takes its heading from it). A stretch that begins where the robot has just looked (the floor just
 ahead of a camera pitched down is below its frame) is driven, up to ``LOOK_AGAIN_AFTER_M``; a longer
-one is entered that far and looked at again. After ``max_looks`` looks the last plan is driven out.
+one is entered that far and looked at again. A refusal that says where to look (``look_next`` of an
+``unseen_space`` refusal: no photo shows a way) is followed the same way: the robot drives its steps
+(over floor the photos show), faces the unlooked space, looks and replans. After ``max_looks`` looks
+the last plan is driven out, or its refusal stands.
 
 Collisions are checked on the whole driven path: every executed move, before and after each look,
 is sampled every ``step_m`` and the disc tested against the true footprints; a collision ends the
@@ -114,11 +117,17 @@ def closed_loop(
     plan, views = first_plan, list(views)
     while True:
         run.last_plan = plan
-        if not plan.reachable:
+        looks_left = len(run.looks) < max_looks
+        if not plan.reachable and not (looks_left and plan.look_next):
             run.refused = True
             break
-        stop = next_stop(_stretch_arcs(plan, position, heading)) if len(run.looks) < max_looks else None
-        samples, position, heading, length = drive(position, heading, _moves_up_to(plan, stop), step_m)
+        if plan.reachable:
+            stop = next_stop(_stretch_arcs(plan, position, heading)) if looks_left else None
+            moves = _moves_up_to(plan, stop)
+        else:  # no photo shows a way: go where the refusal says to look, and look
+            stop = 0.0
+            moves = [(step["turn_degrees"], step["move"]) for step in plan.look_next["steps"]]
+        samples, position, heading, length = drive(position, heading, moves, step_m)
         run.trace = np.concatenate([run.trace, samples])
         run.length += length
         if disc_collides(samples, polygons, robot.radius).any() or stop is None:

@@ -188,6 +188,10 @@ def route(
             console.print(f"[yellow]{plan.unseen_m:.2f} {unit} cross floor no photo shows[/]")
     else:
         console.print(f"[red]no route:[/] {plan.reason}")
+        if plan.look_next is not None:
+            console.print("to find the way, take a photo from here (then plan again from it):")
+            for number, sentence in enumerate(plan.look_next.sentences, 1):
+                console.print(f"{number}. {sentence}")
     console.print(_scale_words(plan))
     for warning in plan.warnings:
         console.print(f"[yellow]warning:[/] {warning}")

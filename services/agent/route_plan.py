@@ -77,6 +77,7 @@ def _response(plan, scene_id: str, backbone: str, located: np.ndarray | None) ->
         unseen_m=plan.unseen_m,
         unseen_stretches=plan.unseen_stretches,
         narrowest_passage_m=plan.narrowest_passage_m,
+        look_next=plan.look_next,
         goal_located=None if located is None else np.round(located, 4).tolist(),
     )
 

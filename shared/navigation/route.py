@@ -20,7 +20,9 @@ a doorway no view looked through) is crossed only when no route exists without i
 ``UNLOOKED_COST_FACTOR`` times that cost, never across the line of a seen wall that runs into it
 (``walls.continued_walls``) nor through the ``SHADOW_M`` behind a seen face at body height (the
 unseen part of the thing seen there, ``shadow.shadows``), and the plan warns that a wall or
-furniture may stand there.
+furniture may stand there. When even that finds no way and the refusal is ``unseen_space`` (a
+doorway there, if any, no photo shows), the plan says where to take the next photo
+(``look_next``, ``explore.next_look``) rather than guess which stretch of an unseen wall is open.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from shared.geometry.reconstruction import Reconstruction
+from shared.navigation.explore import next_look, seen_closed
 from shared.navigation.floor import Floor, estimate_floor
 from shared.navigation.grid import Grid, build_grid, dilate
 from shared.navigation.passage import looked_through, narrowest_passage
@@ -43,7 +46,9 @@ from shared.navigation.walls import continued_walls, wall_cells
 TURN_CONVENTION = "left-positive"
 DEFAULT_UNSEEN_COST = 1.5  # a metre over unseen floor costs as much as this many over seen floor
 CELL_M = 0.05
-SAFETY_MARGIN_M = 0.05  # added to the radius: the grid's half cell must not become a collision
+# added to the radius: the robot and a seen obstacle may each lie half a cell's diagonal (3.5 cm) off
+# their cells (with 5 cm, tuning routes grazed door jambs by 3-5 mm)
+SAFETY_MARGIN_M = 0.07
 GOAL_TOLERANCE_M = 0.3
 _FLOOR_TOLERANCE_M = 0.03
 _CLOSE_HOLES_M = 0.15
@@ -108,6 +113,9 @@ class RoutePlan:
     # Each {"step": 1-based, "start_world", "end_world", "length"}: a run of a move over unseen floor.
     unseen_stretches: list[dict] = field(default_factory=list)
     narrowest_passage_m: float | None = None  # a narrow_gap refusal: the passage's measured width
+    # An unseen_space refusal: where to take the next photo ({stand_world, face_world, steps,
+    # sentences}; ``explore.next_look``), None when even unlooked space gives no way.
+    look_next: dict | None = None
 
     def to_dict(self) -> dict:
         def listed(array):
@@ -137,6 +145,7 @@ class RoutePlan:
             "unseen_m": self.unseen_m,
             "unseen_stretches": self.unseen_stretches,
             "narrowest_passage_m": self.narrowest_passage_m,
+            "look_next": self.look_next,
         }
 
 
@@ -465,6 +474,63 @@ def _refusal(setting: _Setting, kind: str, reason: str, goal_plane: np.ndarray) 
     )
 
 
+def _closed_by_what_was_seen(
+    setting: _Setting, start: tuple[int, int], goal: tuple[int, int], robot: Robot, goal_plane: np.ndarray
+) -> RoutePlan | None:
+    """A ``narrow_gap`` refusal when, with every unlooked cell open, a passage between seen points is
+    what keeps the robot out (a doorway whose jambs a photo shows, though no view looked between
+    them); None when no such passage is found."""
+    radius_cells = (robot.radius + SAFETY_MARGIN_M) * setting.per_metre / setting.grid.cell
+    closed = seen_closed(setting.grid, setting.shadows)
+    passage = narrowest_passage(setting.grid, start, goal, radius_cells, blocked=closed)
+    if (
+        passage is None
+        or passage.sides is None
+        or not _limits(setting, closed, passage, start, goal, radius_cells)
+    ):
+        return None
+    width = passage.width / setting.per_metre
+    where = setting.floor.to_world(passage.where)[0]
+    unit = "m" if setting.scale.units == "metres" else "m (by the assumed camera height)"
+    plan = _refusal(
+        setting,
+        "narrow_gap",
+        f"the narrowest passage on the way, near ({where[0]:.2f}, {where[1]:.2f}, {where[2]:.2f}), is "
+        f"about {width:.2f} {unit} wide between the seen obstacles on both sides (no view looked between "
+        f"them, and every other way is closed by what was seen); the robot needs {2 * robot.radius:.2f} m "
+        f"plus a {2 * SAFETY_MARGIN_M:.2f} m margin",
+        goal_plane,
+    )
+    plan.narrowest_passage_m = round(width, 3)
+    return plan
+
+
+def _look_next(
+    setting: _Setting,
+    driveable: np.ndarray,
+    cost: np.ndarray,
+    start: tuple[int, int],
+    goal: tuple[int, int],
+    robot: Robot,
+) -> dict | None:
+    """Where the robot takes its next photo to find the way no photo shows (``explore.next_look``)."""
+    look = next_look(
+        setting.grid,
+        setting.shadows,
+        driveable,
+        cost,
+        start,
+        goal,
+        setting.start,
+        setting.heading,
+        (robot.radius + SAFETY_MARGIN_M) * setting.per_metre / setting.grid.cell,
+        setting.per_metre,
+        setting.per_output,
+        setting.scale.units,
+    )
+    return None if look is None else look.to_dict(setting.floor)
+
+
 def _clearance(setting: _Setting, corners: np.ndarray, robot: Robot) -> float:
     """Smallest distance between the robot's disc and an occupied cell along the path."""
     samples = [corners[:1]]
@@ -583,6 +649,7 @@ def plan_route(
     goal_cell, kind, reason = _goal_cell(setting, goal_plane, robot)
     if goal_cell is None:
         return _refusal(setting, kind, reason, goal_plane)
+    driveable, seen_cost = setting.passable, setting.cost
     cells = astar(setting.passable, start_cell, goal_cell, setting.cost)
     if cells is None and setting.grid.hidden.any():
         _open_unlooked_space(setting, robot, unseen_cost, recon)
@@ -591,6 +658,10 @@ def plan_route(
         kind, reason, width = _why_unreachable(setting, start_cell, goal_cell, robot)
         plan = _refusal(setting, kind, reason, goal_plane)
         plan.narrowest_passage_m = None if width is None else round(width, 3)
+        if kind == "unseen_space":
+            plan.look_next = _look_next(setting, driveable, seen_cost, start_cell, goal_cell, robot)
+            if plan.look_next is None:  # seen things close every way even with all unlooked space open
+                plan = _closed_by_what_was_seen(setting, start_cell, goal_cell, robot, goal_plane) or plan
         return plan
     corners = setting.grid.to_plane(np.array(shorten(setting.passable, cells, setting.cost)))
     corners[0] = setting.start  # the cell centre is up to half a cell off; the robot starts exactly here

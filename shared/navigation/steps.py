@@ -50,7 +50,7 @@ def unseen_stretches(
     return out
 
 
-def _turn_words(turn: float) -> str:
+def turn_words(turn: float) -> str:
     return f"turn {'left' if turn > 0 else 'right'} {abs(turn):.0f}°"
 
 
@@ -101,5 +101,5 @@ def steps_and_sentences(
             points = a + np.array([[low], [high]]) * per_output / length * offset
             stretches.append(Stretch(len(steps), low, high, points[0], points[1]))
         go = f"go forward {move:.2f} {unit}{_unseen_words(move, runs, unit)}"
-        sentences.append(f"{_turn_words(turn)}, then {go}" if abs(turn) >= _MIN_TURN_DEG else go)
+        sentences.append(f"{turn_words(turn)}, then {go}" if abs(turn) >= _MIN_TURN_DEG else go)
     return steps, [sentence[0].upper() + sentence[1:] for sentence in sentences], stretches

@@ -818,6 +818,19 @@ class UnseenStretch(_Model):
     length: float = Field(..., description="In the moves' units.")
 
 
+class LookNext(_Model):
+    """Where to take the next photo when no photo shows a way (an ``unseen_space`` refusal)."""
+
+    stand_world: list[float] = Field(..., description="Stand here (on the floor, world coordinates).")
+    face_world: list[float] = Field(
+        ..., description="Face this point: where the likeliest way enters space no view looked into."
+    )
+    steps: list[RouteStep] = Field(
+        ..., description="From the start, over floor the photos show; the last turns to face, moving 0."
+    )
+    sentences: list[str]
+
+
 class RouteResponse(_Model):
     scene_id: str
     backbone: str
@@ -826,7 +839,9 @@ class RouteResponse(_Model):
         None, description="Why no route was planned (which gap and how wide, enclosed)."
     )
     refusal: str | None = Field(
-        None, description="narrow_gap, enclosed, start_blocked, goal_too_close, goal_unseen (outside the map)"
+        None,
+        description="narrow_gap, enclosed, start_blocked, goal_too_close, goal_unseen (outside the map), "
+        "unseen_space (every way passes where no view looked: see look_next)",
     )
     turn_convention: Literal["left-positive"] = "left-positive"
     steps: list[RouteStep]
@@ -858,6 +873,11 @@ class RouteResponse(_Model):
     unseen_stretches: list[UnseenStretch] = Field(default_factory=list)
     narrowest_passage_m: float | None = Field(
         None, description="narrow_gap: the passage's width between the seen obstacles on both sides."
+    )
+    look_next: LookNext | None = Field(
+        None,
+        description="unseen_space: where to stand and which way to face for the photo that may show "
+        "the way (then plan again with it as the start view).",
     )
     start_world: list[float] | None
     goal_world: list[float] | None = Field(None, description="The goal projected on the floor.")

@@ -76,11 +76,13 @@ function showPlan(plan) {
   $("route-summary").textContent = plan.reachable
     ? `${plan.steps.length} step(s), ${plan.length.toFixed(2)} ${unit} (straight line ${plan.straight_line.toFixed(2)}); turns are ${plan.turn_convention}.` +
       (plan.unseen_m > 0 ? ` ${plan.unseen_m.toFixed(2)} ${unit} cross floor no photo shows (amber).` : "")
-    : `No route: ${plan.reason}`;
+    : `No route: ${plan.reason}` +
+      (plan.look_next ? " To find the way, take a photo as the steps below say, then plan again from it." : "");
   $("route-scale").textContent = `Units: ${plan.units}, scale from ${plan.scale_from || "unknown"}` +
     (plan.floor_residual_m != null ? ` (floor fit residual ${plan.floor_residual_m.toFixed(3)} m)` : "") +
     (plan.scale_check != null ? `; reconstructed camera height / given: ${plan.scale_check.toFixed(2)}` : "") + ".";
-  $("route-steps").replaceChildren(...plan.sentences.map((sentence) => element("li", { textContent: sentence })));
+  const sentences = plan.reachable || !plan.look_next ? plan.sentences : plan.look_next.sentences;
+  $("route-steps").replaceChildren(...sentences.map((sentence) => element("li", { textContent: sentence })));
   $("route-warnings").replaceChildren(...plan.warnings.map((text) => element("li", { textContent: text })));
   $("route-result").hidden = false;
   $("route-result").dataset.sceneId = plan.scene_id; // the scene the plan is of (its download's name)
