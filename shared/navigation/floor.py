@@ -47,7 +47,7 @@ class Floor:
         return base + plane[:, :1] * self.first + plane[:, 1:] * self.second
 
 
-def _floor_axes(up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def floor_axes(up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     axis = np.eye(3)[int(np.argmin(np.abs(up)))]
     first = axis - (axis @ up) * up
     first /= np.linalg.norm(first)
@@ -141,5 +141,5 @@ def estimate_floor(points: np.ndarray, extrinsics: np.ndarray) -> Floor:
         up, floor = _refit(points, centres, up, cameras_up, limit)
         if np.degrees(np.arccos(np.clip(up @ previous, -1.0, 1.0))) < 0.05:
             break
-    first, second = _floor_axes(up)
+    first, second = floor_axes(up)
     return Floor(up=up, offset=floor, first=first, second=second)

@@ -138,6 +138,7 @@ def build_grid(
     close_cells: float,
     keep: np.ndarray,
     tall_height: float = np.inf,
+    height_noise: np.ndarray | None = None,
 ) -> Grid:
     """The grid of floor-projected points ``plane`` with their ``heights`` above the floor.
 
@@ -145,9 +146,13 @@ def build_grid(
     it seen. Small holes in the seen floor (between the samples of a distant, grazing view) are
     closed by ``close_cells``. ``keep`` (M, 2) are floor points the grid must cover (start, goal).
     Cells with points seen above ``tall_height`` are ``tall`` (what a wall is made of).
+    ``height_noise`` (N,), when given, is how far each point's height cannot be told from the floor
+    (``noise.height_tolerance``): a point within it is floor, not an obstacle, up to half the body's
+    height (what stands higher than that is an obstacle however noisy its points).
     """
-    in_band = (heights >= band[0]) & (heights <= band[1])
-    on_floor = np.abs(heights) <= floor_tolerance
+    noise = np.zeros(len(heights)) if height_noise is None else np.minimum(height_noise, 0.5 * band[1])
+    in_band = (heights >= np.maximum(band[0], noise)) & (heights <= band[1])
+    on_floor = np.abs(heights) <= np.maximum(floor_tolerance, noise)
     relevant = np.concatenate([plane[in_band | on_floor], keep])
     low, high = relevant.min(axis=0) - 4 * cell, relevant.max(axis=0) + 4 * cell
     while np.prod(np.ceil((high - low) / cell) + 1) > _MAX_CELLS:

@@ -35,6 +35,7 @@ from shared.geometry.reconstruction import Reconstruction
 from shared.navigation.explore import next_look, seen_closed
 from shared.navigation.floor import Floor, estimate_floor
 from shared.navigation.grid import Grid, build_grid, dilate
+from shared.navigation.noise import floor_and_tolerance, noise_warnings
 from shared.navigation.passage import looked_through, narrowest_passage
 from shared.navigation.scale import ASSUMED_CAMERA_HEIGHT_M, Scale, plan_scale  # noqa: F401 (re-exported)
 from shared.navigation.search import astar, reachable_from, shorten
@@ -261,7 +262,13 @@ def _setting(
         )
     if not recon.registered[start_view]:
         raise ValueError(f"start view {start_view + 1} has no pose in this reconstruction")
-    floor = estimate_floor(recon.points, recon.extrinsics[recon.registered])
+    placed = recon.registered
+    floor = estimate_floor(recon.points, recon.extrinsics[placed])
+    # a photo-only cloud's heights scatter more the farther they are: the floor is refitted for that,
+    # and a point within its scatter is not an obstacle (``noise``)
+    floor, noise, per_distance = floor_and_tolerance(
+        floor, recon.points, recon.extrinsics[placed], recon.intrinsics[placed], recon.image_sizes[placed]
+    )
     pose = recon.extrinsics[start_view]
     centre = -pose[:, :3].T @ pose[:, 3]
     scale = plan_scale(recon.units == "metres", floor, recon.points, centre, robot.camera_height)
@@ -284,7 +291,9 @@ def _setting(
         _CLOSE_HOLES_M / CELL_M,
         keep,
         tall_height=WALL_HEIGHT_M * per_metre,
+        height_noise=noise,
     )
+    scale.warnings.extend(noise_warnings(recon, goal, per_distance, per_metre, robot.floor_clearance))
     # The robot's own footprint stays unseen floor when no view saw it: a plan that starts over it
     # says so (the robot stands there, but nothing in the photos shows that floor).
     grid.looked = looked_into(recon, floor, grid)
