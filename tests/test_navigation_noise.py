@@ -8,13 +8,16 @@ be taken for obstacles; the box must; and exact heights (posed RGB-D) keep a low
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from shared.geometry.reconstruction import Reconstruction
-from shared.navigation import Robot, estimate_floor, plan_route
+from shared.navigation import Robot, estimate_floor, locate, plan_route
 from shared.navigation.grid import build_grid
 from shared.navigation.noise import SIGMAS, floor_and_tolerance, noise_per_distance, viewing_distance
+from shared.navigation.sight import looked_into
 
 SCALE = 0.4  # scene units per metre: the reconstruction knows no metres
 CAMERA_HEIGHT_M = 1.5
@@ -164,3 +167,93 @@ def test_exact_heights_keep_a_low_obstacle():
     plan = plan_route(recon, 0, _floor_point(GOAL_M), robot=ROBOT)
     assert not plan.reachable
     assert not any("cannot be told from the floor" in w for w in plan.warnings)
+
+
+def _pixel(recon: Reconstruction, view: int, world_m) -> tuple[float, float]:
+    pose, intrinsic = recon.extrinsics[view], recon.intrinsics[view]
+    projected = intrinsic @ (pose[:, :3] @ (np.asarray(world_m, float) * SCALE) + pose[:, 3])
+    return float(projected[0] / projected[2]), float(projected[1] / projected[2])
+
+
+def _without(recon: Reconstruction, centre_m, radius_m: float) -> Reconstruction:
+    """The same cloud with no point within ``radius_m`` of a world point: a plain patch."""
+    keep = np.linalg.norm(recon.points / SCALE - np.asarray(centre_m), axis=1) > radius_m
+    return dataclasses.replace(recon, points=recon.points[keep], colors=recon.colors[keep])
+
+
+def test_a_goal_pixel_on_plain_floor_is_placed_where_its_ray_meets_the_floor():
+    goal = np.array([5.0, -1.0, 0.0])  # clear of the box
+    recon = _without(_cloud(RELATIVE_NOISE), goal, 1.0)
+    u, v = _pixel(recon, 0, goal)
+    found = locate(recon, 0, u, v)
+    assert found.point is not None and found.source == "floor", found.reason
+    # off by the fitted floor's error at the goal, within the heights' scatter there
+    centres = np.array([-pose[:, :3].T @ pose[:, 3] for pose in recon.extrinsics]) / SCALE
+    distance = np.min(np.linalg.norm(centres - goal, axis=1))
+    assert np.linalg.norm(found.point / SCALE - goal) <= SIGMAS * RELATIVE_NOISE * distance / np.sin(
+        np.radians(PITCH_DEG) / 2
+    )
+    plan = plan_route(recon, 0, found.point, robot=ROBOT)
+    assert plan.reachable, plan.reason
+
+
+def test_a_pixel_on_a_plain_wall_is_not_placed_on_the_floor_behind_it():
+    rng = np.random.default_rng(1)
+    wall = np.column_stack([np.full(8_000, 8.0), rng.uniform(-2.0, 2.0, 8_000), rng.uniform(0.0, 2.0, 8_000)])
+    recon = _cloud(0.0)
+    recon = dataclasses.replace(
+        recon,
+        points=np.vstack([recon.points, wall * SCALE]),
+        colors=np.vstack([recon.colors, np.full((len(wall), 3), 128, np.uint8)]),
+    )
+    spot = np.array(
+        [8.0, 0.0, 0.8]
+    )  # on the wall, below the camera's height: its ray meets the floor behind it
+    recon = _without(recon, spot, 0.3)
+    found = locate(recon, 0, *_pixel(recon, 0, spot))
+    assert found.point is None and "in front of its floor point" in found.reason
+
+
+def test_a_small_depth_map_marks_the_floor_its_rays_cross_without_gaps():
+    """An 80x60 depth map for a 320x240 photo: rays at each of its pixels are 4 photo pixels apart."""
+    recon = _cloud(0.0)
+    pose, intrinsic = recon.extrinsics[0], recon.intrinsics[0]
+    rows, columns = np.mgrid[0:60, 0:80]
+    u, v = (columns + 0.5) * 4 - 0.5, (rows + 0.5) * 4 - 0.5
+    rays = np.stack([(u - intrinsic[0, 2]) / FOCAL, (v - intrinsic[1, 2]) / FOCAL, np.ones_like(u)], axis=-1)
+    world_rays = rays @ pose[:, :3]
+    centre = -pose[:, :3].T @ pose[:, 3]
+    along = -centre[2] / np.minimum(world_rays[..., 2], -1e-9)  # to the floor z = 0
+    depth = np.where(world_rays[..., 2] < 0, along, 0.0).astype(np.float32)
+    depth[depth * np.linalg.norm(rays, axis=-1) > 8.0 * SCALE] = 0.0  # nothing seen beyond 8 m
+    recon = dataclasses.replace(recon, depths=[depth, np.zeros((0, 0), np.float32)])
+    floor = estimate_floor(recon.points, recon.extrinsics)
+    grid = build_grid(
+        floor.to_plane(recon.points),
+        floor.height(recon.points),
+        (0.02, 0.2),
+        0.05 * SCALE,
+        0.01,
+        3.0,
+        floor.to_plane(recon.points[:1]),
+    )
+    looked = looked_into(recon, floor, grid)
+    # every cell whose centre the view frames on the floor, from 1.5 m to where rays 4 photo pixels
+    # apart are a cell apart, lies under one of its rays
+    farthest = 0.05 * FOCAL / 4
+    cells = np.argwhere(np.ones(grid.shape, bool))
+    world = floor.to_world(grid.to_plane(cells))
+    in_camera = world @ pose[:, :3].T + pose[:, 3]
+    pixels = in_camera @ intrinsic.T
+    pixels = pixels[:, :2] / pixels[:, 2:]
+    reach = np.linalg.norm(world[:, :2] - centre[:2], axis=1) / SCALE
+    framed = (
+        (in_camera[:, 2] > 0)
+        & np.all(pixels >= 8, axis=1)
+        & (pixels[:, 0] < WIDTH - 8)
+        & (pixels[:, 1] < HEIGHT - 8)
+        & (reach >= 1.5)
+        & (reach <= farthest)
+    )
+    assert framed.sum() > 200
+    assert looked[cells[framed, 0], cells[framed, 1]].all()

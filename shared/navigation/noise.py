@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from shared.navigation.floor import Floor, floor_axes
+from shared.navigation.floor import Floor, estimate_floor, floor_axes
 
 # Points below the plane by more than this share of their distance to the camera (about 5.7 degrees
 # below the plane as seen from the camera's height) are not the floor's noise (a step down, a
@@ -31,6 +31,13 @@ _MAD_TO_SIGMA = 1.4826  # a normal spread's standard deviation over its median a
 SIGMAS = 4.0
 _REFIT_SHARE = 0.01  # heights scattering less than this share of the cameras' height keep their plane
 _REFITS = 3
+# A pixel with no point of its own is placed on the floor when the points around it (within this
+# share of the image's larger side, 32 px of 320; at least this many) that are nearer the camera
+# than that floor point are floor (this share of them: the far ones scatter).
+_PIXEL_REACH = 0.1
+_FLOOR_NEIGHBOURS = 5
+_FLOOR_SHARE = 0.8
+_FLOOR_BAND = 0.02  # of the camera's height: exact heights within this are floor (3 cm at 1.5 m)
 
 
 def viewing_distance(points: np.ndarray, extrinsics: np.ndarray, intrinsics: np.ndarray, sizes) -> np.ndarray:
@@ -135,3 +142,45 @@ def noise_warnings(
         f"at the goal ({distance / per_metre:.1f} m from the nearest camera that shows it) a thing "
         f"lower than {hidden_m:.2f} m cannot be told from the floor; look again closer"
     ]
+
+
+def floor_at_pixel(recon, view: int, u: float, v: float) -> tuple[np.ndarray | None, str | None]:
+    """Where pixel (u, v) of a placed view meets the fitted floor, when nothing but floor is seen in
+    front of that floor point around the pixel: a sparse cloud has no points on a plain floor.
+
+    Of the points framed within ``_PIXEL_REACH`` of the image's larger side, those nearer the camera
+    than the pixel's floor point must be floor within their scatter: a pixel on a wall or a box
+    meets the floor behind it, and the wall's or box's own points around it are nearer.
+    (world point, None) or (None, why not).
+    """
+    placed = recon.registered
+    points = np.asarray(recon.points, np.float64)
+    floor, tolerance, _ = floor_and_tolerance(
+        estimate_floor(points, recon.extrinsics[placed]),
+        points,
+        recon.extrinsics[placed],
+        recon.intrinsics[placed],
+        recon.image_sizes[placed],
+    )
+    pose, intrinsic = recon.extrinsics[view], recon.intrinsics[view]
+    centre = -pose[:, :3].T @ pose[:, 3]
+    ray = pose[:, :3].T @ np.linalg.solve(intrinsic, [u, v, 1.0])
+    along = float(ray @ floor.up)
+    if along >= 0:
+        return None, "the pixel looks above the floor's horizon"
+    point = centre + (floor.offset - float(centre @ floor.up)) / along * ray
+    depth = float((point - centre) @ pose[2, :3])
+    in_camera = points @ pose[:, :3].T + pose[:, 3]
+    front = np.flatnonzero(in_camera[:, 2] > 1e-9)
+    pixels = in_camera[front] @ intrinsic.T
+    pixels = pixels[:, :2] / pixels[:, 2:]
+    reach = _PIXEL_REACH * float(max(recon.image_sizes[view]))
+    near = front[np.linalg.norm(pixels - [u, v], axis=1) <= reach]
+    if len(near) < _FLOOR_NEIGHBOURS:
+        return None, f"fewer than {_FLOOR_NEIGHBOURS} points within {reach:.0f} px to tell if it is floor"
+    band = np.maximum(tolerance[near], _FLOOR_BAND * float(floor.height(centre)[0]))
+    on_floor = np.abs(floor.height(points[near])) <= band
+    nearer = in_camera[near, 2] < depth
+    if np.count_nonzero(nearer & ~on_floor) > (1.0 - _FLOOR_SHARE) * max(np.count_nonzero(nearer), 1):
+        return None, f"something other than floor is seen in front of its floor point within {reach:.0f} px"
+    return point, None

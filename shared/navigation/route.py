@@ -35,7 +35,7 @@ from shared.geometry.reconstruction import Reconstruction
 from shared.navigation.explore import next_look, seen_closed
 from shared.navigation.floor import Floor, estimate_floor
 from shared.navigation.grid import Grid, build_grid, dilate
-from shared.navigation.noise import floor_and_tolerance, noise_warnings
+from shared.navigation.noise import floor_and_tolerance, floor_at_pixel, noise_warnings
 from shared.navigation.passage import looked_through, narrowest_passage
 from shared.navigation.scale import ASSUMED_CAMERA_HEIGHT_M, Scale, plan_scale  # noqa: F401 (re-exported)
 from shared.navigation.search import astar, reachable_from, shorten
@@ -83,7 +83,7 @@ class Robot:
 class LocateResult:
     point: np.ndarray | None  # (3,) world point, None when nothing there is reconstructed
     reason: str | None = None
-    source: str | None = None  # "depth" or "points"
+    source: str | None = None  # "depth", "points" or "floor" (the pixel's ray met the fitted floor)
 
 
 @dataclass
@@ -209,6 +209,12 @@ def locate(recon: Reconstruction, view: int, u: float, v: float) -> LocateResult
         return by_depth  # measured depth says what the view saw; a hole in it is nothing seen
     # A hole in an estimated depth map (a backbone's has many) is not yet nothing: the points may cover it.
     by_points = _locate_by_points(recon, view, u, v)
+    if by_points.point is None:
+        # a plain floor has no points of its own: the pixel's ray meets the floor between them
+        on_floor, why_not = floor_at_pixel(recon, view, u, v)
+        if on_floor is not None:
+            return LocateResult(on_floor, None, "floor")
+        by_points.reason = f"{by_points.reason} (nor is it on the floor: {why_not})"
     if by_points.point is None and by_depth is not None:
         by_points.reason = f"{by_depth.reason}, and {by_points.reason}"
     return by_points

@@ -15,7 +15,7 @@ from shared.geometry.reconstruction import Reconstruction
 from shared.navigation.floor import Floor
 from shared.navigation.grid import Grid
 
-_PIXEL_STRIDE = 4  # every 4th pixel each way: rays 4 pixels apart still sweep every cell they pass
+_PIXEL_STRIDE = 4  # every 4th photo pixel each way: rays 4 pixels apart still sweep every cell they pass
 _SAMPLES_PER_CELL = 2  # ray samples per cell width along its floor projection
 
 
@@ -56,8 +56,16 @@ def depth_points(
     return (in_camera - pose[:, 3]) @ pose[:, :3], -pose[:, :3].T @ pose[:, 3]
 
 
+def _stride(recon: Reconstruction, view: int, depth: np.ndarray) -> int:
+    """Depth pixels between rays: ``_PIXEL_STRIDE`` photo pixels. A depth map smaller than the photo
+    (a backbone's 80x60 for a 320x240 photo) has rays that far apart at every one of its pixels; at
+    every 4th, far floor between them went unmarked, speckled with cells no ray reached."""
+    photo_width = float(recon.image_sizes[view][0])
+    return max(1, int(round(_PIXEL_STRIDE * depth.shape[1] / photo_width)))
+
+
 def _mark_view(recon: Reconstruction, view: int, depth: np.ndarray, floor: Floor, grid: Grid, looked) -> None:
-    world, camera = depth_points(recon, view, depth, _PIXEL_STRIDE)
+    world, camera = depth_points(recon, view, depth, _stride(recon, view, depth))
     if not len(world):
         return
     ends = floor.to_plane(world)
