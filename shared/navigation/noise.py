@@ -29,8 +29,11 @@ _MAD_TO_SIGMA = 1.4826  # a normal spread's standard deviation over its median a
 # has 10^4-10^5 floor points; beyond 3 sigma lie 1 in 370 of them, enough for two to share a cell
 # (an obstacle); beyond 4, 1 in 16,000.
 SIGMAS = 4.0
-_REFIT_SHARE = 0.01  # heights scattering less than this share of the cameras' height keep their plane
+# heights scattering less than this share of the cameras' height (1.5 cm at 1.5 m, half the robot's
+# 3 cm floor tolerance) are exact: their plane is kept and nothing is tolerated
+_EXACT_SHARE = 0.01
 _REFITS = 3
+_SAMPLE = 20_000  # points whose spread tells whether the heights scatter at all
 # A pixel with no point of its own is placed on the floor when the points around it (within this
 # share of the image's larger side, 32 px of 320; at least this many) that are nearer the camera
 # than that floor point are floor (this share of them: the far ones scatter).
@@ -106,17 +109,29 @@ def floor_and_tolerance(
     cannot be told from that floor (``SIGMAS`` standard deviations at its distance); and that
     standard deviation per unit distance.
 
-    Heights that scatter more than ``_REFIT_SHARE`` of the cameras' height somewhere are refitted
-    (a plane fitted as if all heights were alike is tilted by the far, noisy ones); exact ones
-    (posed RGB-D) keep their plane as it is.
+    Heights that scatter less than ``_EXACT_SHARE`` of the cameras' height as far as the cameras
+    frame them (posed RGB-D) are exact: their plane is kept and nothing is tolerated. Others are
+    refitted (a plane fitted as if all heights were alike is tilted by the far, noisy ones).
     """
     points = np.asarray(points, np.float64).reshape(-1, 3)
-    distances = viewing_distance(points, extrinsics, intrinsics, sizes)
-    per_distance = noise_per_distance(floor.height(points), distances)
     centres = -np.einsum("vji,vj->vi", extrinsics[:, :3, :3], extrinsics[:, :3, 3])
     camera_height = float(np.median(floor.height(centres)))
+
+    def exact(per_distance: float, distances: np.ndarray) -> bool:
+        return SIGMAS * per_distance * float(np.max(distances, initial=0.0)) <= _EXACT_SHARE * camera_height
+
+    # a sample tells whether they scatter at all (a posed cloud has half a million points)
+    sample = points
+    if len(points) > _SAMPLE:
+        sample = points[np.random.default_rng(0).choice(len(points), _SAMPLE, replace=False)]
+    sample_distances = viewing_distance(sample, extrinsics, intrinsics, sizes)
+    per_distance = noise_per_distance(floor.height(sample), sample_distances)
+    if exact(per_distance, sample_distances):
+        return floor, np.zeros(len(points)), per_distance
+    distances = viewing_distance(points, extrinsics, intrinsics, sizes)
+    per_distance = noise_per_distance(floor.height(points), distances)
     for _ in range(_REFITS):
-        if SIGMAS * per_distance * float(np.max(distances, initial=0.0)) <= _REFIT_SHARE * camera_height:
+        if exact(per_distance, distances):
             break
         floor = _refit(floor, points, np.maximum(per_distance * distances, 1e-12))
         per_distance = noise_per_distance(floor.height(points), distances)
