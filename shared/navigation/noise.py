@@ -169,13 +169,13 @@ def floor_at_pixel(recon, view: int, u: float, v: float) -> tuple[np.ndarray | N
     (world point, None) or (None, why not).
     """
     placed = recon.registered
-    points = np.asarray(recon.points, np.float64)
+    points = np.asarray(recon.points, np.float64).reshape(-1, 3)
+    try:
+        floor = estimate_floor(points, recon.extrinsics[placed])
+    except ValueError as error:  # too few points to find the floor
+        return None, str(error)
     floor, tolerance, _ = floor_and_tolerance(
-        estimate_floor(points, recon.extrinsics[placed]),
-        points,
-        recon.extrinsics[placed],
-        recon.intrinsics[placed],
-        recon.image_sizes[placed],
+        floor, points, recon.extrinsics[placed], recon.intrinsics[placed], recon.image_sizes[placed]
     )
     pose, intrinsic = recon.extrinsics[view], recon.intrinsics[view]
     centre = -pose[:, :3].T @ pose[:, 3]
