@@ -326,7 +326,13 @@ def _photo_only(two: TwoRoomScene, views, backbone) -> tuple[Reconstruction | No
             + ")"
         )
     if not (recon.registered[0] and recon.registered[two.goal_view]):
-        return None, None, f"{placed}; start or goal view not placed"
+        confidence = recon.view_confidence or [None] * recon.num_views
+        missing = "; ".join(
+            f"{role} view {i + 1}: {getattr(confidence[i], 'unregistered_reason', None) or 'no reason given'}"
+            for role, i in (("start", 0), ("goal", two.goal_view))
+            if not recon.registered[i]
+        )
+        return None, None, f"{placed}; not placed: {missing}"
     pose = two.extrinsics[two.goal_view]
     pixel = two.intrinsic @ (pose[:, :3] @ two.goal + pose[:, 3])
     found = locate(recon, two.goal_view, pixel[0] / pixel[2], pixel[1] / pixel[2])
