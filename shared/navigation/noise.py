@@ -33,6 +33,10 @@ SIGMAS = 4.0
 # 3 cm floor tolerance) are exact: their plane is kept and nothing is tolerated
 _EXACT_SHARE = 0.01
 _REFITS = 3
+# A refit refines the voted floor (tuning refits moved its normal 0.2-0.8 degrees); one that swings it
+# further has fitted another plane (a tuning scene whose heights scatter 6 % of their distance: 26
+# degrees, cameras of one height put 0.3-1.8 m above it).
+_MAX_REFIT_TILT_DEG = 2.0
 _SAMPLE = 20_000  # points whose spread tells whether the heights scatter at all
 # A pixel with no point of its own is placed on the floor when the points around it (within this
 # share of the image's larger side, 32 px of 320; at least this many) that are nearer the camera
@@ -94,6 +98,8 @@ def _refit(floor: Floor, points: np.ndarray, sigma: np.ndarray) -> Floor:
     centred = chosen - middle
     _, vectors = np.linalg.eigh((centred * weights[:, None]).T @ centred)
     normal = vectors[:, 0] if vectors[:, 0] @ floor.up >= 0 else -vectors[:, 0]
+    if np.degrees(np.arccos(np.clip(normal @ floor.up, -1.0, 1.0))) > _MAX_REFIT_TILT_DEG:
+        return floor  # not the voted floor fitted better, but another plane
     first, second = floor_axes(normal)
     return Floor(up=normal, offset=float(normal @ middle), first=first, second=second)
 
