@@ -257,3 +257,24 @@ def test_a_small_depth_map_marks_the_floor_its_rays_cross_without_gaps():
     )
     assert framed.sum() > 200
     assert looked[cells[framed, 0], cells[framed, 1]].all()
+
+
+@pytest.mark.parametrize("tilt_deg", [1.0, 10.0])
+def test_a_refit_follows_a_slightly_tilted_floor_but_not_another_plane(tilt_deg):
+    """The weighted refit refines the voted floor; a plane further off than its limit is not it."""
+    from shared.navigation.floor import Floor, floor_axes
+    from shared.navigation.noise import _MAX_REFIT_TILT_DEG, _refit
+
+    rng = np.random.default_rng(3)
+    xy = rng.uniform(-3.0, 3.0, (5_000, 2))
+    slope = np.tan(np.radians(tilt_deg))
+    points = np.column_stack([xy, slope * xy[:, 0]])
+    up = np.array([0.0, 0.0, 1.0])
+    voted = Floor(up, 0.0, *floor_axes(up))
+    sigma = np.full(len(points), 1.0)  # every point within the band: only the tilt limit decides
+    refitted = _refit(voted, points, sigma)
+    truth = np.array([-slope, 0.0, 1.0]) / np.hypot(slope, 1.0)
+    if tilt_deg <= _MAX_REFIT_TILT_DEG:
+        assert refitted.up @ truth == pytest.approx(1.0, abs=1e-9)
+    else:
+        assert refitted is voted
