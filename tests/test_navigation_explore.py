@@ -137,7 +137,7 @@ def test_the_closed_loop_takes_that_look_and_reaches_the_goal(doorway_in_no_phot
     assert np.linalg.norm(run.end - two.goal[:2]) <= 0.3
     # each replan is kept with the views it was made on: the looks so far, newest first, then the capture's
     assert len(run.replans) == len(run.looks)
-    for number, (replan, seen) in enumerate(run.replans, 1):
+    for number, (_, seen) in enumerate(run.replans, 1):
         assert len(seen) == len(views) + number and seen[number:] == list(views)
     assert run.replans[-1][0] is run.last_plan
     # without looks the refusal stands: the robot does not move
