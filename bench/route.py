@@ -206,7 +206,8 @@ def seen_floor(two: TwoRoomScene, views, points: np.ndarray) -> np.ndarray:
     seen = np.zeros(len(points), bool)
     width, height = two.size
     inverse = np.linalg.inv(two.intrinsic)
-    for pose, view in zip(two.extrinsics, views, strict=True):
+    for view in views:  # the capture's views and any look taken later: each with its own pose
+        pose = view.extrinsic
         camera = points @ pose[:, :3].T + pose[:, 3]
         pixels = camera @ two.intrinsic.T
         front = camera[:, 2] > 1e-6
@@ -467,6 +468,17 @@ IN_PHOTO, IN_NO_PHOTO = "doorway in some photo", "doorway in no photo"
 SINGLE_SHOT, CLOSED_LOOP = "single-shot", "closed loop"
 
 
+def _replans_crossing_unseen(two: TwoRoomScene, run) -> tuple[int, int]:
+    """Of the plans made after a look, how many cross >= UNSEEN_CHECK_M of floor no view they were
+    made on shows (the independent check), and how many of those say so."""
+    crossing = said = 0
+    for plan, views in run.replans:
+        if plan.reachable and unseen_along(two, views, plan.path_world) >= UNSEEN_CHECK_M:
+            crossing += 1
+            said += int((plan.unseen_m or 0.0) > 0)
+    return crossing, said
+
+
 def _executions(options, case: _Case, plan, groups: list[str], loops: dict) -> str:
     """Posed plan_route executed once and in the closed loop, counted per group; the loop's verdict."""
     robot = Robot(radius=RADIUS)
@@ -474,9 +486,12 @@ def _executions(options, case: _Case, plan, groups: list[str], loops: dict) -> s
     for execution, looks in ((SINGLE_SHOT, 0), (CLOSED_LOOP, options.looks)):
         run = closed_loop(case.two, case.views, plan, robot, case.two.goal, max_looks=looks, band=BAND)
         true_reason = run.refused and _true_reason(case.two, run.last_plan)[0]
+        crossing = _replans_crossing_unseen(case.two, run)
         for group in groups:
             tally = loops.setdefault(group, {}).setdefault(execution, LoopTally())
             outcome = tally.add(case.two.kind, run, case.two.goal, case.shortest, TOLERANCE_M, true_reason)
+            tally.replans_crossing += crossing[0]
+            tally.replans_said += crossing[1]
         if execution == CLOSED_LOOP:
             last = run.last_plan
             refusal = f" ({last.refusal})" if run.refused else ""

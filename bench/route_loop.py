@@ -46,6 +46,8 @@ class LoopRun:
     collided: bool  # the disc at some sample of ``trace`` overlaps a true footprint
     looks: list[np.ndarray] = field(default_factory=list)  # (2,) where each new look was taken
     last_plan: object = None  # the last RoutePlan (a refusal when the run ended refused)
+    # each plan made after a look, with the views it was made on (the look first)
+    replans: list[tuple[object, list]] = field(default_factory=list)
     refused: bool = False
 
 
@@ -136,6 +138,7 @@ def closed_loop(
         views = [look, *views]
         run.looks.append(position.copy())
         plan = plan_route(_recon(two, views), 0, goal, robot=robot)
+        run.replans.append((plan, views))
     run.end, run.heading = position, heading
     run.collided = bool(disc_collides(run.trace, polygons, robot.radius).any())  # the whole path
     return run
@@ -157,6 +160,8 @@ class LoopTally:
     driven_unreachable: int = 0  # an unreachable goal whose plan was driven out
     looks: int = 0
     runs_that_looked: int = 0
+    replans_crossing: int = 0  # plans made after a look whose path crosses floor no view showed
+    replans_said: int = 0  # ... of which the plan reports unseen_m > 0
     ratios: list[float] = field(default_factory=list)
 
     def add(self, kind: str, run: LoopRun, goal_xy, shortest, tolerance: float, true_reason: bool) -> str:
@@ -195,6 +200,7 @@ class LoopTally:
             f"{self.refused_true}/{self.unreachable} ({self.driven_unreachable} driven)",
             f"{np.mean(ratios):.3f} / {np.max(ratios):.3f}",
             f"{self.looks} ({self.runs_that_looked} runs)",
+            f"{self.replans_said}/{self.replans_crossing}",
         ]
 
 
@@ -202,8 +208,9 @@ def side_by_side(groups: dict[str, dict[str, LoopTally]], order: list[str]) -> s
     """A markdown table: per group, the single-shot and the closed-loop outcomes."""
     lines = [
         "| group | execution | reached (reachable) | collisions | refused at start / after a look |"
-        " ended > 0.3 m away | unreachable refused, true reason | length / shortest, mean and max | looks |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        " ended > 0.3 m away | unreachable refused, true reason | length / shortest, mean and max | looks |"
+        " replans' unseen crossings said |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for group in order:
         for execution, tally in groups.get(group, {}).items():

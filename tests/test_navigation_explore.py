@@ -135,6 +135,11 @@ def test_the_closed_loop_takes_that_look_and_reaches_the_goal(doorway_in_no_phot
     assert run.looks and np.linalg.norm(run.looks[0] - np.array(plan.look_next["stand_world"])[:2]) < 0.01
     assert not run.collided and not run.refused
     assert np.linalg.norm(run.end - two.goal[:2]) <= 0.3
+    # each replan is kept with the views it was made on: the looks so far, newest first, then the capture's
+    assert len(run.replans) == len(run.looks)
+    for number, (_, seen) in enumerate(run.replans, 1):
+        assert len(seen) == len(views) + number and seen[number:] == list(views)
+    assert run.replans[-1][0] is run.last_plan
     # without looks the refusal stands: the robot does not move
     still = closed_loop(two, views, plan, Robot(radius=RADIUS), two.goal, max_looks=0, band=BAND)
     assert still.refused and still.length == 0.0
@@ -169,3 +174,13 @@ def test_a_narrow_doorway_no_view_looked_between_is_measured_when_nothing_unlook
     assert doorway_in_photo(two, views)
     assert plan.refusal == "narrow_gap" and plan.look_next is None, plan.reason
     assert plan.narrowest_passage_m == pytest.approx(two.door[1] - two.door[0], abs=0.1)
+
+
+def test_a_goal_no_view_looked_at_is_refused_with_a_look_that_finds_it():
+    two, views, plan = _tuning(272, "reachable")  # seed 23 scene 272: the goal's floor in no photo
+    assert plan.refusal == "goal_unseen" and plan.look_next is not None, plan.reason
+    face = np.array(plan.look_next["face_world"])
+    assert not seen_floor(two, views, np.array([[face[0], face[1], 0.0]]))[0]
+    run = closed_loop(two, views, plan, Robot(radius=RADIUS), two.goal, max_looks=4, band=BAND)
+    assert run.looks and not run.collided and not run.refused
+    assert np.linalg.norm(run.end - two.goal[:2]) <= 0.3

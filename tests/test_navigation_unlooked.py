@@ -110,6 +110,21 @@ def test_a_passage_off_the_doorway_line_is_still_measured_jamb_to_jamb():
         assert pair is not None
         assert abs(np.linalg.norm(pair[0] - pair[1]) - (door[1] - door[0])) <= 0.05, (at, pair)
     assert _closest_pair(points, np.array([0.06, 1.2]), reach=0.1) is None  # no seen point so close
+    # with the way's direction (through the doorway, along x) the jambs are still the pair
+    for at in (np.array([0.06, 1.2]), np.array([0.2, 1.15])):
+        pair = _closest_pair(points, at, reach=0.5, along=np.array([1.0, 0.0]))
+        assert pair is not None and abs(np.linalg.norm(pair[0] - pair[1]) - (door[1] - door[0])) <= 0.05
+
+
+def test_a_way_that_hugs_one_wall_has_no_passage_there():
+    # a way running along a wall's face, close to it: the nearest seen points behind and ahead on
+    # that face are not the two sides of a passage
+    face = np.array([[0.12, y] for y in np.linspace(0.0, 2.0, 41)])
+    at, along = np.array([0.15, 1.02]), np.array([0.0, 1.0])
+    assert _closest_pair(face, at, reach=0.5, along=along) is None
+    across = np.concatenate([face, [[0.6, 1.0]]])  # something on the other side of the way
+    pair = _closest_pair(across, at, reach=0.6, along=along)
+    assert pair is not None and pair[0][0] < at[0] < pair[1][0]
 
 
 def _tuning_scene(index: int, kind: str):

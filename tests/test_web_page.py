@@ -53,7 +53,6 @@ def program(input_scene):
     return str(total)
 ```"""
 SANDBOX_WORKER = "services.agent.sandbox.worker"
-ROUTE_GOAL_VIEW = 3  # two_rooms: the view (0-based) that looks at the goal in the other room
 
 
 @pytest.fixture(scope="module")
@@ -642,15 +641,18 @@ def test_the_viewer_draws_200k_points_and_its_frame_time_is_measured(recon, stac
     assert csp_violations(browser) == []
 
 
-def _posed_route_files(kind: str, seed: int, folder: Path, unseen_past_the_doorway: bool = False) -> tuple:
+def _posed_route_files(
+    kind: str, seed: int, folder: Path, unseen_past_the_doorway: bool = False, varied: bool = False
+) -> tuple:
     """A two-room scene (bench.route's generator) as a user has it: photos, .npy depths, cameras JSON.
 
-    ``unseen_past_the_doorway``: no depth map shows the floor just past the doorway.
+    ``unseen_past_the_doorway``: no depth map shows the floor just past the doorway. ``varied``: the
+    route bench's varied capture (its coverage, views and heights drawn from the seed).
     """
     from shared.synthetic.photo import save_photo
     from shared.synthetic.two_rooms import depths_without_floor_past_the_doorway, generate_two_rooms
 
-    two = generate_two_rooms(seed, kind)
+    two = generate_two_rooms(seed, kind, varied=varied)
     folder.mkdir()
     photos, depths = [], []
     views = two.render()
@@ -672,7 +674,7 @@ def _posed_route_files(kind: str, seed: int, folder: Path, unseen_past_the_doorw
 
 def _click_the_goal(browser, two, photos: list[Path]) -> dict:
     """Click, in the route mode's photo of the view that sees the goal, where the goal is seen."""
-    view = ROUTE_GOAL_VIEW
+    view = two.goal_view
     pose = two.extrinsics[view]
     seen = two.intrinsic @ (pose[:, :3] @ two.goal + pose[:, 3])
     u, v = seen[0] / seen[2], seen[1] / seen[2]
@@ -787,6 +789,26 @@ def test_route_mode_plans_to_a_clicked_goal_and_downloads_the_plan(
     assert downloaded["sentences"] == plan["sentences"] and downloaded["path_world"] == plan["path_world"]
     _no_serious_axe_problems(browser, "with a route shown")
     assert csp_violations(browser) == []
+
+
+def test_route_mode_says_where_to_look_when_no_photo_shows_a_way(offline_agent, browser, shots, tmp_path):
+    """A doorway that no photo shows (bench.route's tuning seed 23, scene 1): no route, and the steps
+    listed are the refusal's look: where to stand and which way to face for the next photo."""
+    two, photos, depths, cameras = _posed_route_files(
+        "reachable", 23 * 1000 + 1, tmp_path / "none", varied=True
+    )
+    assert two.coverage == "none"
+    browser.get(offline_agent.url + "/")
+    _choose_route_inputs(browser, photos, depths, cameras)
+    pixel = _click_the_goal(browser, two, photos)
+    _plan_in_the_page(browser, shots, "route-look-next")
+    plan = _same_plan_over_http(offline_agent, photos, depths, cameras, pixel)
+    assert not plan["reachable"] and plan["refusal"] == "unseen_space" and plan["look_next"], plan
+    summary = _text(browser, "route-summary")
+    assert summary.startswith(f"No route: {plan['reason']}") and "take a photo" in summary, summary
+    steps = [e.text for e in browser.find_elements(By.CSS_SELECTOR, "#route-steps li")]
+    assert steps == plan["look_next"]["sentences"] and "take a photo" in steps[-1]
+    browser.save_screenshot(str(shots / "route-look-next.png"))
 
 
 def test_route_mode_shows_why_a_goal_cannot_be_reached(offline_agent, browser, shots, tmp_path):

@@ -43,7 +43,9 @@ def _widest_radius(occupied: np.ndarray, start, goal, most: float) -> float:
     return low
 
 
-def _closest_pair(points: np.ndarray, at: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray] | None:
+def _closest_pair(
+    points: np.ndarray, at: np.ndarray, reach: float, along: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray] | None:
     """The closest obstacle points on the two sides of ``at``, or None.
 
     One side holds the point nearest ``at``; the other, the points beyond ``at`` from it (a doorway's
@@ -51,11 +53,19 @@ def _closest_pair(points: np.ndarray, at: np.ndarray, reach: float) -> tuple[np.
     is bounded by space no view looked into, and the passage has no width to tell. (Pulling the pair
     together further would slide both onto one jamb when ``at`` is off the doorway's line; among the
     tight spots of the way, the one between the jambs gives the smallest width.)
+
+    ``along``: the way's direction at ``at``; the two points must then lie on either side of it (a
+    way that hugs one wall has two near points on that wall, behind and ahead, and no passage).
     """
     if len(points) < 2:
         return None
     first = points[int(np.argmin(np.linalg.norm(points - at, axis=1)))]
     opposite = (points - at) @ (first - at) < 0
+    if along is not None:
+        side = np.sign(_cross(along, first - at))
+        if side == 0:
+            return None
+        opposite &= np.sign(_cross(along, points - at)) == -side
     if not opposite.any():
         return None
     other_side = points[opposite]
@@ -63,6 +73,11 @@ def _closest_pair(points: np.ndarray, at: np.ndarray, reach: float) -> tuple[np.
     if max(np.linalg.norm(first - at), np.linalg.norm(second - at)) > reach:
         return None
     return first, second
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """z of the 2D cross product a x b (b may be (N, 2)): its sign says on which side of a b lies."""
+    return a[0] * b[..., 1] - a[1] * b[..., 0]
 
 
 def narrowest_passage(
@@ -93,7 +108,8 @@ def narrowest_passage(
         where = plane[index]
         reach = distance[index] + 2 * grid.cell
         near = grid.obstacle_points[np.linalg.norm(grid.obstacle_points - where, axis=1) <= 2 * reach]
-        pair = _closest_pair(near, where, reach)
+        along = plane[min(index + 1, len(plane) - 1)] - plane[max(index - 1, 0)]
+        pair = _closest_pair(near, where, reach, along if np.any(along) else None)
         if pair is not None:
             passages.append(Passage(where, float(np.linalg.norm(pair[0] - pair[1])), pair))
     if passages:

@@ -114,8 +114,8 @@ class RoutePlan:
     # Each {"step": 1-based, "start_world", "end_world", "length"}: a run of a move over unseen floor.
     unseen_stretches: list[dict] = field(default_factory=list)
     narrowest_passage_m: float | None = None  # a narrow_gap refusal: the passage's measured width
-    # An unseen_space refusal: where to take the next photo ({stand_world, face_world, steps,
-    # sentences}; ``explore.next_look``), None when even unlooked space gives no way.
+    # An unseen_space or goal_unseen refusal: where to take the next photo ({stand_world, face_world,
+    # steps, sentences}; ``explore.next_look``), None when even unlooked space gives no way.
     look_next: dict | None = None
 
     def to_dict(self) -> dict:
@@ -663,7 +663,11 @@ def plan_route(
         )
     goal_cell, kind, reason = _goal_cell(setting, goal_plane, robot)
     if goal_cell is None:
-        return _refusal(setting, kind, reason, goal_plane)
+        plan = _refusal(setting, kind, reason, goal_plane)
+        at_goal = tuple(int(i) for i in setting.grid.to_cell(goal_plane)[0])
+        if kind == "goal_unseen" and setting.grid.inside(np.array([at_goal]))[0]:  # on the map, unlooked
+            plan.look_next = _look_next(setting, setting.passable, setting.cost, start_cell, at_goal, robot)
+        return plan
     driveable, seen_cost = setting.passable, setting.cost
     cells = astar(setting.passable, start_cell, goal_cell, setting.cost)
     if cells is None and setting.grid.hidden.any():
