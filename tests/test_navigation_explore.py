@@ -14,11 +14,11 @@ import pytest
 
 from bench.route import doorway_in_photo, seen_floor
 from bench.route_loop import closed_loop
-from shared.geometry.backprojection import reconstruction_from_rgbd
 from shared.navigation import Robot, plan_route
 from shared.navigation.explore import LOOK_FROM_M, next_look
 from shared.navigation.grid import Grid, dilate
-from shared.synthetic.two_rooms import disc_collides, drive, footprints, generate_two_rooms
+from shared.synthetic.two_rooms import disc_collides, drive, footprints
+from tests.support.route_scenes import tuning_capture
 
 RADIUS = 0.25
 BAND = (0.05, 0.5)
@@ -91,11 +91,7 @@ def test_no_look_is_offered_when_seen_obstacles_close_every_way():
 
 
 def _tuning(index: int, kind: str):
-    two = generate_two_rooms(23 * 1000 + index, kind, radius=RADIUS, band=BAND, varied=True)
-    views = two.render()
-    recon = reconstruction_from_rgbd(
-        [v.rgb for v in views], [v.depth for v in views], two.extrinsics, [two.intrinsic] * len(views)
-    )
+    two, views, recon = tuning_capture(index, kind)
     return two, views, plan_route(recon, 0, two.goal, robot=Robot(radius=RADIUS))
 
 

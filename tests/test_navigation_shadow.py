@@ -9,12 +9,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from shared.geometry.backprojection import reconstruction_from_rgbd
 from shared.navigation import plan_route
 from shared.navigation.grid import Grid
 from shared.navigation.shadow import behind_faces
 from shared.navigation.walls import wall_cells
-from shared.synthetic.two_rooms import execute_steps, generate_two_rooms
+from shared.synthetic.two_rooms import execute_steps
+from tests.support.route_scenes import tuning_capture
 
 CELL = 0.05  # metres: one scene unit a metre
 RADIUS = 0.25
@@ -78,11 +78,7 @@ def test_a_wall_casts_no_shadow():
     ],
 )
 def test_a_route_across_unlooked_space_keeps_off_the_unseen_half_of_a_seen_box(index):
-    two = generate_two_rooms(23 * 1000 + index, "reachable", radius=RADIUS, band=BAND, varied=True)
-    views = two.render()
-    recon = reconstruction_from_rgbd(
-        [v.rgb for v in views], [v.depth for v in views], two.extrinsics, [two.intrinsic] * len(views)
-    )
+    two, views, recon = tuning_capture(index, "reachable")
     plan = plan_route(recon, 0, two.goal, robot_radius=RADIUS)
     assert plan.reachable, plan.reason
     assert any("no view looked into" in warning for warning in plan.warnings)
@@ -93,11 +89,7 @@ def test_a_route_across_unlooked_space_keeps_off_the_unseen_half_of_a_seen_box(i
 def test_a_pen_with_a_side_no_view_saw_is_refused_as_enclosed_and_says_what_was_assumed():
     # bench.route seed 23 scene 29: a pen whose near side is seen only in part; opened unlooked
     # space let an earlier plan drive in through the unseen part (and collide)
-    two = generate_two_rooms(23 * 1000 + 29, "ring", radius=RADIUS, band=BAND, varied=True)
-    views = two.render()
-    recon = reconstruction_from_rgbd(
-        [v.rgb for v in views], [v.depth for v in views], two.extrinsics, [two.intrinsic] * len(views)
-    )
+    two, views, recon = tuning_capture(29, "ring")
     plan = plan_route(recon, 0, two.goal, robot_radius=RADIUS)
     assert not plan.reachable and plan.refusal == "enclosed", plan.reason
     assert "behind their seen faces" in plan.reason
@@ -107,11 +99,7 @@ def test_a_narrow_doorway_past_unlooked_floor_is_measured_on_what_was_seen_not_o
     # bench.route seed 23 scene 64 (beyond the 60 of the figures): a narrow doorway between seen
     # jambs, reached only across unlooked floor; the presumed unseen part behind a seen face (a
     # shadow) also narrows the way there, but the refusal names the doorway's width
-    two = generate_two_rooms(23 * 1000 + 64, "narrow_door", radius=RADIUS, band=BAND, varied=True)
-    views = two.render()
-    recon = reconstruction_from_rgbd(
-        [v.rgb for v in views], [v.depth for v in views], two.extrinsics, [two.intrinsic] * len(views)
-    )
+    two, views, recon = tuning_capture(64, "narrow_door")
     plan = plan_route(recon, 0, two.goal, robot_radius=RADIUS)
     assert not plan.reachable and plan.refusal == "narrow_gap", plan.reason
     assert plan.narrowest_passage_m == pytest.approx(two.door[1] - two.door[0], abs=0.1)

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 
 from bench.route import doorway_coverage, doorway_in_photo, seen_floor, unseen_along
-from shared.geometry.backprojection import reconstruction_from_rgbd
 from shared.navigation import plan_route
 from shared.navigation.grid import Grid
 from shared.navigation.passage import _closest_pair
 from shared.navigation.walls import continued_walls
-from shared.synthetic.two_rooms import WALL, execute_steps, generate_two_rooms
+from shared.synthetic.two_rooms import WALL, execute_steps
+from tests.support.route_scenes import tuning_capture
 
 RADIUS = 0.25
 BAND = (0.05, 0.5)
@@ -127,17 +127,8 @@ def test_a_way_that_hugs_one_wall_has_no_passage_there():
     assert pair is not None and pair[0][0] < at[0] < pair[1][0]
 
 
-def _tuning_scene(index: int, kind: str):
-    two = generate_two_rooms(23 * 1000 + index, kind, radius=RADIUS, band=BAND, varied=True)
-    views = two.render()
-    recon = reconstruction_from_rgbd(
-        [v.rgb for v in views], [v.depth for v in views], two.extrinsics, [two.intrinsic] * len(views)
-    )
-    return two, views, recon
-
-
 def test_a_doorway_no_view_looked_through_is_crossed_and_the_plan_says_so():
-    two, views, recon = _tuning_scene(19, "reachable")  # bench.route seed 23 scene 19: coverage none
+    two, views, recon = tuning_capture(19, "reachable")  # bench.route seed 23 scene 19: coverage none
     assert two.coverage == "none"
     plan = plan_route(recon, 0, two.goal, robot_radius=RADIUS)
     assert plan.reachable, plan.reason
@@ -159,14 +150,14 @@ def test_a_doorway_no_view_looked_through_is_crossed_and_the_plan_says_so():
     ],
 )
 def test_a_narrow_doorway_beside_unlooked_space_is_still_refused_with_its_width(index):
-    two, _, recon = _tuning_scene(index, "narrow_door")
+    two, _, recon = tuning_capture(index, "narrow_door")
     plan = plan_route(recon, 0, two.goal, robot_radius=RADIUS)
     assert not plan.reachable and plan.refusal == "narrow_gap", plan.reason
     assert plan.narrowest_passage_m == pytest.approx(two.door[1] - two.door[0], abs=0.1)
 
 
 def test_a_doorway_in_a_photo_with_the_floor_past_it_in_none_is_crossed_and_said():
-    two, views, recon = _tuning_scene(2, "reachable")  # bench.route seed 23 scene 2: coverage doorway
+    two, views, recon = tuning_capture(2, "reachable")  # bench.route seed 23 scene 2: coverage doorway
     assert two.coverage == "doorway"
     # what the capture shows, measured on the rendered depth: both jambs, and none of the floor within
     # 1.2 m past the doorway (a metre wider than it each side)

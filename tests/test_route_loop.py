@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from bench.route_loop import _stretch_arcs, closed_loop, next_stop
-from shared.geometry.backprojection import reconstruction_from_rgbd
 from shared.navigation import Robot, plan_route
-from shared.synthetic.two_rooms import disc_collides, execute_steps, footprints, generate_two_rooms
+from shared.synthetic.two_rooms import disc_collides, execute_steps, footprints
+from tests.support.route_scenes import tuning_capture
 
 RADIUS = 0.25
 BAND = (0.05, 0.5)
@@ -25,11 +25,7 @@ STEP_M = 0.02
 
 @pytest.fixture(scope="module")
 def capture():
-    two = generate_two_rooms(23 * 1000 + 21, "reachable", radius=RADIUS, band=BAND, varied=True)
-    views = two.render()
-    recon = reconstruction_from_rgbd(
-        [v.rgb for v in views], [v.depth for v in views], two.extrinsics, [two.intrinsic] * len(views)
-    )
+    two, views, recon = tuning_capture(21, "reachable")
     robot = Robot(radius=RADIUS)
     return two, views, plan_route(recon, 0, two.goal, robot=robot), robot
 
